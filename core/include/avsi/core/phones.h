@@ -1,0 +1,99 @@
+// The project phone set (ARPAbet with stress on vowels, silence `sil`), the
+// 17 phonetic features of the reference study (Beskow, §4.4), timed phone
+// sequences, and mappings from espeak-ng mnemonics and MFA-style IPA.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace avsi {
+
+// One timed phone. `symbol` is an ARPAbet base symbol in upper case ("AA",
+// "P") or "sil"; vowels carry stress in `stressed` (on disk as AA1 / AA0).
+struct Phone {
+    std::string symbol;
+    double start_s = 0.0;
+    double end_s = 0.0;
+    bool stressed = false;
+
+    double duration_s() const { return end_s - start_s; }
+    double centre_s() const { return 0.5 * (start_s + end_s); }
+    bool operator==(const Phone&) const = default;
+};
+
+using PhoneSequence = std::vector<Phone>;
+
+// The phone's written form: vowels get a stress digit (AA1, AA0), others as is.
+std::string phone_label(const Phone& phone, bool is_vowel);
+
+// The 17 features in the study's order. Binary features are 0/1; the four
+// vowel features are 3-valued (0, 0.5, 1); stress is 0/1.
+enum class Feature : int {
+    Vowel = 0,  // consonant (0) / vowel (1)
+    Bilabial, Labiodental, Dental, Retroflex, Alveolar, Velar,
+    Nasal, Fricative, Stop, Release, Voiced,
+    Open, Front, Rounded, Protruded,
+    Stress,
+    Count
+};
+inline constexpr std::size_t feature_count = static_cast<std::size_t>(Feature::Count);
+static_assert(feature_count == 17);
+using FeatureVector = std::array<float, feature_count>;
+
+// The feature names as written in the inventory file header.
+const std::array<std::string_view, feature_count>& feature_names();
+
+enum class PhoneClass { Silence, Vowel, Consonant };
+
+struct PhoneInfo {
+    std::string symbol;      // ARPAbet base symbol or "sil"
+    PhoneClass phone_class = PhoneClass::Consonant;
+    std::string ipa;         // primary IPA symbol
+    std::string example;     // an example word
+    FeatureVector features{};  // Stress is 0 here; set per Phone by features_of()
+};
+
+// The project phone set, read from a TSV file (protocols/phones.tsv) with
+// mappings from espeak-ng phoneme mnemonics and IPA (protocols/phone_map.tsv).
+class PhoneInventory {
+public:
+    // The inventory shipped in protocols/ (loaded once).
+    static const PhoneInventory& builtin();
+    // Loads an inventory and its mapping table; throws InputError naming file:line.
+    static PhoneInventory load(const std::filesystem::path& phones_tsv,
+                               const std::filesystem::path& map_tsv);
+
+    bool contains(std::string_view symbol) const;
+    // Throws InputError (path/where, field "phone") if the symbol is unknown.
+    const PhoneInfo& info(std::string_view symbol, std::string_view where = {}) const;
+    const std::vector<PhoneInfo>& phones() const { return m_phones; }
+    bool is_vowel(std::string_view symbol) const;
+
+    // The 17 features of a timed phone (the Stress feature from phone.stressed).
+    FeatureVector features_of(const Phone& phone) const;
+
+    // Parses a written phone label ("AA1", "aa0", "P", "sil", "sp") into a
+    // base symbol and stress; throws InputError naming `where` if unknown.
+    Phone parse_label(std::string_view label, std::string_view where) const;
+
+    // Maps one espeak-ng phoneme mnemonic (as reported in its phoneme events)
+    // to one or more project phones; stress markers in the mnemonic set the
+    // vowel stress. Throws InputError naming the mnemonic if it has no mapping.
+    std::vector<Phone> from_espeak(std::string_view mnemonic, std::string_view where) const;
+    // Maps one IPA phone label as the Montreal Forced Aligner's English models
+    // write it ("ɑː", "tʃ", "ɹ", "spn", "") to project phones.
+    std::vector<Phone> from_ipa(std::string_view ipa, std::string_view where) const;
+
+private:
+    std::vector<PhoneInfo> m_phones;
+    std::map<std::string, std::size_t, std::less<>> m_index;
+    std::map<std::string, std::vector<std::string>, std::less<>> m_espeak;
+    std::map<std::string, std::vector<std::string>, std::less<>> m_ipa;
+};
+
+}  // namespace avsi

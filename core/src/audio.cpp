@@ -1,0 +1,90 @@
+#include "avsi/core/audio.h"
+
+#include <sndfile.h>
+
+#include <fmt/format.h>
+
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+
+namespace avsi {
+
+std::vector<float> Audio::channel(int index) const {
+    AVSI_ASSERT(index >= 0 && index < channels);
+    std::vector<float> out(frames());
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = samples[i * channels + index];
+    return out;
+}
+
+std::vector<float> Audio::mono() const {
+    if (channels == 1) return samples;
+    std::vector<float> out(frames());
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        float sum = 0.0f;
+        for (int c = 0; c < channels; ++c) sum += samples[i * channels + c];
+        out[i] = sum / static_cast<float>(channels);
+    }
+    return out;
+}
+
+Audio read_audio(const std::filesystem::path& path) {
+    SF_INFO info{};
+    SNDFILE* file = sf_open(path.c_str(), SFM_READ, &info);
+    if (!file) {
+        if (!std::filesystem::exists(path)) throw InputError(path, "cannot open audio file: no such file");
+        throw InputError(path, fmt::format("cannot read audio file: {} (supported: WAV and FLAC, "
+                                           "PCM or float)", sf_strerror(nullptr)));
+    }
+    Audio audio;
+    audio.sample_rate_hz = info.samplerate;
+    audio.channels = info.channels;
+    audio.samples.resize(static_cast<std::size_t>(info.frames) * info.channels);
+    // Float reads of float files must not be rescaled; PCM maps to [-1, 1).
+    sf_command(file, SFC_SET_NORM_FLOAT, nullptr, SF_TRUE);
+    const sf_count_t read = sf_readf_float(file, audio.samples.data(), info.frames);
+    sf_close(file);
+    if (read != info.frames)
+        throw InputError(path, fmt::format("audio file is truncated: header says {} frames, read {}",
+                                           info.frames, read));
+    if (audio.sample_rate_hz <= 0 || audio.channels <= 0)
+        throw InputError(path, "audio file has no valid sample rate or channel count");
+    return audio;
+}
+
+void write_audio(const std::filesystem::path& path, const Audio& audio, SampleFormat format) {
+    AVSI_ASSERT(audio.channels > 0 && audio.sample_rate_hz > 0);
+    AVSI_ASSERT(audio.samples.size() % audio.channels == 0);
+    const std::string ext = path.extension().string();
+    int major = 0;
+    if (ext == ".wav" || ext == ".WAV") {
+        major = SF_FORMAT_WAV;
+    } else if (ext == ".flac" || ext == ".FLAC") {
+        major = SF_FORMAT_FLAC;
+        if (format == SampleFormat::Float32)
+            throw InputError(path, "FLAC holds integer PCM only; use 16- or 24-bit, or write .wav");
+    } else {
+        throw InputError(path, fmt::format("unsupported audio file extension '{}'; supported "
+                                           "extensions are '.wav' and '.flac'", ext));
+    }
+    int subtype = SF_FORMAT_PCM_16;
+    if (format == SampleFormat::Pcm24) subtype = SF_FORMAT_PCM_24;
+    if (format == SampleFormat::Float32) subtype = SF_FORMAT_FLOAT;
+
+    AtomicFile out(path);
+    SF_INFO info{};
+    info.samplerate = audio.sample_rate_hz;
+    info.channels = audio.channels;
+    info.format = major | subtype;
+    SNDFILE* file = sf_open(out.temp_path().c_str(), SFM_WRITE, &info);
+    if (!file) throw InputError(path, fmt::format("cannot write audio file: {}", sf_strerror(nullptr)));
+    // Clip integer output rather than wrapping around on overshoot.
+    sf_command(file, SFC_SET_CLIPPING, nullptr, SF_TRUE);
+    const sf_count_t frames = static_cast<sf_count_t>(audio.frames());
+    const sf_count_t written = sf_writef_float(file, audio.samples.data(), frames);
+    const int close_status = sf_close(file);
+    if (written != frames || close_status != 0)
+        throw InputError(path, "cannot write audio file: short write (disk full?)");
+    out.commit();
+}
+
+}  // namespace avsi
