@@ -1,0 +1,110 @@
+// The experiment protocol: one TOML file that the stimulus builder, the
+// design and the session runner all read (DESIGN.md "The protocol file";
+// every field is documented in protocols/README.md). Loading validates the
+// whole file and reports every problem at once as
+//   file:line:col: error: section.key: expected …, got …
+// with "did you mean" for unknown keys and near-miss choices.
+//
+// Sections: [experiment], [corpus], [[condition]], [vocoder] (kept as a
+// ConfigSection; the vocoder module validates it), [design], [render],
+// [session]. Paths in the file are relative to the protocol file.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "avsi/core/config.h"
+
+namespace avsi {
+
+enum class CorpusAudio { Tts, Recordings };
+enum class FaceMode { Model, Still, None };
+enum class ConditionAudio { Vocoded, Clean };
+enum class Counterbalance { LatinSquare, Williams };
+
+struct CorpusSettings {
+    std::filesystem::path sentences;  // resolved against the protocol folder
+    CorpusAudio audio = CorpusAudio::Tts;
+    std::string voice = "en-us";
+};
+
+struct ProtocolCondition {
+    std::string name;
+    std::filesystem::path model;  // control model file, resolved; empty when absent
+    FaceMode face = FaceMode::Still;
+    ConditionAudio audio = ConditionAudio::Vocoded;
+    int line = 0;                 // where its [[condition]] table starts
+};
+
+struct DesignSettings {
+    int lists = 6;                 // test lists; must equal the number of conditions
+    int sentences_per_list = 15;
+    int warmup = 15;               // unscored warm-up sentences at the start
+    std::string warmup_condition;  // condition of the warm-up trials ("" → the first condition)
+    int practice = 6;              // practice sentences, shown with their text
+    std::string practice_condition;  // "" → practice cycles through the conditions
+    Counterbalance counterbalance = Counterbalance::LatinSquare;
+    std::uint64_t seed = 0;        // defaults to experiment.seed
+};
+
+struct RenderSettings {
+    int fps = 30;
+    int width = 640;
+    int height = 480;
+    std::string camera = "front";
+    std::string background = "#808080";
+};
+
+enum class ResponseMode { Subject, Experimenter };
+
+struct SessionSettings {
+    bool fullscreen = true;
+    int monitor = 0;                       // 0 = primary
+    ResponseMode response_mode = ResponseMode::Subject;  // who types the answer
+    int break_every = 0;                   // trials between breaks; 0 = between blocks only
+    double fixation_ms = 500.0;            // fixation cross before each stimulus
+    double response_delay_ms = 300.0;      // after the stimulus ends, before the answer box
+    bool show_progress = true;
+    std::string instructions =
+        "You will see and hear a talking face saying short sentences in noise.\n"
+        "After each sentence, type every word you heard, then press Enter.\n"
+        "Guess if you are unsure.";
+    std::string practice_instructions =
+        "First a few practice sentences. The sentence is shown as text after you answer.";
+    std::string test_instructions = "Now the test begins. The text is no longer shown.";
+    std::string break_text = "Take a short break. Press Space to continue.";
+    std::string end_text = "Thank you! The session is complete.";
+};
+
+struct Protocol {
+    std::filesystem::path path;  // the protocol file
+    std::string name;
+    std::uint64_t seed = 0;
+    CorpusSettings corpus;
+    std::vector<ProtocolCondition> conditions;
+    DesignSettings design;
+    RenderSettings render;
+    SessionSettings session;
+    // The raw sections, for modules that validate their own settings.
+    ConfigSection vocoder;         // [vocoder], validated by the vocoder module
+    ConfigSection render_section;  // [render]
+    ConfigSection session_section; // [session]
+
+    // Index of the condition with that name, or -1.
+    int condition_index(const std::string& name) const;
+    std::vector<std::string> condition_names() const;
+};
+
+// Loads and validates a protocol file (corpus file must exist; model files
+// are resolved but not opened). Throws InputError with every problem found.
+Protocol load_protocol(const std::filesystem::path& path);
+// Same from text; relative paths are resolved against `path`'s folder.
+Protocol parse_protocol(std::string_view text, const std::filesystem::path& path);
+
+std::string to_string(FaceMode face);
+std::string to_string(ConditionAudio audio);
+std::string to_string(Counterbalance counterbalance);
+
+}  // namespace avsi

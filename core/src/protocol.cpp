@@ -1,0 +1,253 @@
+// Protocol loading and validation (see protocol.h and protocols/README.md).
+#include "avsi/core/protocol.h"
+
+#include <algorithm>
+#include <limits>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "avsi/core/files.h"
+
+namespace avsi {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr long long max_seed = std::numeric_limits<long long>::max();
+
+fs::path resolve(const fs::path& protocol_path, const std::string& relative) {
+    const fs::path p(relative);
+    if (p.is_absolute()) return p;
+    return (protocol_path.parent_path() / p).lexically_normal();
+}
+
+// An empty section standing in for an absent table, located at the file start.
+ConfigSection absent_section(const std::string& path, const std::string& name) {
+    return ConfigSection(path, name, 1, 1);
+}
+
+const ConfigSection& section_or_empty(const ConfigSection& root, const std::string& key,
+                                      ConfigSection& storage, DiagnosticList& problems) {
+    if (const ConfigSection* s = root.get_table(key, problems)) return *s;
+    storage = absent_section(root.path(), key);
+    return storage;
+}
+
+}  // namespace
+
+std::string to_string(FaceMode face) {
+    switch (face) {
+        case FaceMode::Model: return "model";
+        case FaceMode::Still: return "still";
+        case FaceMode::None: return "none";
+    }
+    return "?";
+}
+
+std::string to_string(ConditionAudio audio) {
+    return audio == ConditionAudio::Vocoded ? "vocoded" : "clean";
+}
+
+std::string to_string(Counterbalance counterbalance) {
+    return counterbalance == Counterbalance::LatinSquare ? "latin-square" : "williams";
+}
+
+int Protocol::condition_index(const std::string& condition) const {
+    for (std::size_t i = 0; i < conditions.size(); ++i)
+        if (conditions[i].name == condition) return static_cast<int>(i);
+    return -1;
+}
+
+std::vector<std::string> Protocol::condition_names() const {
+    std::vector<std::string> names;
+    for (const auto& c : conditions) names.push_back(c.name);
+    return names;
+}
+
+Protocol parse_protocol(std::string_view text, const fs::path& path) {
+    const ConfigSection root = parse_config(text, path.string());
+    const std::string file = path.string();
+    DiagnosticList problems;
+    Protocol p;
+    p.path = path;
+
+    // [experiment]
+    ConfigSection experiment_storage;
+    const ConfigSection& experiment = section_or_empty(root, "experiment", experiment_storage, problems);
+    if (experiment.present()) {
+        experiment.require("name", problems);
+        p.name = experiment.get_string("name", "", problems);
+        p.seed = static_cast<std::uint64_t>(experiment.get_int("seed", 1, 0, max_seed, problems));
+        experiment.check_unknown_keys(problems);
+    } else {
+        problems.add(file, 0, 0, "experiment", "missing required table [experiment]");
+    }
+
+    // [corpus]
+    ConfigSection corpus_storage;
+    const ConfigSection& corpus = section_or_empty(root, "corpus", corpus_storage, problems);
+    if (corpus.present()) {
+        if (corpus.require("sentences", problems)) {
+            const std::string sentences = corpus.get_string("sentences", "", problems);
+            if (!sentences.empty()) {
+                p.corpus.sentences = resolve(path, sentences);
+                if (!fs::is_regular_file(p.corpus.sentences))
+                    corpus.report("sentences",
+                                  fmt::format("expected an existing corpus file, got \"{}\" (resolved "
+                                              "to {}, which does not exist)",
+                                              sentences, p.corpus.sentences.string()),
+                                  problems);
+            }
+        }
+        p.corpus.audio = corpus.get_choice("audio", {"tts", "recordings"}, "tts", problems) == "recordings"
+                             ? CorpusAudio::Recordings
+                             : CorpusAudio::Tts;
+        p.corpus.voice = corpus.get_string("voice", p.corpus.voice, problems);
+        corpus.check_unknown_keys(problems);
+    } else {
+        problems.add(file, 0, 0, "corpus", "missing required table [corpus]");
+    }
+
+    // [[condition]]
+    const auto conditions = root.get_table_array("condition", problems);
+    if (conditions.empty() && !root.has("condition"))
+        problems.add(file, 0, 0, "condition", "missing required tables [[condition]] (at least one)");
+    std::set<std::string> names;
+    for (const ConfigSection* c : conditions) {
+        ProtocolCondition cond;
+        cond.line = c->line();
+        if (c->require("name", problems)) {
+            cond.name = c->get_string("name", "", problems);
+            if (c->find("name")->type == ConfigValue::Type::String) {
+                if (cond.name.empty() ||
+                    cond.name.find_first_of("/\\ ,\"") != std::string::npos || cond.name == "." ||
+                    cond.name == "..")
+                    c->report("name",
+                              fmt::format("expected a non-empty name without spaces, commas, quotes "
+                                          "or slashes (it names files), got \"{}\"",
+                                          cond.name),
+                              problems);
+                else if (!names.insert(cond.name).second)
+                    c->report("name", fmt::format("duplicate condition name \"{}\"", cond.name),
+                              problems);
+            }
+        }
+        const std::string model = c->get_string("model", "", problems);
+        if (!model.empty()) cond.model = resolve(path, model);
+        const std::string face =
+            c->get_choice("face", {"model", "still", "none"}, model.empty() ? "still" : "model", problems);
+        cond.face = face == "model" ? FaceMode::Model : face == "still" ? FaceMode::Still : FaceMode::None;
+        if (cond.face == FaceMode::Model && model.empty() && c->has("face"))
+            c->report("face", "face = \"model\" needs a control model: add model = \"<file>\"", problems);
+        if (cond.face != FaceMode::Model && !model.empty() && c->has("face"))
+            c->report("model",
+                      fmt::format("a model is only used with face = \"model\", but face = \"{}\"", face),
+                      problems);
+        cond.audio = c->get_choice("audio", {"vocoded", "clean"}, "vocoded", problems) == "clean"
+                         ? ConditionAudio::Clean
+                         : ConditionAudio::Vocoded;
+        c->check_unknown_keys(problems);
+        p.conditions.push_back(std::move(cond));
+    }
+    const std::vector<std::string> condition_names = p.condition_names();
+
+    // [vocoder] — validated by the vocoder module.
+    if (const ConfigSection* v = root.get_table("vocoder", problems))
+        p.vocoder = *v;
+    else
+        p.vocoder = absent_section(file, "vocoder");
+
+    // [design]
+    ConfigSection design_storage;
+    const ConfigSection& design = section_or_empty(root, "design", design_storage, problems);
+    const int k = static_cast<int>(p.conditions.size());
+    p.design.lists = static_cast<int>(design.get_int("lists", k > 0 ? k : 6, 1, 1000, problems));
+    if (design.has("lists") && k > 0 && p.design.lists != k && design.find("lists")->type == ConfigValue::Type::Integer)
+        design.report("lists",
+                      fmt::format("expected the number of conditions ({}) so that each list is paired "
+                                  "with one condition, got {}",
+                                  k, p.design.lists),
+                      problems);
+    p.design.sentences_per_list =
+        static_cast<int>(design.get_int("sentences_per_list", 15, 1, 100000, problems));
+    p.design.warmup = static_cast<int>(design.get_int("warmup", 0, 0, 100000, problems));
+    p.design.practice = static_cast<int>(design.get_int("practice", 0, 0, 100000, problems));
+    auto condition_ref = [&](const char* key, std::string& out) {
+        out = design.get_string(key, "", problems);
+        if (out.empty() || condition_names.empty()) return;
+        if (p.condition_index(out) < 0) {
+            std::string message = fmt::format("expected the name of a [[condition]], got \"{}\"", out);
+            const std::string hint = closest_match(out, condition_names);
+            if (!hint.empty()) message += " (did you mean \"" + hint + "\"?)";
+            design.report(key, message, problems);
+        }
+    };
+    condition_ref("warmup_condition", p.design.warmup_condition);
+    condition_ref("practice_condition", p.design.practice_condition);
+    p.design.counterbalance =
+        design.get_choice("counterbalance", {"latin-square", "williams"}, "latin-square", problems) ==
+                "williams"
+            ? Counterbalance::Williams
+            : Counterbalance::LatinSquare;
+    p.design.seed = static_cast<std::uint64_t>(
+        design.get_int("seed", static_cast<long long>(p.seed), 0, max_seed, problems));
+    design.check_unknown_keys(problems);
+
+    // [render]
+    ConfigSection render_storage;
+    const ConfigSection& render = section_or_empty(root, "render", render_storage, problems);
+    p.render.fps = static_cast<int>(render.get_int("fps", p.render.fps, 1, 240, problems));
+    p.render.width = static_cast<int>(render.get_int("width", p.render.width, 16, 7680, problems));
+    p.render.height = static_cast<int>(render.get_int("height", p.render.height, 16, 4320, problems));
+    p.render.camera = render.get_string("camera", p.render.camera, problems);
+    p.render.background = render.get_string("background", p.render.background, problems);
+    render.check_unknown_keys(problems);
+    p.render_section = render;
+
+    // [session]
+    ConfigSection session_storage;
+    const ConfigSection& session = section_or_empty(root, "session", session_storage, problems);
+    SessionSettings& s = p.session;
+    s.fullscreen = session.get_bool("fullscreen", s.fullscreen, problems);
+    s.monitor = static_cast<int>(session.get_int("monitor", s.monitor, 0, 16, problems));
+    s.response_mode = session.get_choice("response_mode", {"subject", "experimenter"}, "subject",
+                                         problems) == "experimenter"
+                          ? ResponseMode::Experimenter
+                          : ResponseMode::Subject;
+    s.break_every = static_cast<int>(session.get_int("break_every", s.break_every, 0, 100000, problems));
+    s.fixation_ms = session.get_number("fixation_ms", s.fixation_ms, 0.0, 10000.0, problems);
+    s.response_delay_ms =
+        session.get_number("response_delay_ms", s.response_delay_ms, 0.0, 10000.0, problems);
+    s.show_progress = session.get_bool("show_progress", s.show_progress, problems);
+    s.instructions = session.get_string("instructions", s.instructions, problems);
+    s.practice_instructions = session.get_string("practice_instructions", s.practice_instructions, problems);
+    s.test_instructions = session.get_string("test_instructions", s.test_instructions, problems);
+    s.break_text = session.get_string("break_text", s.break_text, problems);
+    s.end_text = session.get_string("end_text", s.end_text, problems);
+    session.check_unknown_keys(problems);
+    p.session_section = session;
+
+    // Top-level keys.
+    root.check_unknown_keys({"experiment", "corpus", "condition", "vocoder", "design", "render", "session"},
+                            problems);
+
+    // Report in reading order (line, then column); file-level problems first.
+    try {
+        problems.throw_if_any();
+    } catch (const InputError& e) {
+        std::vector<Diagnostic> sorted = e.diagnostics();
+        std::stable_sort(sorted.begin(), sorted.end(), [](const Diagnostic& a, const Diagnostic& b) {
+            return a.line != b.line ? a.line < b.line : a.column < b.column;
+        });
+        throw InputError(std::move(sorted));
+    }
+    return p;
+}
+
+Protocol load_protocol(const fs::path& path) {
+    return parse_protocol(read_text_file(path), path);
+}
+
+}  // namespace avsi
