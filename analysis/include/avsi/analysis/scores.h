@@ -1,0 +1,67 @@
+// Subject × condition scores (percent of keywords correct) and the complete
+// within-subject data matrix the ANOVA works on.
+//
+//   scores.csv: subject,condition,keywords,correct,percent   (long format)
+//
+// Conditions keep the order in which they first appear in the file, so every
+// table, plot and contrast ("b - a") follows the order the user gave.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace avsi::analysis {
+
+// One subject × condition cell.
+struct ScoreCell {
+    std::string subject;
+    std::string condition;
+    int keywords = 0;          // keywords scored (0 when only percent is known)
+    int correct = 0;           // keywords correct
+    std::optional<double> percent;  // nullopt = missing cell ("NA" or empty)
+};
+
+struct Scores {
+    std::vector<ScoreCell> cells;
+};
+
+// Reads scores.csv. Requires columns subject, condition, percent; keywords and
+// correct are optional. "NA" or an empty percent is a missing cell. Duplicate
+// subject × condition rows and percentages outside [0, 100] are errors.
+Scores read_scores(const std::filesystem::path& path);
+
+// Writes scores.csv (atomically), percent with full precision.
+void write_scores(const std::filesystem::path& path, const Scores& scores);
+
+// A complete subjects × conditions matrix (row-major) after listwise deletion.
+struct WithinData {
+    std::vector<std::string> subjects;
+    std::vector<std::string> conditions;
+    std::vector<double> values;  // values[i * conditions.size() + j]
+    // Subjects dropped because a cell was missing, with the missing conditions.
+    struct Dropped {
+        std::string subject;
+        std::vector<std::string> missing_conditions;
+    };
+    std::vector<Dropped> dropped;
+
+    std::size_t n() const { return subjects.size(); }
+    std::size_t k() const { return conditions.size(); }
+    double at(std::size_t subject, std::size_t condition) const {
+        return values[subject * conditions.size() + condition];
+    }
+};
+
+// Builds the complete matrix: conditions and subjects in first-appearance
+// order; a subject missing any condition is dropped listwise and named through
+// avsi::log_warning. Throws InputError (naming `source`) if fewer than 2
+// conditions or 2 complete subjects remain.
+WithinData make_within_data(const Scores& scores, const std::string& source = "scores");
+
+// Builds WithinData directly from a complete matrix (for simulations and tests).
+WithinData make_within_data(std::vector<std::string> subjects, std::vector<std::string> conditions,
+                            std::vector<double> values);
+
+}  // namespace avsi::analysis
