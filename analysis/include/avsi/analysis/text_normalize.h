@@ -1,0 +1,28 @@
+// Text normalisation for keyword scoring. Responses, keywords, alternates and
+// the homophone table all pass through the same steps, in this order:
+//   1. UTF-8 decoding; Latin letters with diacritics folded to ASCII
+//      ("café" -> "cafe", "straße" -> "strasse"); curly apostrophes -> '.
+//   2. lower case; thousands separators inside numbers removed ("1,000").
+//   3. split into words at anything but letters, digits and apostrophes
+//      (so hyphens and punctuation separate words).
+//   4. common English contractions expanded ("don't" -> "do not",
+//      "won't" -> "will not", "it's" -> "it is"); any other "'s" is taken as
+//      a possessive and removed ("dog's" -> "dog"); remaining apostrophes dropped.
+//   5. numbers written as words become digits ("seven" -> "7",
+//      "twenty one" -> "21", "one hundred and five" -> "105"), ordinals too
+//      ("first" -> "1st", "twenty-first" -> "21st"), so "7" and "seven" compare equal.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace avsi::analysis {
+
+// The normalised words of a text (steps 1-5 above).
+std::vector<std::string> normalize_words(std::string_view text);
+
+// The normalised words joined by single spaces.
+std::string normalize_text(std::string_view text);
+
+}  // namespace avsi::analysis
