@@ -1,0 +1,64 @@
+// The session runner: `avsi run protocol.toml --subject 7`. Loads the
+// protocol, plans (or reloads) the subject's trials in the session database,
+// resumes at the first trial without a response, and presents each stimulus
+// in a GLFW window with Dear ImGui screens, each video frame shown at its time
+// on the audio clock. A response is committed to the database before the next
+// trial starts. Scripted mode types responses from a file and can save each
+// screen as PNG; with the null audio device it runs headless under Xvfb.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "avsi/experiment/media.h"
+
+namespace avsi::experiment {
+
+struct RunSettings {
+    std::filesystem::path protocol;
+    int subject = 0;
+    std::filesystem::path database;     // the experiment's session database
+    std::filesystem::path stimuli_dir;  // <dir>/<sentence>/<condition>.mp4
+    bool test_pattern = false;          // present a generated test clip instead of stimuli
+    std::optional<bool> fullscreen;     // overrides session.fullscreen
+    std::optional<int> monitor;         // overrides session.monitor
+    std::string audio = "portaudio";    // "portaudio" or "null"
+    double null_refresh_hz = 60.0;      // refresh of the simulated clock (null audio)
+    std::filesystem::path script;       // one response per planned trial, in plan order
+    std::filesystem::path screenshots;  // save each new screen as PNG here
+    int window_width = 1024;
+    int window_height = 768;
+};
+
+// What a run did, for the CLI and tests.
+struct RunResult {
+    int session = 0;
+    int answered_before = 0;  // responses already stored when the run started
+    int answered = 0;         // responses committed by this run
+    int total = 0;            // planned trials
+    bool completed = false;   // every trial has a response
+    bool quit = false;        // stopped from the pause screen or by closing the window
+    int presentations = 0;
+    int dropped_frames = 0;
+    int repeated_frames = 0;
+    double max_abs_av_offset_ms = 0.0;
+    double mean_av_offset_ms = 0.0;
+    std::string audio_device;
+    int screenshots = 0;
+};
+
+// Runs (or resumes) one subject's session. Throws InputError for bad input
+// (protocol, script, database of another experiment, missing stimulus).
+RunResult run_session(const RunSettings& settings);
+
+// Reads a response script: one line per planned trial in order; "-" or an
+// empty line is an empty answer; lines starting with '#' are comments.
+std::vector<std::string> read_script(const std::filesystem::path& path);
+
+// The stimulus opener for a stimulus folder (the stimuli module's decoder),
+// or the test pattern.
+std::unique_ptr<StimulusOpener> make_stimulus_opener(const RunSettings& settings, double fps);
+
+}  // namespace avsi::experiment

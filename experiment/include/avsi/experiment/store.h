@@ -1,0 +1,144 @@
+// Session storage: one SQLite database per experiment (WAL journal,
+// synchronous = FULL, so a committed response survives a crash or power
+// loss), schema-versioned through PRAGMA user_version. Tables: subjects,
+// sessions, planned_trials, presentations (timing summary per trial),
+// frames (each frame's flip), responses, events. A response and its
+// presentation are committed in one transaction before the next trial starts.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "avsi/experiment/design.h"
+
+struct sqlite3;
+
+namespace avsi::experiment {
+
+// The schema version this build writes; older databases are migrated, newer
+// ones are refused.
+constexpr int store_schema_version = 1;
+
+// Timing of one frame of a presented stimulus, in seconds on the audio clock.
+struct FrameFlip {
+    int frame = 0;          // index in the clip
+    double pts_s = 0.0;     // its time in the clip
+    double flip_s = 0.0;    // when it reached the screen (buffer swap)
+    double offset_ms = 0.0; // (flip − audio onset) − pts: >0 means video late
+};
+
+// Timing of one stimulus presentation.
+struct Presentation {
+    double audio_onset_s = 0.0;  // first sample at the DAC (audio clock)
+    double video_onset_s = 0.0;  // first frame's flip
+    double duration_s = 0.0;
+    double refresh_hz = 0.0;
+    int frames_total = 0;        // frames in the clip
+    int frames_shown = 0;
+    int dropped_frames = 0;      // never shown
+    int repeated_frames = 0;     // shown on more flips than the refresh/fps ratio
+    double mean_offset_ms = 0.0;
+    double max_abs_offset_ms = 0.0;
+    std::vector<FrameFlip> flips;  // first flip of each frame shown
+};
+
+struct Response {
+    std::string text;
+    double response_time_ms = 0.0;  // from the answer box appearing to Enter
+    bool confirmed_empty = false;
+};
+
+struct SessionInfo {
+    int session = 0;
+    int subject = 0;
+    std::string started_utc;
+    std::string ended_utc;   // "" while running or after a crash
+    std::string end_reason;  // completed, quit, interrupted
+    int first_position = 0;  // the trial it started (resumed) at
+};
+
+// One row of the responses export.
+struct ResponseRow {
+    PlannedTrial trial;
+    int session = 0;
+    Response response;
+    std::string answered_utc;
+};
+
+class Store {
+public:
+    // Opens or creates the database. Throws InputError if the file is not an
+    // avsi database or was written by a newer avsi (schema too new).
+    explicit Store(const std::filesystem::path& path);
+    ~Store();
+    Store(const Store&) = delete;
+    Store& operator=(const Store&) = delete;
+
+    const std::filesystem::path& path() const { return m_path; }
+    int schema_version() const;
+
+    // Experiment-level metadata (protocol name, path, hash).
+    void set_meta(const std::string& key, const std::string& value);
+    std::optional<std::string> meta(const std::string& key) const;
+
+    // The subject's planned trials; empty if the subject is new.
+    std::vector<PlannedTrial> planned_trials(int subject) const;
+    // Records a new subject with their plan (one transaction).
+    void add_subject(int subject, const std::vector<PlannedTrial>& trials);
+
+    // Positions of the subject's answered trials.
+    std::vector<int> answered_positions(int subject) const;
+
+    // Sessions of a subject left open (started, never ended): crashes.
+    std::vector<SessionInfo> open_sessions(int subject) const;
+    std::vector<SessionInfo> sessions(int subject) const;
+    // Starts a session and returns its id.
+    int begin_session(int subject, int first_position, const std::string& details);
+    void end_session(int session, const std::string& reason);
+    // Marks an open session as interrupted (found open when the subject resumed).
+    void mark_interrupted(int session);
+
+    void add_event(int session, int subject, const std::string& kind, const std::string& detail);
+
+    // Commits the presentation and response of one trial in one durable
+    // transaction. Throws if the trial already has a response (never asked twice).
+    void commit_trial(int session, const PlannedTrial& trial, const Presentation& presentation,
+                      const Response& response);
+
+    // Every response (ordered by subject, position) and every presentation.
+    std::vector<ResponseRow> responses() const;
+    struct TimingRow {
+        int subject = 0;
+        int position = 0;
+        int session = 0;
+        Presentation presentation;
+    };
+    std::vector<TimingRow> timing(bool with_frames) const;
+    struct EventRow {
+        int session = 0;
+        int subject = 0;
+        std::string time_utc;
+        std::string kind;
+        std::string detail;
+    };
+    std::vector<EventRow> events() const;
+    std::vector<int> subjects() const;
+
+private:
+    void exec(const std::string& sql) const;
+    std::filesystem::path m_path;
+    sqlite3* m_db = nullptr;
+};
+
+// Writes responses.csv, timing.csv, frames.csv, sessions.csv and events.csv
+// into `out_dir`; returns the files written.
+std::vector<std::filesystem::path> export_store(const Store& store, const std::filesystem::path& out_dir);
+
+// UTC now as ISO 8601 with milliseconds.
+std::string utc_now();
+
+}  // namespace avsi::experiment

@@ -1,0 +1,552 @@
+// The session runner's front end: GLFW window, Dear ImGui screens, frame
+// pacing on the audio clock, durable commits (see runner.h). The flow itself
+// lives in SessionMachine; this file only turns keys, time and the machine's
+// actions into drawing, sound and database writes.
+#include "avsi/experiment/runner.h"
+
+#define GLFW_INCLUDE_NONE
+#include <GL/gl.h>
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <imgui_stdlib.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <OpenImageIO/imageio.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "avsi/core/corpus.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/core/log.h"
+#include "avsi/core/protocol.h"
+#include "avsi/experiment/design.h"
+#include "avsi/experiment/session.h"
+#include "avsi/experiment/store.h"
+
+namespace avsi::experiment {
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> read_script(const fs::path& path) {
+    const std::string text = read_text_file(path);
+    std::vector<std::string> lines;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+        std::size_t end = text.find('\n', start);
+        if (end == std::string::npos) end = text.size();
+        std::string line = text.substr(start, end - start);
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (end == text.size() && line.empty()) break;
+        start = end + 1;
+        if (!line.empty() && line[0] == '#') continue;
+        lines.push_back(line == "-" ? std::string() : line);
+    }
+    return lines;
+}
+
+std::unique_ptr<StimulusOpener> make_stimulus_opener(const RunSettings& settings, double fps) {
+    if (settings.test_pattern) {
+        TestPatternSettings t;
+        t.fps = fps;
+        return std::make_unique<TestPatternOpener>(t);
+    }
+    if (settings.stimuli_dir.empty())
+        throw UsageError("give the stimulus folder with --stimuli DIR (built by `avsi stimuli`), or "
+                         "--test-pattern for a dry run with a generated clip");
+    throw InputError(settings.stimuli_dir,
+                     "not implemented yet: decoding stimulus videos in the runner (the stimuli module's "
+                     "decoder is not available in this build); use --test-pattern for a dry run");
+}
+
+namespace {
+
+// GLFW + ImGui lifetime.
+class Window {
+public:
+    Window(const RunSettings& s, bool fullscreen, int monitor_index, const std::string& title) {
+        glfwSetErrorCallback([](int code, const char* text) { log_warning("GLFW error {}: {}", code, text); });
+        if (!glfwInit())
+            throw InputError("display", 0, 0, "", "cannot open a window (no display? run under xvfb-run for a headless session)");
+        GLFWmonitor* monitor = nullptr;
+        if (fullscreen) {
+            int count = 0;
+            GLFWmonitor** monitors = glfwGetMonitors(&count);
+            if (monitor_index < 0 || monitor_index >= count) {
+                glfwTerminate();
+                throw InputError("display", 0, 0, "monitor",
+                                 fmt::format("expected a monitor in [0, {}], got {}", count - 1, monitor_index));
+            }
+            monitor = monitors[monitor_index];
+        }
+        int width = s.window_width, height = s.window_height;
+        if (monitor) {
+            const GLFWvidmode* mode = glfwGetVideoMode(monitor);
+            width = mode->width;
+            height = mode->height;
+            glfwWindowHint(GLFW_REFRESH_RATE, mode->refreshRate);
+        }
+        glfwWindowHint(GLFW_RESIZABLE, GLFW_FALSE);
+        m_window = glfwCreateWindow(width, height, title.c_str(), monitor, nullptr);
+        if (!m_window) {
+            glfwTerminate();
+            throw InputError("display", 0, 0, "", "cannot create an OpenGL window");
+        }
+        glfwMakeContextCurrent(m_window);
+        glfwSwapInterval(1);
+        GLFWmonitor* reference = monitor ? monitor : glfwGetPrimaryMonitor();
+        if (reference) m_refresh_hz = glfwGetVideoMode(reference)->refreshRate;
+        if (m_refresh_hz <= 0) m_refresh_hz = 60.0;
+
+        IMGUI_CHECKVERSION();
+        ImGui::CreateContext();
+        ImGuiIO& io = ImGui::GetIO();
+        io.IniFilename = nullptr;
+        const float size = std::max(16.0f, static_cast<float>(height) / 28.0f);
+        const char* font = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+        if (fs::exists(font))
+            io.Fonts->AddFontFromFileTTF(font, size);
+        else
+            io.FontGlobalScale = size / 13.0f;
+        ImGui::StyleColorsDark();
+        ImGui_ImplGlfw_InitForOpenGL(m_window, true);
+        ImGui_ImplOpenGL3_Init("#version 130");
+        glGenTextures(1, &m_texture);
+        glBindTexture(GL_TEXTURE_2D, m_texture);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    }
+    ~Window() {
+        glDeleteTextures(1, &m_texture);
+        ImGui_ImplOpenGL3_Shutdown();
+        ImGui_ImplGlfw_Shutdown();
+        ImGui::DestroyContext();
+        glfwDestroyWindow(m_window);
+        glfwTerminate();
+    }
+    GLFWwindow* handle() const { return m_window; }
+    double refresh_hz() const { return m_refresh_hz; }
+    GLuint texture() const { return m_texture; }
+    void upload(const VideoFrame& f) {
+        glBindTexture(GL_TEXTURE_2D, m_texture);
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA, f.width, f.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, f.rgba.data());
+        m_texture_width = f.width;
+        m_texture_height = f.height;
+    }
+    int texture_width() const { return m_texture_width; }
+    int texture_height() const { return m_texture_height; }
+
+    // Saves the back buffer (before the swap) as PNG.
+    void screenshot(const fs::path& path) const {
+        int w = 0, h = 0;
+        glfwGetFramebufferSize(m_window, &w, &h);
+        std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 3);
+        glPixelStorei(GL_PACK_ALIGNMENT, 1);
+        glReadBuffer(GL_BACK);
+        glReadPixels(0, 0, w, h, GL_RGB, GL_UNSIGNED_BYTE, pixels.data());
+        fs::create_directories(path.parent_path());
+        auto out = OIIO::ImageOutput::create(path.string());
+        if (!out) throw InputError(path, "cannot write a PNG here");
+        OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+        if (!out->open(path.string(), spec)) throw InputError(path, "cannot write: " + out->geterror());
+        // GL rows run bottom to top: write with a negative stride.
+        const auto stride = static_cast<OIIO::stride_t>(w) * 3;
+        out->write_image(OIIO::TypeDesc::UINT8, pixels.data() + static_cast<std::size_t>(h - 1) * stride,
+                         OIIO::AutoStride, -stride);
+        out->close();
+    }
+
+private:
+    GLFWwindow* m_window = nullptr;
+    double m_refresh_hz = 60.0;
+    GLuint m_texture = 0;
+    int m_texture_width = 0;
+    int m_texture_height = 0;
+};
+
+bool key_pressed(int glfw_key) { return ImGui::IsKeyPressed(glfw_key, false); }
+bool named_key_pressed(ImGuiKey key) { return ImGui::IsKeyPressed(ImGui::GetKeyIndex(key), false); }
+
+// Centered, wrapped text in the middle of the screen.
+void centered_text(const std::string& text, float y_fraction = 0.4f) {
+    const ImVec2 size = ImGui::GetIO().DisplaySize;
+    const float wrap = size.x * 0.75f;
+    const ImVec2 extent = ImGui::CalcTextSize(text.c_str(), nullptr, false, wrap);
+    ImGui::SetCursorPos(ImVec2((size.x - extent.x) * 0.5f, size.y * y_fraction - extent.y * 0.5f));
+    ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + wrap);
+    ImGui::TextUnformatted(text.c_str());
+    ImGui::PopTextWrapPos();
+}
+
+void hint_text(const std::string& text) {
+    const ImVec2 size = ImGui::GetIO().DisplaySize;
+    const ImVec2 extent = ImGui::CalcTextSize(text.c_str());
+    ImGui::SetCursorPos(ImVec2((size.x - extent.x) * 0.5f, size.y * 0.85f));
+    ImGui::TextColored(ImVec4(0.75f, 0.75f, 0.75f, 1.0f), "%s", text.c_str());
+}
+
+// The current stimulus being presented.
+struct Playback {
+    std::unique_ptr<FrameSource> source;
+    std::unique_ptr<FramePacer> pacer;
+    VideoFrame frame;       // last decoded frame
+    bool have_frame = false;
+    bool started = false;   // pacer started (onset known)
+    bool shown_any = false;
+};
+
+}  // namespace
+
+RunResult run_session(const RunSettings& settings) {
+    if (settings.subject < 1) throw UsageError(fmt::format("--subject: expected a number ≥ 1, got {}", settings.subject));
+    const Protocol protocol = load_protocol(settings.protocol);
+    const Corpus corpus = read_corpus(protocol.corpus.sentences);
+    const bool scripted = !settings.script.empty();
+    std::vector<std::string> script;
+    if (scripted) script = read_script(settings.script);
+    auto opener = make_stimulus_opener(settings, protocol.render.fps);
+
+    Store store(settings.database);
+    if (const auto name = store.meta("experiment"); name && *name != protocol.name)
+        throw InputError(settings.database, fmt::format("this database belongs to experiment \"{}\", the protocol "
+                                                        "is \"{}\"; give another --db",
+                                                        *name, protocol.name));
+    store.set_meta("experiment", protocol.name);
+    store.set_meta("protocol_sha256", sha256_file(settings.protocol));
+
+    // The plan: stored on the subject's first session, reused on every resume.
+    std::vector<PlannedTrial> plan = store.planned_trials(settings.subject);
+    const std::vector<PlannedTrial> designed =
+        design_subject(protocol, assign_lists(corpus, protocol.design), settings.subject);
+    if (plan.empty()) {
+        plan = designed;
+        store.add_subject(settings.subject, plan);
+    } else if (plan != designed) {
+        log_warning("subject {}: the protocol or corpus changed since the first session; keeping the stored "
+                    "trial list so the subject's lists stay the same",
+                    settings.subject);
+    }
+    if (scripted && script.size() < plan.size())
+        throw InputError(settings.script, fmt::format("the script has {} responses, subject {} has {} planned trials "
+                                                      "(one line per trial in plan order)",
+                                                      script.size(), settings.subject, plan.size()));
+
+    const std::vector<int> answered = store.answered_positions(settings.subject);
+    RunResult result;
+    result.answered_before = static_cast<int>(answered.size());
+    result.total = static_cast<int>(plan.size());
+    SessionMachine machine(plan, answered, protocol.session);
+    const int first_position = machine.trial() ? machine.trial()->position : 0;
+
+    std::unique_ptr<AudioOutput> audio;
+    if (settings.audio == "null")
+        audio = std::make_unique<NullAudioOutput>();
+    else if (settings.audio == "portaudio")
+        audio = make_portaudio_output();
+    else
+        throw UsageError(fmt::format("--audio: expected \"portaudio\" or \"null\", got \"{}\"", settings.audio));
+    result.audio_device = audio->name();
+
+    const bool fullscreen = settings.fullscreen.value_or(protocol.session.fullscreen);
+    const int monitor = settings.monitor.value_or(protocol.session.monitor);
+    Window window(settings, fullscreen, monitor, fmt::format("avsi — {} — subject {}", protocol.name, settings.subject));
+    const double refresh_hz = settings.audio == "null" ? settings.null_refresh_hz : window.refresh_hz();
+    const double period_s = 1.0 / refresh_hz;
+
+    for (const auto& open : store.open_sessions(settings.subject)) {
+        store.mark_interrupted(open.session);
+        store.add_event(open.session, settings.subject, "interrupted",
+                        fmt::format("session {} ended without closing (crash, power loss or kill)", open.session));
+    }
+    const int session = store.begin_session(
+        settings.subject, first_position,
+        fmt::format("audio={}; refresh_hz={:.3f}; scripted={}; fullscreen={}", audio->name(), refresh_hz, scripted,
+                    fullscreen));
+    result.session = session;
+    store.add_event(session, settings.subject, result.answered_before > 0 ? "resume" : "start",
+                    fmt::format("first trial {}, {} of {} answered before", first_position, result.answered_before,
+                                result.total));
+    log_info("subject {}: session {} {} at trial {} of {} ({} answered before), audio {}", settings.subject, session,
+             result.answered_before > 0 ? "resumes" : "starts", first_position, result.total,
+             result.answered_before, audio->name());
+
+    Playback playback;
+    std::string answer;
+    bool focus_answer = false;
+    std::string last_screen_key;
+    int screen_frames = 0;  // flips since the screen changed
+    int screenshot_seq = 0;
+    double last_flip_s = audio->now_s();
+    const auto wall_start = std::chrono::steady_clock::now();
+    const double clock_start = last_flip_s;
+    double sum_offset = 0.0;
+    int offset_count = 0;
+    bool running = true;
+    bool ended = false;
+
+    while (running) {
+        glfwPollEvents();
+        const double next_flip_s = last_flip_s + period_s;
+        if (glfwWindowShouldClose(window.handle()) && !machine.finished()) {
+            if (machine.screen() != Screen::Paused) machine.escape(next_flip_s);
+            machine.quit();
+        }
+
+        ImGui_ImplOpenGL3_NewFrame();
+        ImGui_ImplGlfw_NewFrame();
+        ImGui::NewFrame();
+
+        // Input: scripted, or keys.
+        const Screen screen = machine.screen();
+        const bool settled =
+            fmt::format("{}-{}", to_string(screen), machine.trial_index()) == last_screen_key && screen_frames >= 1;
+        if (scripted) {
+            if (settled) {
+                switch (screen) {
+                    case Screen::Instructions:
+                    case Screen::Break:
+                    case Screen::Feedback: machine.continue_pressed(next_flip_s); break;
+                    case Screen::Response:
+                        machine.submit(script[static_cast<std::size_t>(machine.trial_index())], next_flip_s);
+                        break;
+                    case Screen::ConfirmEmpty: machine.confirm_empty(true, next_flip_s); break;
+                    case Screen::End: running = false; break;
+                    default: break;
+                }
+            }
+        } else {
+            if (named_key_pressed(ImGuiKey_Escape)) {
+                if (machine.screen() == Screen::End) running = false;
+                else machine.escape(next_flip_s);
+            } else if (screen == Screen::Paused && key_pressed(GLFW_KEY_Q)) {
+                machine.quit();
+            } else if (screen == Screen::Instructions || screen == Screen::Break || screen == Screen::Feedback) {
+                if (named_key_pressed(ImGuiKey_Space) || named_key_pressed(ImGuiKey_Enter)) machine.continue_pressed(next_flip_s);
+            } else if (screen == Screen::ConfirmEmpty) {
+                if (key_pressed(GLFW_KEY_Y) || named_key_pressed(ImGuiKey_Enter)) machine.confirm_empty(true, next_flip_s);
+                else if (key_pressed(GLFW_KEY_N)) machine.confirm_empty(false, next_flip_s);
+            } else if (screen == Screen::End && screen_frames > 30 &&
+                       (named_key_pressed(ImGuiKey_Enter) || named_key_pressed(ImGuiKey_Space))) {
+                running = false;
+            }
+        }
+        machine.tick(next_flip_s);
+
+        // The machine's actions, in order; a commit finishes before anything else happens.
+        for (auto& action : machine.take_actions()) {
+            const PlannedTrial* t = action.trial_index >= 0 && action.trial_index < static_cast<int>(plan.size())
+                                        ? &plan[static_cast<std::size_t>(action.trial_index)]
+                                        : nullptr;
+            switch (action.kind) {
+                case SessionAction::Kind::StartStimulus: {
+                    playback = Playback{};
+                    playback.source = opener->open(t->stimulus);
+                    playback.pacer = std::make_unique<FramePacer>(playback.source->fps(), playback.source->frame_count(), refresh_hz);
+                    audio->play(playback.source->audio(), playback.source->sample_rate(), next_flip_s + audio->lead_s());
+                    break;
+                }
+                case SessionAction::Kind::StopStimulus:
+                    audio->stop();
+                    store.add_event(session, settings.subject, "stimulus-interrupted",
+                                    fmt::format("trial {} paused during the stimulus; shown again", t->position));
+                    playback = Playback{};
+                    break;
+                case SessionAction::Kind::CommitResponse: {
+                    Presentation p = playback.pacer ? playback.pacer->summary() : Presentation{};
+                    store.commit_trial(session, *t, p, action.response);
+                    ++result.answered;
+                    ++result.presentations;
+                    result.dropped_frames += p.dropped_frames;
+                    result.repeated_frames += p.repeated_frames;
+                    result.max_abs_av_offset_ms = std::max(result.max_abs_av_offset_ms, p.max_abs_offset_ms);
+                    for (const auto& f : p.flips) {
+                        sum_offset += f.offset_ms;
+                        ++offset_count;
+                    }
+                    playback = Playback{};
+                    break;
+                }
+                case SessionAction::Kind::Finished:
+                    if (!ended) {
+                        store.end_session(session, "completed");
+                        ended = true;
+                    }
+                    result.completed = true;
+                    break;
+                case SessionAction::Kind::Quit:
+                    audio->stop();
+                    store.end_session(session, "quit");
+                    store.add_event(session, settings.subject, "quit",
+                                    fmt::format("stopped at trial {}", t ? t->position : 0));
+                    ended = true;
+                    result.quit = true;
+                    break;
+            }
+        }
+
+        // Stimulus frame for the coming flip, chosen on the audio clock.
+        int frame_to_show = -1;
+        if (machine.screen() == Screen::Stimulus && playback.source) {
+            if (!playback.started) {
+                if (const auto onset = audio->onset_s()) {
+                    playback.pacer->start(*onset);
+                    playback.started = true;
+                }
+            }
+            if (playback.started) {
+                const int k = playback.pacer->frame_for(next_flip_s);
+                if (k >= playback.pacer->frame_count()) {
+                    if (!audio->playing()) machine.stimulus_finished(next_flip_s);
+                } else if (k >= 0) {
+                    while ((!playback.have_frame || playback.frame.index < k) && playback.source->next_frame(playback.frame)) {
+                        playback.have_frame = true;
+                    }
+                    if (playback.have_frame && playback.frame.index == k) {
+                        window.upload(playback.frame);
+                        frame_to_show = k;
+                    }
+                }
+            }
+        }
+
+        // Draw the screen.
+        const ImVec2 display = ImGui::GetIO().DisplaySize;
+        ImGui::SetNextWindowPos(ImVec2(0, 0));
+        ImGui::SetNextWindowSize(display);
+        ImGui::Begin("screen", nullptr,
+                     ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoSavedSettings |
+                         ImGuiWindowFlags_NoBringToFrontOnFocus | ImGuiWindowFlags_NoBackground);
+        const PlannedTrial* trial = machine.trial();
+        const Screen shown = machine.screen();
+        const std::string screen_key = fmt::format("{}-{}", to_string(shown), machine.trial_index());
+        const bool new_screen = screen_key != last_screen_key;
+        const std::string progress =
+            protocol.session.show_progress && trial
+                ? fmt::format("Sentence {} of {}", machine.answered_count() + (shown == Screen::End ? 0 : 1), machine.total_trials())
+                : std::string();
+        switch (shown) {
+            case Screen::Instructions:
+                centered_text(machine.message());
+                hint_text("Press Space to begin");
+                break;
+            case Screen::Fixation: centered_text("+", 0.5f); break;
+            case Screen::Stimulus:
+                if (frame_to_show >= 0 || playback.shown_any) {
+                    const float scale = std::min(display.x * 0.9f / window.texture_width(), display.y * 0.8f / window.texture_height());
+                    const ImVec2 size(window.texture_width() * scale, window.texture_height() * scale);
+                    ImGui::GetBackgroundDrawList()->AddImage(
+                        reinterpret_cast<ImTextureID>(static_cast<std::intptr_t>(window.texture())),
+                        ImVec2((display.x - size.x) * 0.5f, (display.y - size.y) * 0.5f),
+                        ImVec2((display.x + size.x) * 0.5f, (display.y + size.y) * 0.5f));
+                } else {
+                    centered_text("+", 0.5f);
+                }
+                break;
+            case Screen::Wait: break;
+            case Screen::Response: {
+                centered_text("What did you hear? Type every word, then press Enter.", 0.35f);
+                ImGui::SetCursorPos(ImVec2(display.x * 0.15f, display.y * 0.5f));
+                ImGui::PushItemWidth(display.x * 0.7f);
+                if (scripted && trial) answer = script[static_cast<std::size_t>(machine.trial_index())];
+                if (!scripted && (new_screen || focus_answer)) {
+                    ImGui::SetKeyboardFocusHere();
+                    focus_answer = false;
+                }
+                if (new_screen && !scripted) answer.clear();
+                if (ImGui::InputText("##answer", &answer, ImGuiInputTextFlags_EnterReturnsTrue) && !scripted) {
+                    machine.submit(answer, next_flip_s);
+                    focus_answer = true;
+                }
+                ImGui::PopItemWidth();
+                hint_text("Enter: submit    Esc: pause");
+                break;
+            }
+            case Screen::ConfirmEmpty:
+                centered_text("You did not type anything. Submit an empty answer?");
+                hint_text("Y or Enter: submit empty    N: go back and type");
+                break;
+            case Screen::Feedback: {
+                std::string text;
+                if (trial) text = "The sentence was:\n\n" + corpus.sentence(trial->sentence).text;
+                centered_text(text);
+                hint_text("Press Space to continue");
+                break;
+            }
+            case Screen::Break:
+                centered_text(machine.message());
+                hint_text("Press Space to continue");
+                break;
+            case Screen::Paused:
+                centered_text("Paused.");
+                hint_text("Esc: continue    Q: stop the session (it can be resumed later)");
+                break;
+            case Screen::End: centered_text(machine.message()); break;
+        }
+        if (!progress.empty() && shown != Screen::Stimulus && shown != Screen::End && shown != Screen::Paused) {
+            ImGui::SetCursorPos(ImVec2(display.x * 0.02f, display.y * 0.95f));
+            ImGui::TextColored(ImVec4(0.75f, 0.75f, 0.75f, 1.0f), "%s", progress.c_str());
+        }
+        ImGui::End();
+        ImGui::Render();
+        int fb_w = 0, fb_h = 0;
+        glfwGetFramebufferSize(window.handle(), &fb_w, &fb_h);
+        glViewport(0, 0, fb_w, fb_h);
+        glClearColor(0.25f, 0.25f, 0.25f, 1.0f);
+        glClear(GL_COLOR_BUFFER_BIT);
+        ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+
+        // One PNG per new screen (the trial screen once its first frame is up).
+        if (!settings.screenshots.empty() && new_screen && (shown != Screen::Stimulus || frame_to_show >= 0)) {
+            window.screenshot(settings.screenshots /
+                              fmt::format("{:04}_{}_trial{:03}.png", ++screenshot_seq, to_string(shown),
+                                          trial ? trial->position : 0));
+            ++result.screenshots;
+        }
+        if (shown != Screen::Stimulus || frame_to_show >= 0 || !new_screen) {
+            screen_frames = new_screen ? 0 : screen_frames + 1;
+            last_screen_key = screen_key;
+        }
+
+        glfwSwapBuffers(window.handle());
+        if (settings.audio != "null") glFinish();
+        audio->after_flip(period_s);
+        const double flip_s = audio->now_s();
+        last_flip_s = flip_s;
+        if (frame_to_show >= 0) {
+            playback.pacer->flipped(frame_to_show, playback.frame.pts_s, flip_s);
+            playback.shown_any = true;
+        }
+        // The simulated clock never runs ahead of real time in an interactive dry run.
+        if (settings.audio == "null" && !scripted) {
+            const auto target = wall_start + std::chrono::duration<double>(flip_s - clock_start);
+            std::this_thread::sleep_until(target);
+        }
+    }
+    if (!ended) {
+        store.end_session(session, "quit");
+        result.quit = true;
+    }
+    result.mean_av_offset_ms = offset_count ? sum_offset / offset_count : 0.0;
+    const auto answered_after = store.answered_positions(settings.subject);
+    result.completed = answered_after.size() == plan.size();
+    store.add_event(session, settings.subject, "timing-summary",
+                    fmt::format("{} presentations, {} dropped frames, {} repeated frames, A/V offset mean {:.3f} ms, "
+                                "max |offset| {:.3f} ms ({})",
+                                result.presentations, result.dropped_frames, result.repeated_frames,
+                                result.mean_av_offset_ms, result.max_abs_av_offset_ms, audio->name()));
+    log_info("timing: {} presentations, {} dropped frames, {} repeated frames, A/V offset mean {:.3f} ms, "
+             "max |offset| {:.3f} ms (clock: {})",
+             result.presentations, result.dropped_frames, result.repeated_frames, result.mean_av_offset_ms,
+             result.max_abs_av_offset_ms, audio->name());
+    return result;
+}
+
+}  // namespace avsi::experiment
