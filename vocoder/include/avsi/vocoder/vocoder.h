@@ -1,0 +1,149 @@
+// Noise-excited channel vocoder (Shannon, Zeng, Kamath, Wygonski & Ekelid
+// 1995, "Speech recognition with primarily temporal cues", Science 270):
+// the input is split into analysis bands, each band's temporal envelope is
+// extracted and modulates a carrier (noise, sine or low-noise noise) that is
+// filtered back into the same band; the bands are level-matched and summed.
+// Every choice a methods section must report (Cychosz, Winn & Goupell 2024,
+// "How to vocode", JASA 155) is a field of VocoderSettings and is written out
+// by describe().
+//
+// Usage:
+//   avsi::vocoder::VocoderSettings settings;       // the study: 3 bands, 100–5000 Hz
+//   settings.seed = 7;
+//   auto result = avsi::vocoder::vocode(audio, settings);
+//   avsi::write_audio("out.wav", result.audio);
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "avsi/core/audio.h"
+#include "avsi/core/error.h"
+
+namespace avsi::vocoder {
+
+// How the analysis band edges are placed between low_hz and high_hz.
+enum class BandSpacing {
+    Greenwood,  // equal steps of cochlear place, F = 165.4·(10^(2.1x) − 0.88) (Greenwood 1990)
+    Log,        // equal ratios (equal octaves)
+    Linear,     // equal widths in Hz
+    Explicit    // the list in VocoderSettings::edges_hz
+};
+
+// How each band's temporal envelope is extracted.
+enum class EnvelopeMethod {
+    HalfWaveRectify,  // max(x, 0), then the envelope low-pass (Shannon et al. 1995)
+    FullWaveRectify,  // |x|, then the envelope low-pass
+    Hilbert           // magnitude of the analytic signal, then the envelope low-pass
+};
+
+// What the envelope modulates.
+enum class CarrierType {
+    Noise,     // white noise, a seeded stream per band
+    Sine,      // a sine at the band's geometric centre frequency, zero phase
+    LowNoise   // noise with a flattened Hilbert envelope (Pumplin 1985; Kohlrausch et al. 1997)
+};
+
+struct VocoderSettings {
+    int bands = 3;                 // number of channels, [1, 64]
+    double low_hz = 100.0;         // lower edge of the lowest band
+    double high_hz = 5000.0;       // upper edge of the highest band; below Nyquist
+    BandSpacing spacing = BandSpacing::Greenwood;
+    std::vector<double> edges_hz;  // bands + 1 increasing edges, for BandSpacing::Explicit
+
+    int filter_order = 4;          // Butterworth low-pass prototype order of each band-pass (2·order poles)
+    bool zero_phase = false;       // run every filter forward and backward (doubles the slopes)
+
+    EnvelopeMethod envelope = EnvelopeMethod::HalfWaveRectify;
+    double envelope_cutoff_hz = 160.0;  // envelope low-pass cutoff
+    int envelope_filter_order = 4;      // Butterworth low-pass order of the envelope filter
+
+    CarrierType carrier = CarrierType::Noise;
+    bool prefilter_carrier = false;  // band-pass the carrier before modulation as well (noise carriers)
+    bool refilter_carrier = true;    // band-pass the modulated carrier through its analysis band
+    int low_noise_iterations = 10;   // envelope-flattening iterations for CarrierType::LowNoise
+
+    bool match_band_rms = true;     // each output band gets the RMS of its analysis band
+    bool match_output_rms = true;   // the summed output gets the RMS of the input
+    std::uint64_t seed = 1;         // carrier noise seed; output = f(input, settings, seed)
+};
+
+// Checks every field against itself and against `sample_rate_hz` (0: skip
+// the checks that need a rate) and throws InputError listing every problem,
+// each as "vocoder.<field>: expected …, got …". `source` names where the
+// settings came from (a file or "command line") for the diagnostics.
+void validate_settings(const VocoderSettings& settings, double sample_rate_hz,
+                       const std::string& source = "vocoder settings");
+
+// Greenwood's (1990) human frequency–place function, F = 165.4·(10^(2.1x) − 0.88),
+// x the relative distance from the apex in [0, 1]; and its inverse.
+double greenwood_hz(double relative_position);
+double greenwood_position(double frequency_hz);
+
+// The bands + 1 band edges in Hz for these settings (validated first).
+std::vector<double> band_edges_hz(const VocoderSettings& settings);
+
+// One analysis band and what the vocoder measured in it.
+struct BandInfo {
+    double low_hz = 0.0;
+    double high_hz = 0.0;
+    double centre_hz = 0.0;      // geometric centre, sqrt(low·high)
+    double analysis_rms = 0.0;   // RMS of the input after the analysis filter
+    double output_rms = 0.0;     // RMS of this band's output before the overall gain
+};
+
+struct VocoderResult {
+    Audio audio;                 // same rate, channels and length as the input
+    std::vector<BandInfo> bands; // for the first channel
+    double output_gain_db = 0.0; // overall gain applied to match the input RMS
+    double peak_before_limit = 0.0;  // largest |sample| before the anti-clipping scale
+    double limit_gain_db = 0.0;  // < 0 when the output was scaled down to keep |x| ≤ 1
+};
+
+// Vocodes `input` (any rate; each channel separately, with its own carrier
+// streams). Throws InputError for invalid settings or a rate too low for them.
+// When the output would exceed full scale it is scaled down, logged as a
+// warning and reported in limit_gain_db.
+VocoderResult vocode(const Audio& input, const VocoderSettings& settings);
+
+// One channel's output and what was measured on the way.
+struct ChannelResult {
+    std::vector<double> samples;   // summed bands after the overall gain (no anti-clipping scale)
+    std::vector<BandInfo> bands;
+    double output_gain_db = 0.0;   // overall gain applied to match the input RMS
+    // Each band's output before the overall gain, when asked for.
+    std::vector<std::vector<double>> band_signals;
+};
+
+// Vocodes one channel of samples at `sample_rate_hz`; `channel` selects the
+// carrier noise streams ("channel<c>/band<b>" derived from the seed).
+ChannelResult vocode_channel(std::span<const double> samples, double sample_rate_hz,
+                             const VocoderSettings& settings, int channel = 0,
+                             bool keep_band_signals = false);
+
+namespace detail {
+// vocode_channel with the streaming block length given (for tests: any
+// block length must give the same output).
+ChannelResult vocode_channel_in_blocks(std::span<const double> samples, double sample_rate_hz,
+                                       const VocoderSettings& settings, int channel, bool keep_band_signals,
+                                       std::size_t block_frames);
+}  // namespace detail
+
+// A methods-section description of the processing for this rate: band
+// edges, filter type, order and slopes, phase, envelope method, cutoff and
+// filter, carrier and its filtering, level matching, seed, sample rate
+// (the checklist of Cychosz, Winn & Goupell 2024). One item per line.
+std::string describe(const VocoderSettings& settings, double sample_rate_hz);
+
+// Names used on the command line and in reports, and their parsers (which
+// throw InputError naming `field` and the accepted values).
+std::string to_string(BandSpacing spacing);
+std::string to_string(EnvelopeMethod method);
+std::string to_string(CarrierType carrier);
+BandSpacing parse_band_spacing(const std::string& text, const std::string& field = "spacing");
+EnvelopeMethod parse_envelope_method(const std::string& text, const std::string& field = "envelope");
+CarrierType parse_carrier_type(const std::string& text, const std::string& field = "carrier");
+
+}  // namespace avsi::vocoder

@@ -1,0 +1,593 @@
+// The channel vocoder of Shannon et al. (1995) with the options reviewed by
+// Cychosz, Winn & Goupell (2024). Processing per channel:
+//   1. analysis: the input through each band's Butterworth band-pass (a
+//      bank of cascades run side by side, one lane per band);
+//   2. envelope: rectification (or Hilbert magnitude), then a Butterworth
+//      low-pass, negative values set to zero;
+//   3. carrier: seeded noise, a sine at the band centre, or low-noise noise;
+//   4. modulation, then the modulated carrier back through its band-pass;
+//   5. level matching per band and overall, and the sum.
+#include "avsi/vocoder/vocoder.h"
+
+#include <algorithm>
+#include <complex>
+#include <memory>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+
+#include <fmt/format.h>
+
+#include "avsi/core/log.h"
+#include "avsi/core/rng.h"
+#include "avsi/vocoder/filters.h"
+#include "avsi/vocoder/hilbert.h"
+
+namespace avsi::vocoder {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+double to_db(double ratio) { return 20.0 * std::log10(ratio); }
+
+std::string format_hz(double hz) { return fmt::format("{:.1f}", hz); }
+
+std::string join_hz(const std::vector<double>& values) {
+    std::string out;
+    for (std::size_t i = 0; i < values.size(); ++i) out += (i ? ", " : "") + format_hz(values[i]);
+    return out;
+}
+
+std::string ordinal(int n) {
+    const char* suffix = "th";
+    if (n % 100 < 11 || n % 100 > 13) {
+        if (n % 10 == 1) suffix = "st";
+        if (n % 10 == 2) suffix = "nd";
+        if (n % 10 == 3) suffix = "rd";
+    }
+    return fmt::format("{}{}", n, suffix);
+}
+
+// Runs a bank over interleaved data, forward and (zero-phase) backward.
+void run_bank(const SosBank& bank, std::vector<double>& data, std::size_t frames, bool zero_phase) {
+    bank.process(data.data(), frames, false);
+    if (zero_phase) bank.process(data.data(), frames, true);
+}
+
+std::vector<double> column(const std::vector<double>& data, std::size_t frames, std::size_t stride,
+                           std::size_t lane) {
+    std::vector<double> out(frames);
+    for (std::size_t n = 0; n < frames; ++n) out[n] = data[n * stride + lane];
+    return out;
+}
+
+// acc[j] += Σ_n data[n·stride + j]², four lanes at a time.
+void add_squares(const double* data, std::size_t frames, std::size_t stride, double* acc) {
+    for (std::size_t chunk = 0; chunk < stride; chunk += 4) {
+        // Each lane sums in sample order starting from its running total, so
+        // the result does not depend on how the signal was split into blocks.
+        double a[4] = {acc[chunk], acc[chunk + 1], acc[chunk + 2], acc[chunk + 3]};
+        for (std::size_t n = 0; n < frames; ++n)
+            for (std::size_t j = 0; j < 4; ++j) a[j] += data[n * stride + chunk + j] * data[n * stride + chunk + j];
+        for (std::size_t j = 0; j < 4; ++j) acc[chunk + j] = a[j];
+    }
+}
+
+void set_column(std::vector<double>& data, std::size_t stride, std::size_t lane,
+                const std::vector<double>& values) {
+    for (std::size_t n = 0; n < values.size(); ++n) data[n * stride + lane] = values[n];
+}
+
+// Low-noise noise (Pumplin 1985; Kohlrausch, Fassel, van der Heijden et al.
+// 1997): band-limited noise divided by its own Hilbert envelope, then
+// band-limited again, repeated; each round flattens the envelope further.
+void make_low_noise(const SosBank& bank, std::vector<double>& carrier, std::size_t frames,
+                    std::size_t lanes, int iterations, bool zero_phase) {
+    const std::size_t stride = bank.stride();
+    run_bank(bank, carrier, frames, zero_phase);
+    for (int it = 0; it < iterations; ++it) {
+        for (std::size_t l = 0; l < lanes; ++l) {
+            std::vector<double> band = column(carrier, frames, stride, l);
+            const std::vector<double> envelope = hilbert_envelope(band);
+            double mean = 0.0;
+            for (double e : envelope) mean += e;
+            mean /= static_cast<double>(std::max<std::size_t>(frames, 1));
+            const double floor = 1e-9 * std::max(mean, 1e-300);
+            for (std::size_t n = 0; n < frames; ++n) band[n] /= std::max(envelope[n], floor);
+            set_column(carrier, stride, l, band);
+        }
+        run_bank(bank, carrier, frames, zero_phase);
+    }
+}
+
+}  // namespace
+
+// ------------------------------------------------------------- names
+
+std::string to_string(BandSpacing spacing) {
+    switch (spacing) {
+        case BandSpacing::Greenwood: return "greenwood";
+        case BandSpacing::Log: return "log";
+        case BandSpacing::Linear: return "linear";
+        case BandSpacing::Explicit: return "explicit";
+    }
+    return "?";
+}
+
+std::string to_string(EnvelopeMethod method) {
+    switch (method) {
+        case EnvelopeMethod::HalfWaveRectify: return "rectify";
+        case EnvelopeMethod::FullWaveRectify: return "full-wave";
+        case EnvelopeMethod::Hilbert: return "hilbert";
+    }
+    return "?";
+}
+
+std::string to_string(CarrierType carrier) {
+    switch (carrier) {
+        case CarrierType::Noise: return "noise";
+        case CarrierType::Sine: return "sine";
+        case CarrierType::LowNoise: return "low-noise";
+    }
+    return "?";
+}
+
+namespace {
+template <typename Enum>
+Enum parse_enum(const std::string& text, const std::string& field, std::initializer_list<Enum> values) {
+    std::vector<std::string> names;
+    for (Enum v : values) {
+        if (to_string(v) == text) return v;
+        names.push_back(to_string(v));
+    }
+    std::string message = fmt::format("expected one of {}, got \"{}\"", fmt::join(names, ", "), text);
+    const std::string hint = closest_match(text, names);
+    if (!hint.empty()) message += fmt::format(" (did you mean \"{}\"?)", hint);
+    throw InputError(Diagnostic{"", 0, 0, field, message});
+}
+}  // namespace
+
+BandSpacing parse_band_spacing(const std::string& text, const std::string& field) {
+    return parse_enum(text, field,
+                      {BandSpacing::Greenwood, BandSpacing::Log, BandSpacing::Linear, BandSpacing::Explicit});
+}
+
+EnvelopeMethod parse_envelope_method(const std::string& text, const std::string& field) {
+    return parse_enum(text, field,
+                      {EnvelopeMethod::HalfWaveRectify, EnvelopeMethod::FullWaveRectify, EnvelopeMethod::Hilbert});
+}
+
+CarrierType parse_carrier_type(const std::string& text, const std::string& field) {
+    return parse_enum(text, field, {CarrierType::Noise, CarrierType::Sine, CarrierType::LowNoise});
+}
+
+// ------------------------------------------------------------- settings
+
+void validate_settings(const VocoderSettings& s, double rate, const std::string& source) {
+    DiagnosticList problems;
+    auto add = [&](const std::string& field, std::string message) {
+        problems.add(source, 0, 0, "vocoder." + field, std::move(message));
+    };
+    const double nyquist = rate / 2.0;
+    const std::string rate_note = fmt::format("the Nyquist frequency ({} Hz) of the {} Hz input",
+                                              format_hz(nyquist), format_hz(rate));
+    if (s.bands < 1 || s.bands > 64) add("bands", fmt::format("expected an integer in [1, 64], got {}", s.bands));
+    if (!std::isfinite(s.low_hz) || s.low_hz <= 0.0)
+        add("low_hz", fmt::format("expected a frequency above 0 Hz, got {}", s.low_hz));
+    if (!std::isfinite(s.high_hz) || !(s.high_hz > s.low_hz))
+        add("high_hz", fmt::format("expected a frequency above low_hz ({} Hz), got {}", s.low_hz, s.high_hz));
+    if (rate > 0.0 && std::isfinite(s.high_hz) && s.high_hz >= nyquist)
+        add("high_hz", fmt::format("expected a frequency below {}, got {} Hz; lower high_hz or "
+                                   "resample the input to at least {} Hz",
+                                   rate_note, format_hz(s.high_hz), format_hz(2.0 * s.high_hz + 1.0)));
+    if (s.spacing == BandSpacing::Explicit) {
+        const auto& e = s.edges_hz;
+        if (e.size() != static_cast<std::size_t>(std::max(s.bands, 0)) + 1)
+            add("edges_hz", fmt::format("expected bands + 1 = {} edges, got {}", s.bands + 1, e.size()));
+        for (std::size_t i = 0; i < e.size(); ++i) {
+            if (!std::isfinite(e[i]) || e[i] <= 0.0)
+                add(fmt::format("edges_hz[{}]", i), fmt::format("expected a frequency above 0 Hz, got {}", e[i]));
+            else if (i > 0 && !(e[i] > e[i - 1]))
+                add(fmt::format("edges_hz[{}]", i),
+                    fmt::format("expected increasing edges, above {} Hz, got {}", e[i - 1], e[i]));
+        }
+        if (!e.empty() && (e.front() != s.low_hz || e.back() != s.high_hz))
+            add("edges_hz", fmt::format("expected the first and last edge to equal low_hz and high_hz "
+                                        "({} and {} Hz), got {} and {} Hz",
+                                        s.low_hz, s.high_hz, e.front(), e.back()));
+    } else if (!s.edges_hz.empty()) {
+        add("edges_hz", fmt::format("expected no explicit edges with {} spacing (set spacing to "
+                                    "explicit to use them), got {} edges",
+                                    to_string(s.spacing), s.edges_hz.size()));
+    }
+    if (s.filter_order < 1 || s.filter_order > 16)
+        add("filter_order", fmt::format("expected an integer in [1, 16], got {}", s.filter_order));
+    if (!std::isfinite(s.envelope_cutoff_hz) || s.envelope_cutoff_hz <= 0.0)
+        add("envelope_cutoff_hz", fmt::format("expected a frequency above 0 Hz, got {}", s.envelope_cutoff_hz));
+    else if (rate > 0.0 && s.envelope_cutoff_hz >= nyquist)
+        add("envelope_cutoff_hz",
+            fmt::format("expected a frequency below {}, got {} Hz", rate_note, format_hz(s.envelope_cutoff_hz)));
+    if (s.envelope_filter_order < 1 || s.envelope_filter_order > 16)
+        add("envelope_filter_order", fmt::format("expected an integer in [1, 16], got {}", s.envelope_filter_order));
+    if (s.low_noise_iterations < 0 || s.low_noise_iterations > 100)
+        add("low_noise_iterations", fmt::format("expected an integer in [0, 100], got {}", s.low_noise_iterations));
+    if (!(rate > 0.0) && rate != 0.0)
+        add("sample_rate_hz", fmt::format("expected a positive sample rate, got {}", rate));
+    problems.throw_if_any();
+}
+
+double greenwood_hz(double x) { return 165.4 * (std::pow(10.0, 2.1 * x) - 0.88); }
+
+double greenwood_position(double frequency_hz) { return std::log10(frequency_hz / 165.4 + 0.88) / 2.1; }
+
+std::vector<double> band_edges_hz(const VocoderSettings& s) {
+    validate_settings(s, 0.0);
+    if (s.spacing == BandSpacing::Explicit) return s.edges_hz;
+    std::vector<double> edges(static_cast<std::size_t>(s.bands) + 1);
+    const double b = s.bands;
+    for (int k = 0; k <= s.bands; ++k) {
+        const double t = k / b;
+        switch (s.spacing) {
+            case BandSpacing::Greenwood: {
+                const double x0 = greenwood_position(s.low_hz);
+                const double x1 = greenwood_position(s.high_hz);
+                edges[k] = greenwood_hz(x0 + (x1 - x0) * t);
+                break;
+            }
+            case BandSpacing::Log: edges[k] = s.low_hz * std::pow(s.high_hz / s.low_hz, t); break;
+            case BandSpacing::Linear: edges[k] = s.low_hz + (s.high_hz - s.low_hz) * t; break;
+            case BandSpacing::Explicit: break;
+        }
+    }
+    edges.front() = s.low_hz;  // exact, whatever the rounding of the inverse map
+    edges.back() = s.high_hz;
+    return edges;
+}
+
+// ------------------------------------------------------------- processing
+
+namespace {
+
+// The band-pass and envelope filters of one channel and their memory, so the
+// signal can run through the pipeline block by block.
+struct Pipeline {
+    const VocoderSettings& settings;
+    double rate;
+    std::size_t lanes;
+    SosBank bands;
+    SosBank envelope_lowpass;
+    SosBank::State analysis_state, envelope_state, prefilter_state, refilter_state;
+    std::vector<Rng> noise;            // one stream per band
+    std::vector<std::uint64_t> noise_draw;  // the current 64-bit draw per band
+    std::vector<double> sine_step;     // radians per sample per band
+    std::vector<double> analysis_sum_sq;
+
+    Pipeline(const VocoderSettings& s, double rate_hz, const std::vector<Sos>& band_filters, int channel)
+        : settings(s), rate(rate_hz), lanes(band_filters.size()), bands(band_filters),
+          envelope_lowpass(std::vector<Sos>(lanes, butterworth_lowpass(s.envelope_filter_order,
+                                                                       s.envelope_cutoff_hz, rate_hz))),
+          analysis_state(bands.initial_state()), envelope_state(envelope_lowpass.initial_state()),
+          prefilter_state(bands.initial_state()), refilter_state(bands.initial_state()),
+          analysis_sum_sq(bands.stride(), 0.0) {
+        for (std::size_t b = 0; b < lanes; ++b)
+            noise.push_back(Rng(s.seed).derive(fmt::format("channel{}/band{}", channel, b)));
+        noise_draw.assign(lanes, 0);
+    }
+
+    // Runs a bank over `frames` rows: forward with carried state when the
+    // signal comes in blocks, forward and backward over the whole signal
+    // for zero phase.
+    void filter(const SosBank& bank, SosBank::State& state, double* data, std::size_t frames) {
+        if (settings.zero_phase) {
+            bank.process(data, frames, false);
+            bank.process(data, frames, true);
+        } else {
+            bank.process(data, frames, state);
+        }
+    }
+
+    // Fills `carrier` (frames × stride) for the frames from `first` on.
+    void make_carrier(double* carrier, std::size_t first, std::size_t frames,
+                      const std::vector<double>& centres_hz) {
+        const std::size_t stride = bands.stride();
+        switch (settings.carrier) {
+            case CarrierType::Noise:
+            case CarrierType::LowNoise:
+                // Two uniform values in [-1, 1) with 32-bit resolution per
+                // 64-bit draw; the stream position is absolute (`first`), so
+                // an odd block start uses the second half of a draw.
+                for (std::size_t b = 0; b < lanes; ++b)
+                    for (std::size_t n = 0; n < frames; ++n) {
+                        const std::size_t t = first + n;
+                        if (t % 2 == 0) noise_draw[b] = noise[b].next_u64();
+                        const auto bits = static_cast<std::uint32_t>(t % 2 == 0 ? noise_draw[b] : noise_draw[b] >> 32);
+                        carrier[n * stride + b] = static_cast<double>(bits) * 0x1.0p-31 - 1.0;
+                    }
+                if (settings.carrier == CarrierType::LowNoise) {
+                    // Whole signal only (see vocode_channel): Hilbert envelopes need it.
+                    std::vector<double> whole(carrier, carrier + frames * stride);
+                    make_low_noise(bands, whole, frames, lanes, settings.low_noise_iterations, settings.zero_phase);
+                    std::copy(whole.begin(), whole.end(), carrier);
+                }
+                break;
+            case CarrierType::Sine:
+                // A rotating phasor, re-anchored to the exact sin/cos every
+                // 1024 samples of absolute time (so blocks do not matter).
+                for (std::size_t b = 0; b < lanes; ++b) {
+                    const double w = 2.0 * kPi * centres_hz[b] / rate;
+                    const std::complex<double> step = std::polar(1.0, w);
+                    // Start as a whole-signal run would: from the last anchor.
+                    const std::size_t anchor = first / 1024 * 1024;
+                    std::complex<double> phasor = std::polar(1.0, w * static_cast<double>(anchor));
+                    for (std::size_t t = anchor; t < first; ++t) phasor *= step;
+                    for (std::size_t n = 0; n < frames; ++n) {
+                        const std::size_t t = first + n;
+                        if (t % 1024 == 0) phasor = std::polar(1.0, w * static_cast<double>(t));
+                        carrier[n * stride + b] = phasor.imag();
+                        phasor *= step;
+                    }
+                }
+                break;
+        }
+    }
+
+    // Steps 1–4 for `frames` rows starting at absolute frame `first`:
+    // `work` gets the input broadcast to every lane on entry and the
+    // filtered modulated carriers on exit; `carrier` is scratch.
+    void run(const double* x, std::size_t first, std::size_t frames, std::vector<double>& work,
+             std::vector<double>& carrier, const std::vector<double>& centres_hz) {
+        const std::size_t stride = bands.stride();
+        double* w = work.data();
+        // Padding lanes get the input too; their filters output zero.
+        for (std::size_t n = 0; n < frames; ++n) std::fill_n(w + n * stride, stride, x[first + n]);
+        // 1. Analysis.
+        filter(bands, analysis_state, w, frames);
+        add_squares(w, frames, stride, analysis_sum_sq.data());
+        // 2. Envelope.
+        switch (settings.envelope) {
+            case EnvelopeMethod::HalfWaveRectify:
+                for (std::size_t i = 0; i < frames * stride; ++i) w[i] = std::max(w[i], 0.0);
+                break;
+            case EnvelopeMethod::FullWaveRectify:
+                for (std::size_t i = 0; i < frames * stride; ++i) w[i] = std::abs(w[i]);
+                break;
+            case EnvelopeMethod::Hilbert:  // whole signal only
+                for (std::size_t b = 0; b < lanes; ++b)
+                    set_column(work, stride, b, hilbert_envelope(column(work, frames, stride, b)));
+                break;
+        }
+        filter(envelope_lowpass, envelope_state, w, frames);
+        // 3. Carrier.
+        double* c = carrier.data();
+        make_carrier(c, first, frames, centres_hz);
+        if (settings.prefilter_carrier) filter(bands, prefilter_state, c, frames);
+        // 4. Modulation (envelope floored at zero), then back through the band.
+        for (std::size_t i = 0; i < frames * stride; ++i) w[i] = std::max(w[i], 0.0) * c[i];
+        if (settings.refilter_carrier) filter(bands, refilter_state, w, frames);
+    }
+};
+
+}  // namespace
+
+namespace detail {
+
+ChannelResult vocode_channel_in_blocks(std::span<const double> x, double rate, const VocoderSettings& s,
+                                       int channel, bool keep_band_signals, std::size_t block_frames) {
+    validate_settings(s, rate);
+    const std::vector<double> edges = band_edges_hz(s);
+    const std::size_t lanes = static_cast<std::size_t>(s.bands);
+    const std::size_t frames = x.size();
+
+    ChannelResult result;
+    std::vector<Sos> band_filters;
+    std::vector<double> centres;
+    for (std::size_t b = 0; b < lanes; ++b) {
+        band_filters.push_back(butterworth_bandpass(s.filter_order, edges[b], edges[b + 1], rate));
+        BandInfo info;
+        info.low_hz = edges[b];
+        info.high_hz = edges[b + 1];
+        info.centre_hz = std::sqrt(edges[b] * edges[b + 1]);
+        centres.push_back(info.centre_hz);
+        result.bands.push_back(info);
+    }
+    result.samples.assign(frames, 0.0);
+    if (frames == 0) return result;
+
+    // Zero-phase filtering, Hilbert envelopes and low-noise carriers need the
+    // whole signal at once; otherwise the pipeline streams through small
+    // blocks that stay in cache (bit-identical output).
+    const bool whole_only =
+        s.zero_phase || s.envelope == EnvelopeMethod::Hilbert || s.carrier == CarrierType::LowNoise;
+    const std::size_t block = whole_only ? frames : std::max<std::size_t>(1, std::min(block_frames, frames));
+
+    Pipeline pipeline(s, rate, band_filters, channel);
+    const std::size_t stride = pipeline.bands.stride();
+    std::vector<double> work(block * stride), carrier(block * stride);
+    // Steps 1–4 per band (frames × stride), before level matching.
+    // Stored in single precision (the output is single precision anyway) and
+    // left uninitialised: every element is written below.
+    const std::unique_ptr<float[]> band_out(new float[frames * stride]);
+    std::vector<double> out_sum_sq(stride, 0.0);
+    for (std::size_t first = 0; first < frames; first += block) {
+        const std::size_t count = std::min(block, frames - first);
+        pipeline.run(x.data(), first, count, work, carrier, centres);
+        add_squares(work.data(), count, stride, out_sum_sq.data());
+        float* dst = band_out.get() + first * stride;
+        for (std::size_t i = 0; i < count * stride; ++i) dst[i] = static_cast<float>(work[i]);
+    }
+
+    // 5. Level matching and the sum.
+    std::vector<double> gains(lanes, 1.0);
+    const double count = static_cast<double>(frames);
+    for (std::size_t b = 0; b < lanes; ++b) {
+        result.bands[b].analysis_rms = std::sqrt(pipeline.analysis_sum_sq[b] / count);
+        const double rms = std::sqrt(out_sum_sq[b] / count);
+        if (s.match_band_rms && rms > 0.0) gains[b] = result.bands[b].analysis_rms / rms;
+        result.bands[b].output_rms = rms * gains[b];
+    }
+    gains.resize(stride, 0.0);
+    double in_sq = 0.0, out_sq = 0.0;
+    for (std::size_t n = 0; n < frames; ++n) {
+        const float* row = &band_out[n * stride];
+        double sum = 0.0;
+        for (std::size_t b = 0; b < stride; ++b) sum += gains[b] * row[b];
+        result.samples[n] = sum;
+        in_sq += x[n] * x[n];
+        out_sq += sum * sum;
+    }
+    if (keep_band_signals) {
+        for (std::size_t b = 0; b < lanes; ++b) {
+            std::vector<double> band(frames);
+            for (std::size_t n = 0; n < frames; ++n) band[n] = gains[b] * band_out[n * stride + b];
+            result.band_signals.push_back(std::move(band));
+        }
+    }
+    if (s.match_output_rms && out_sq > 0.0) {
+        const double gain = std::sqrt(in_sq / out_sq);
+        for (double& v : result.samples) v *= gain;
+        result.output_gain_db = in_sq > 0.0 ? to_db(gain) : -INFINITY;
+    }
+    return result;
+}
+
+}  // namespace detail
+
+ChannelResult vocode_channel(std::span<const double> x, double rate, const VocoderSettings& s, int channel,
+                             bool keep_band_signals) {
+    return detail::vocode_channel_in_blocks(x, rate, s, channel, keep_band_signals, 512);
+}
+
+VocoderResult vocode(const Audio& input, const VocoderSettings& settings) {
+    if (input.channels < 1 || input.sample_rate_hz <= 0)
+        throw InputError(Diagnostic{"", 0, 0, "audio",
+                                    fmt::format("expected at least one channel and a positive sample "
+                                                "rate, got {} channels at {} Hz",
+                                                input.channels, input.sample_rate_hz)});
+    validate_settings(settings, input.sample_rate_hz);
+    VocoderResult result;
+    result.audio.sample_rate_hz = input.sample_rate_hz;
+    result.audio.channels = input.channels;
+    const std::size_t frames = input.frames();
+    std::vector<double> out(frames * input.channels, 0.0);
+    for (int c = 0; c < input.channels; ++c) {
+        const std::vector<float> samples = input.channel(c);
+        const std::vector<double> x(samples.begin(), samples.end());
+        ChannelResult channel = vocode_channel(x, input.sample_rate_hz, settings, c);
+        for (std::size_t n = 0; n < frames; ++n) out[n * input.channels + c] = channel.samples[n];
+        if (c == 0) {
+            result.bands = std::move(channel.bands);
+            result.output_gain_db = channel.output_gain_db;
+        }
+    }
+    // No clipping: scale the whole output down when its peak exceeds full scale.
+    double peak = 0.0;
+    for (double v : out) peak = std::max(peak, std::abs(v));
+    result.peak_before_limit = peak;
+    double scale = 1.0;
+    constexpr double kMaxPeak = 0.999;
+    if (peak > 1.0) {
+        scale = kMaxPeak / peak;
+        result.limit_gain_db = to_db(scale);
+        log_warning("vocoder: output peak {:.3f} exceeds full scale; scaled the whole output by {:.2f} dB "
+                    "to avoid clipping",
+                    peak, result.limit_gain_db);
+    }
+    result.audio.samples.resize(out.size());
+    for (std::size_t i = 0; i < out.size(); ++i) result.audio.samples[i] = static_cast<float>(out[i] * scale);
+    return result;
+}
+
+// ------------------------------------------------------------- report
+
+std::string describe(const VocoderSettings& s, double rate) {
+    validate_settings(s, rate);
+    const std::vector<double> edges = band_edges_hz(s);
+    std::vector<double> centres;
+    for (std::size_t b = 0; b + 1 < edges.size(); ++b) centres.push_back(std::sqrt(edges[b] * edges[b + 1]));
+    const int slope_db = 6 * s.filter_order * (s.zero_phase ? 2 : 1);
+    const std::string phase = s.zero_phase
+                                  ? "zero-phase (applied forward then backward in time, which squares the "
+                                    "magnitude response: -6 dB at the edges, slopes doubled)"
+                                  : "causal (single forward pass, non-linear phase)";
+    std::string spacing;
+    switch (s.spacing) {
+        case BandSpacing::Greenwood:
+            spacing = "Greenwood (1990) spacing: equal steps of relative cochlear place x, "
+                      "F = 165.4·(10^(2.1x) − 0.88) Hz";
+            break;
+        case BandSpacing::Log: spacing = "logarithmic spacing (equal frequency ratios)"; break;
+        case BandSpacing::Linear: spacing = "linear spacing (equal widths in Hz)"; break;
+        case BandSpacing::Explicit: spacing = "explicit band edges"; break;
+    }
+    std::string envelope;
+    switch (s.envelope) {
+        case EnvelopeMethod::HalfWaveRectify: envelope = "half-wave rectification"; break;
+        case EnvelopeMethod::FullWaveRectify: envelope = "full-wave rectification"; break;
+        case EnvelopeMethod::Hilbert: envelope = "Hilbert transform (magnitude of the analytic signal, by FFT)"; break;
+    }
+    std::string carrier;
+    switch (s.carrier) {
+        case CarrierType::Noise:
+            carrier = fmt::format("white noise (uniform amplitude distribution, xoshiro256** generator), an "
+                                  "independent stream per band and channel derived from seed {}",
+                                  s.seed);
+            break;
+        case CarrierType::Sine:
+            carrier = "sine at each band's geometric centre frequency (" + join_hz(centres) + " Hz), zero starting phase";
+            break;
+        case CarrierType::LowNoise:
+            carrier = fmt::format("low-noise noise (Pumplin 1985; Kohlrausch et al. 1997): seeded white noise "
+                                  "(seed {}) band-pass filtered, then {} times divided by its Hilbert envelope "
+                                  "and band-pass filtered again",
+                                  s.seed, s.low_noise_iterations);
+            break;
+    }
+
+    std::string out;
+    auto line = [&](std::string_view label, const std::string& text) {
+        out += fmt::format("{:<22}{}\n", std::string(label) + ":", text);
+    };
+    line("Processing", "noise-excited channel vocoder (Shannon et al. 1995); no pre-emphasis");
+    line("Sample rate", fmt::format("{} Hz (processing in double precision at the input rate)", format_hz(rate)));
+    line("Channels", fmt::format("{} analysis bands, {}–{} Hz, {}", s.bands, format_hz(s.low_hz),
+                                 format_hz(s.high_hz), spacing));
+    line("Band edges (Hz)", join_hz(edges));
+    line("Band centres (Hz)", join_hz(centres) + " (geometric)");
+    line("Analysis filters",
+         fmt::format("Butterworth band-pass, {}-order low-pass prototype ({} poles, {} second-order "
+                     "sections per band), bilinear transform with pre-warped edges, -3 dB at the band "
+                     "edges, skirts {} dB/octave; {}",
+                     ordinal(s.filter_order), 2 * s.filter_order, s.filter_order, slope_db, phase));
+    line("Envelope", fmt::format("{}, then a {}-order Butterworth low-pass at {} Hz ({} dB/octave, {}); "
+                                 "negative values of the smoothed envelope set to 0",
+                                 envelope, ordinal(s.envelope_filter_order), format_hz(s.envelope_cutoff_hz),
+                                 6 * s.envelope_filter_order * (s.zero_phase ? 2 : 1),
+                                 s.zero_phase ? "zero-phase" : "causal"));
+    line("Carrier", carrier);
+    line("Carrier filtering",
+         fmt::format("{} before modulation; {} after modulation",
+                     s.prefilter_carrier ? "band-pass filtered through its analysis band" : "not filtered",
+                     s.refilter_carrier ? "band-pass filtered through its analysis band (same filter as the analysis)"
+                                        : "not filtered"));
+    line("Level matching",
+         fmt::format("{}; {}; if the output peak would exceed full scale, the whole output is scaled down "
+                     "to a peak of 0.999 (logged and reported per file), never clipped",
+                     s.match_band_rms ? "each band's output RMS set to its analysis band's RMS (whole signal)"
+                                      : "no per-band level matching",
+                     s.match_output_rms ? "the summed output's RMS set to the input's RMS (whole signal)"
+                                        : "no overall level matching"));
+    line("Seed", fmt::format("{} (output is fully determined by the input, these settings and the seed)", s.seed));
+    if (s.carrier == CarrierType::Sine) {
+        double narrowest = INFINITY;
+        for (std::size_t b = 0; b + 1 < edges.size(); ++b) narrowest = std::min(narrowest, edges[b + 1] - edges[b]);
+        if (s.envelope_cutoff_hz > narrowest / 2.0)
+            line("Note", fmt::format("the envelope cutoff ({} Hz) exceeds half the narrowest band's width "
+                                     "({} Hz): with sine carriers, envelope sidebands may be resolved "
+                                     "(Cychosz et al. 2024)",
+                                     format_hz(s.envelope_cutoff_hz), format_hz(narrowest / 2.0)));
+    }
+    return out;
+}
+
+}  // namespace avsi::vocoder
