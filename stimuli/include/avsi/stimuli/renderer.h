@@ -1,0 +1,96 @@
+// Rendering the talking head with OpenGL 3.3 core: Blinn-Phong shading with
+// key, fill and rim lights, multisample anti-aliasing, a frontal or
+// three-quarter camera. HeadDrawer holds the GL drawing code and works in any
+// current GL 3.3 core context (OSMesa offscreen here, a GLFW window in the
+// session runner); OffscreenRenderer owns an OSMesa context (llvmpipe, no
+// display) and returns images. No GL header is included here.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "avsi/stimuli/head.h"
+
+namespace avsi::stimuli {
+
+enum class CameraView { Front, ThreeQuarter };
+
+// What a pixel shows: the shaded face, or the index + 1 of the mesh group
+// (HeadMesh::group_names) of the surface in front, in the red channel (0 = background).
+enum class RenderMode { Shaded, Regions };
+
+struct RenderSettings {
+    int width = 640;
+    int height = 480;
+    CameraView camera = CameraView::Front;
+    std::array<float, 3> background{0.30f, 0.34f, 0.40f};  // sRGB in [0, 1]
+    int samples = 4;                 // MSAA samples per pixel (1 = off)
+    float field_of_view_deg = 18.0f; // vertical
+    float framing_mm = 300.0f;       // height of the world shown at the head's depth
+};
+
+// Parses "front" / "three-quarter"; throws InputError otherwise.
+CameraView camera_view_from_name(const std::string& name);
+
+// An 8-bit RGB image, rows top to bottom.
+struct Image {
+    int width = 0;
+    int height = 0;
+    std::vector<std::uint8_t> rgb;
+    const std::uint8_t* pixel(int x, int y) const {
+        return rgb.data() + 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+                                 static_cast<std::size_t>(x));
+    }
+};
+
+// A GL function loader: OSMesaGetProcAddress, glfwGetProcAddress, …
+using GlProcLoader = void* (*)(const char* name);
+
+// Draws a posed head in the current GL 3.3 core context. Create, use and
+// destroy it on the thread where that context is current.
+class HeadDrawer {
+public:
+    HeadDrawer(const Head& head, GlProcLoader loader);
+    ~HeadDrawer();
+    HeadDrawer(const HeadDrawer&) = delete;
+    HeadDrawer& operator=(const HeadDrawer&) = delete;
+
+    // Clears and draws into the currently bound framebuffer of size width × height.
+    void draw(const PosedMesh& posed, const RenderSettings& settings, int width, int height,
+              RenderMode mode = RenderMode::Shaded);
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> m_impl;
+};
+
+// An offscreen renderer: its own OSMesa GL 3.3 core context and multisample
+// framebuffer. Not thread-safe; use one per thread.
+class OffscreenRenderer {
+public:
+    OffscreenRenderer(const Head& head, const RenderSettings& settings = {});
+    ~OffscreenRenderer();
+    OffscreenRenderer(const OffscreenRenderer&) = delete;
+    OffscreenRenderer& operator=(const OffscreenRenderer&) = delete;
+
+    // Poses the head and renders it; `out` is resized and reused.
+    void render(const Pose& pose, Image& out, RenderMode mode = RenderMode::Shaded);
+    Image render(const Pose& pose, RenderMode mode = RenderMode::Shaded);
+
+    const RenderSettings& settings() const { return m_settings; }
+    const Head& head() const { return m_head; }
+    // The GL renderer string (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
+    std::string gl_renderer() const;
+
+private:
+    struct Impl;
+    const Head& m_head;
+    RenderSettings m_settings;
+    PosedMesh m_posed;
+    std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace avsi::stimuli

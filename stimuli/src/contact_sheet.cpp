@@ -1,0 +1,101 @@
+// Contact sheet rendering; labels drawn with OpenImageIO's text renderer.
+#include "avsi/stimuli/contact_sheet.h"
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+
+#include "avsi/core/csv.h"
+#include "avsi/core/error.h"
+
+namespace avsi::stimuli {
+
+std::filesystem::path default_sheet_targets() {
+    return std::filesystem::path(AVSI_PROTOCOLS_DIR) / "head" / "contact_sheet_targets.csv";
+}
+
+std::vector<SheetEntry> read_sheet_targets(const std::filesystem::path& path) {
+    const CsvTable table = read_csv(path);
+    const std::size_t label_col = table.require_column("label");
+    const std::size_t phone_col = table.require_column("phone");
+    DiagnosticList problems;
+    std::vector<std::pair<std::size_t, std::size_t>> columns;  // csv column, parameter
+    std::vector<std::string> known{"label", "phone"};
+    for (const auto& info : synth::params()) known.emplace_back(info.name);
+    for (std::size_t c = 0; c < table.header.size(); ++c) {
+        const auto& name = table.header[c];
+        if (name == "label" || name == "phone") continue;
+        const auto p = synth::param_from_name(name);
+        if (!p) {
+            const auto hint = closest_match(name, known);
+            problems.add(path.string(), 1, 0, "header",
+                         "unknown column \"" + name + "\"" + (hint.empty() ? "" : " (did you mean \"" + hint + "\"?)"));
+            continue;
+        }
+        columns.emplace_back(c, synth::index(*p));
+    }
+    std::vector<SheetEntry> entries;
+    for (const auto& row : table.rows) {
+        SheetEntry e;
+        e.label = row.fields.at(label_col);
+        e.phone = row.fields.at(phone_col);
+        for (const auto& [c, p] : columns) {
+            const auto& text = row.fields.at(c);
+            if (text.empty()) continue;
+            const auto v = parse_double(text);
+            const auto& info = synth::params()[p];
+            if (!v || *v < info.min || *v > info.max) {
+                problems.add(path.string(), row.line, 0, std::string(info.name),
+                             "expected a number in [" + std::to_string(info.min) + ", " + std::to_string(info.max) +
+                                 "], got \"" + text + "\"");
+                continue;
+            }
+            e.pose.params[p] = *v;
+        }
+        entries.push_back(std::move(e));
+    }
+    problems.throw_if_any();
+    if (entries.empty()) throw InputError(path, "no targets in the file");
+    return entries;
+}
+
+namespace {
+// DejaVu Sans has the IPA glyphs (θ ʃ ɑ); fall back to OIIO's default font.
+std::string label_font() {
+    const char* path = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+    return std::filesystem::exists(path) ? path : "";
+}
+}  // namespace
+
+Image render_contact_sheet(const Head& head, const std::vector<SheetEntry>& entries,
+                           const ContactSheetSettings& settings) {
+    RenderSettings rs;
+    rs.width = settings.tile_width;
+    rs.height = settings.tile_height;
+    rs.framing_mm = settings.framing_mm;
+    rs.camera = settings.camera;
+    OffscreenRenderer renderer(head, rs);
+    const int cols = std::max(1, std::min(settings.columns, static_cast<int>(entries.size())));
+    const int rows = (static_cast<int>(entries.size()) + cols - 1) / cols;
+    const int label_h = 34;
+    const int tw = settings.tile_width, th = settings.tile_height + label_h;
+    OIIO::ImageBuf sheet(OIIO::ImageSpec(cols * tw, rows * th, 3, OIIO::TypeDesc::UINT8));
+    const float white[] = {1.0f, 1.0f, 1.0f};
+    OIIO::ImageBufAlgo::fill(sheet, {0.12f, 0.12f, 0.14f});
+    Image tile;
+    for (std::size_t i = 0; i < entries.size(); ++i) {
+        renderer.render(entries[i].pose, tile);
+        const int x0 = static_cast<int>(i % static_cast<std::size_t>(cols)) * tw;
+        const int y0 = static_cast<int>(i / static_cast<std::size_t>(cols)) * th;
+        OIIO::ImageBuf buf(OIIO::ImageSpec(tile.width, tile.height, 3, OIIO::TypeDesc::UINT8), tile.rgb.data());
+        OIIO::ImageBufAlgo::paste(sheet, x0, y0 + label_h, 0, 0, buf);
+        OIIO::ImageBufAlgo::render_text(sheet, x0 + 10, y0 + 25, entries[i].label + "  " + entries[i].phone, 22, label_font(), white);
+    }
+    Image out;
+    out.width = cols * tw;
+    out.height = rows * th;
+    out.rgb.resize(static_cast<std::size_t>(out.width) * static_cast<std::size_t>(out.height) * 3);
+    sheet.get_pixels(OIIO::ROI::All(), OIIO::TypeDesc::UINT8, out.rgb.data());
+    return out;
+}
+
+}  // namespace avsi::stimuli

@@ -1,0 +1,287 @@
+// The GL drawing of the head: one vertex buffer (positions and normals
+// updated per frame, colours and materials static), Blinn-Phong shading
+// (Blinn 1977) with three directional lights — key, fill and rim — in the
+// fragment shader, and a region mode that writes the mesh group of each
+// triangle (gl_PrimitiveID into a texture buffer) for tests.
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include "avsi/core/error.h"
+#include "avsi/stimuli/renderer.h"
+#include "gl_api.h"
+
+namespace avsi::stimuli {
+
+namespace detail {
+
+void Gl::load(GlProcLoader loader) {
+#define AVSI_GL_LOAD(type, name)                                                    \
+    name = reinterpret_cast<type>(loader(#name));                                   \
+    if (name == nullptr) throw std::runtime_error("OpenGL function not available: " #name);
+    AVSI_GL_FUNCTIONS(AVSI_GL_LOAD)
+#undef AVSI_GL_LOAD
+}
+
+}  // namespace detail
+
+CameraView camera_view_from_name(const std::string& name) {
+    if (name == "front") return CameraView::Front;
+    if (name == "three-quarter") return CameraView::ThreeQuarter;
+    throw InputError(Diagnostic{"", 0, 0, "camera",
+                                "expected \"front\" or \"three-quarter\", got \"" + name + "\""});
+}
+
+namespace {
+
+const char* vertex_shader = R"(#version 330 core
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec3 a_normal;
+layout(location = 2) in vec3 a_color;
+layout(location = 3) in vec3 a_material;
+uniform mat4 u_view_proj;
+out vec3 v_position;
+out vec3 v_normal;
+out vec3 v_color;
+out vec3 v_material;
+void main() {
+    v_position = a_position;
+    v_normal = a_normal;
+    v_color = a_color;
+    v_material = a_material;
+    gl_Position = u_view_proj * vec4(a_position, 1.0);
+}
+)";
+
+// Blinn-Phong: c = ka·albedo + Σ_lights L·(albedo·max(n·l, 0) + ks·max(n·h, 0)^shininess).
+const char* fragment_shader = R"(#version 330 core
+in vec3 v_position;
+in vec3 v_normal;
+in vec3 v_color;
+in vec3 v_material;   // specular strength, shininess, ambient occlusion
+uniform vec3 u_eye;
+uniform vec3 u_light_dir[3];
+uniform vec3 u_light_color[3];
+uniform vec3 u_ambient;
+uniform int u_mode;
+uniform usamplerBuffer u_groups;
+out vec4 o_color;
+void main() {
+    if (u_mode == 1) {
+        uint g = texelFetch(u_groups, gl_PrimitiveID).r;
+        o_color = vec4(float(g + 1u) / 255.0, 0.0, 0.0, 1.0);
+        return;
+    }
+    vec3 n = normalize(v_normal);
+    if (!gl_FrontFacing) n = -n;
+    vec3 v = normalize(u_eye - v_position);
+    vec3 c = u_ambient * v_color * v_material.z;
+    for (int i = 0; i < 3; ++i) {
+        vec3 l = u_light_dir[i];
+        float diffuse = max(dot(n, l), 0.0);
+        vec3 h = normalize(l + v);
+        float specular = diffuse > 0.0 ? v_material.x * pow(max(dot(n, h), 0.0), v_material.y) : 0.0;
+        c += u_light_color[i] * (v_color * diffuse + vec3(specular)) * v_material.z;
+    }
+    o_color = vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), 1.0);
+}
+)";
+
+}  // namespace
+
+struct HeadDrawer::Impl {
+    detail::Gl gl;
+    GLuint vao = 0, vbo_dynamic = 0, vbo_static = 0, ebo = 0, program = 0;
+    GLuint group_buffer = 0, group_texture = 0;
+    GLsizei index_count = 0;
+    std::size_t vertex_count = 0;
+    std::vector<float> interleaved;
+    GLint u_view_proj = -1, u_eye = -1, u_light_dir = -1, u_light_color = -1, u_ambient = -1, u_mode = -1,
+          u_groups = -1;
+    glm::vec3 target{0.0f};
+
+    GLuint compile(GLenum type, const char* source) {
+        const GLuint s = gl.glCreateShader(type);
+        gl.glShaderSource(s, 1, &source, nullptr);
+        gl.glCompileShader(s);
+        GLint ok = 0;
+        gl.glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+        if (!ok) {
+            char log[2048];
+            gl.glGetShaderInfoLog(s, sizeof log, nullptr, log);
+            throw std::runtime_error(std::string("shader compilation failed: ") + log);
+        }
+        return s;
+    }
+};
+
+HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make_unique<Impl>()) {
+    auto& d = *m_impl;
+    auto& gl = d.gl;
+    gl.load(loader);
+    const auto& mesh = head.mesh;
+    d.vertex_count = mesh.positions.size();
+    d.index_count = static_cast<GLsizei>(mesh.indices.size());
+    d.target = head.landmarks.head_center;
+
+    // Per-vertex material from the group of its triangles: specular strength,
+    // shininess, ambient occlusion (darkens the oral cavity).
+    std::vector<float> statics(d.vertex_count * 6, 0.0f);
+    for (std::size_t i = 0; i < d.vertex_count; ++i) {
+        statics[6 * i + 0] = mesh.colors[i].r;
+        statics[6 * i + 1] = mesh.colors[i].g;
+        statics[6 * i + 2] = mesh.colors[i].b;
+        statics[6 * i + 3] = 0.06f;
+        statics[6 * i + 4] = 18.0f;
+        statics[6 * i + 5] = 1.0f;
+    }
+    for (std::size_t t = 0; t < mesh.triangle_group.size(); ++t) {
+        const std::string& g = mesh.group_names[static_cast<std::size_t>(mesh.triangle_group[t])];
+        float spec = 0.06f, shin = 18.0f, occlusion = 1.0f;
+        if (g == "eyes") spec = 0.6f, shin = 90.0f;
+        else if (g.find("teeth") != std::string::npos) spec = 0.25f, shin = 40.0f, occlusion = 0.85f;
+        else if (g.find("lip") != std::string::npos && g.find("lids") == std::string::npos) spec = 0.18f, shin = 30.0f;
+        else if (g.find("inner") != std::string::npos) spec = 0.2f, shin = 30.0f, occlusion = 0.7f;
+        else if (g.find("cavity") != std::string::npos) spec = 0.02f, occlusion = 0.35f;
+        else if (g == "tongue") spec = 0.2f, shin = 30.0f, occlusion = 0.6f;
+        for (int k = 0; k < 3; ++k) {
+            const std::size_t v = mesh.indices[3 * t + static_cast<std::size_t>(k)];
+            statics[6 * v + 3] = spec;
+            statics[6 * v + 4] = shin;
+            statics[6 * v + 5] = occlusion;
+        }
+    }
+
+    gl.glGenVertexArrays(1, &d.vao);
+    gl.glBindVertexArray(d.vao);
+    gl.glGenBuffers(1, &d.vbo_dynamic);
+    gl.glBindBuffer(GL_ARRAY_BUFFER, d.vbo_dynamic);
+    gl.glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(d.vertex_count * 6 * sizeof(float)), nullptr,
+                    GL_STREAM_DRAW);
+    gl.glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+    gl.glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                             reinterpret_cast<const void*>(3 * sizeof(float)));
+    gl.glEnableVertexAttribArray(0);
+    gl.glEnableVertexAttribArray(1);
+    gl.glGenBuffers(1, &d.vbo_static);
+    gl.glBindBuffer(GL_ARRAY_BUFFER, d.vbo_static);
+    gl.glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(statics.size() * sizeof(float)), statics.data(),
+                    GL_STATIC_DRAW);
+    gl.glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+    gl.glVertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                             reinterpret_cast<const void*>(3 * sizeof(float)));
+    gl.glEnableVertexAttribArray(2);
+    gl.glEnableVertexAttribArray(3);
+    gl.glGenBuffers(1, &d.ebo);
+    gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
+    gl.glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(mesh.indices.size() * sizeof(std::uint32_t)),
+                    mesh.indices.data(), GL_STATIC_DRAW);
+    gl.glBindVertexArray(0);
+
+    // Triangle → group, read by the region mode.
+    std::vector<std::uint8_t> groups(mesh.triangle_group.size());
+    for (std::size_t t = 0; t < groups.size(); ++t) groups[t] = static_cast<std::uint8_t>(mesh.triangle_group[t]);
+    gl.glGenBuffers(1, &d.group_buffer);
+    gl.glBindBuffer(GL_TEXTURE_BUFFER, d.group_buffer);
+    gl.glBufferData(GL_TEXTURE_BUFFER, static_cast<GLsizeiptr>(groups.size()), groups.data(), GL_STATIC_DRAW);
+    gl.glGenTextures(1, &d.group_texture);
+    gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture);
+    gl.glTexBuffer(GL_TEXTURE_BUFFER, GL_R8UI, d.group_buffer);
+
+    const GLuint vs = d.compile(GL_VERTEX_SHADER, vertex_shader);
+    const GLuint fs = d.compile(GL_FRAGMENT_SHADER, fragment_shader);
+    d.program = gl.glCreateProgram();
+    gl.glAttachShader(d.program, vs);
+    gl.glAttachShader(d.program, fs);
+    gl.glLinkProgram(d.program);
+    gl.glDeleteShader(vs);
+    gl.glDeleteShader(fs);
+    GLint ok = 0;
+    gl.glGetProgramiv(d.program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[2048];
+        gl.glGetProgramInfoLog(d.program, sizeof log, nullptr, log);
+        throw std::runtime_error(std::string("shader link failed: ") + log);
+    }
+    d.u_view_proj = gl.glGetUniformLocation(d.program, "u_view_proj");
+    d.u_eye = gl.glGetUniformLocation(d.program, "u_eye");
+    d.u_light_dir = gl.glGetUniformLocation(d.program, "u_light_dir");
+    d.u_light_color = gl.glGetUniformLocation(d.program, "u_light_color");
+    d.u_ambient = gl.glGetUniformLocation(d.program, "u_ambient");
+    d.u_mode = gl.glGetUniformLocation(d.program, "u_mode");
+    d.u_groups = gl.glGetUniformLocation(d.program, "u_groups");
+    d.interleaved.resize(d.vertex_count * 6);
+}
+
+HeadDrawer::~HeadDrawer() {
+    auto& d = *m_impl;
+    auto& gl = d.gl;
+    gl.glDeleteProgram(d.program);
+    gl.glDeleteTextures(1, &d.group_texture);
+    GLuint buffers[] = {d.vbo_dynamic, d.vbo_static, d.ebo, d.group_buffer};
+    gl.glDeleteBuffers(4, buffers);
+    gl.glDeleteVertexArrays(1, &d.vao);
+}
+
+void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, int width, int height,
+                      RenderMode mode) {
+    auto& d = *m_impl;
+    auto& gl = d.gl;
+    AVSI_ASSERT(posed.positions.size() == d.vertex_count && posed.normals.size() == d.vertex_count);
+    for (std::size_t i = 0; i < d.vertex_count; ++i) {
+        std::memcpy(&d.interleaved[6 * i], &posed.positions[i], 3 * sizeof(float));
+        std::memcpy(&d.interleaved[6 * i + 3], &posed.normals[i], 3 * sizeof(float));
+    }
+    gl.glBindBuffer(GL_ARRAY_BUFFER, d.vbo_dynamic);
+    gl.glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(d.interleaved.size() * sizeof(float)),
+                       d.interleaved.data());
+
+    // Camera: looks at the head centre from a distance that shows framing_mm.
+    const float fov = glm::radians(settings.field_of_view_deg);
+    const float distance = 0.5f * settings.framing_mm / std::tan(0.5f * fov);
+    const float yaw = settings.camera == CameraView::ThreeQuarter ? glm::radians(35.0f) : 0.0f;
+    const glm::vec3 eye = d.target + distance * glm::vec3(std::sin(yaw), 0.0f, std::cos(yaw));
+    const glm::mat4 view = glm::lookAt(eye, d.target, glm::vec3(0, 1, 0));
+    const glm::mat4 proj = glm::perspective(fov, float(width) / float(height), distance - 250.0f, distance + 250.0f);
+    const glm::mat4 view_proj = proj * view;
+
+    // Lights in world space, turning with the camera: key from upper left
+    // front (warm), fill from the right (cool, dim), rim from behind above.
+    const glm::mat3 turn = glm::mat3(glm::rotate(glm::mat4(1.0f), yaw, glm::vec3(0, 1, 0)));
+    const glm::vec3 dirs[3] = {turn * glm::normalize(glm::vec3(-0.6f, 0.5f, 0.65f)),
+                               turn * glm::normalize(glm::vec3(0.7f, 0.05f, 0.6f)),
+                               turn * glm::normalize(glm::vec3(0.3f, 0.6f, -0.8f))};
+    const glm::vec3 colors[3] = {{0.92f, 0.86f, 0.78f}, {0.30f, 0.33f, 0.40f}, {0.45f, 0.45f, 0.50f}};
+    const glm::vec3 ambient{0.20f, 0.20f, 0.23f};
+
+    gl.glViewport(0, 0, width, height);
+    gl.glEnable(GL_DEPTH_TEST);
+    gl.glDisable(GL_CULL_FACE);  // the lips and cavity are seen from both sides
+    if (mode == RenderMode::Regions) {
+        gl.glDisable(GL_MULTISAMPLE);
+        gl.glClearColor(0.0f, 0.0f, 0.0f, 1.0f);
+    } else {
+        gl.glEnable(GL_MULTISAMPLE);
+        // The background is given in sRGB; the framebuffer holds sRGB values.
+        gl.glClearColor(settings.background[0], settings.background[1], settings.background[2], 1.0f);
+    }
+    gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    gl.glUseProgram(d.program);
+    gl.glUniformMatrix4fv(d.u_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
+    gl.glUniform3fv(d.u_eye, 1, glm::value_ptr(eye));
+    gl.glUniform3fv(d.u_light_dir, 3, glm::value_ptr(dirs[0]));
+    gl.glUniform3fv(d.u_light_color, 3, glm::value_ptr(colors[0]));
+    gl.glUniform3fv(d.u_ambient, 1, glm::value_ptr(ambient));
+    gl.glUniform1i(d.u_mode, mode == RenderMode::Regions ? 1 : 0);
+    gl.glActiveTexture(GL_TEXTURE0);
+    gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture);
+    gl.glUniform1i(d.u_groups, 0);
+    gl.glBindVertexArray(d.vao);
+    gl.glDrawElements(GL_TRIANGLES, d.index_count, GL_UNSIGNED_INT, nullptr);
+    gl.glBindVertexArray(0);
+}
+
+}  // namespace avsi::stimuli

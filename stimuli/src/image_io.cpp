@@ -1,0 +1,46 @@
+// PNG frames through OpenImageIO.
+#include "avsi/stimuli/image_io.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+
+namespace avsi::stimuli {
+
+void write_png(const std::filesystem::path& path, const Image& image) {
+    if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+    AtomicFile file(path);
+    // OIIO picks the format by extension; the temporary keeps ".png" last.
+    const std::filesystem::path temp = file.temp_path().string() + ".png";
+    auto out = OIIO::ImageOutput::create("png");
+    if (!out) throw InputError(path, "cannot create a PNG writer: " + OIIO::geterror());
+    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
+    if (!out->open(temp.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, image.rgb.data()) ||
+        !out->close())
+        throw InputError(path, "cannot write PNG: " + out->geterror());
+    std::filesystem::rename(temp, file.temp_path());
+    file.commit();
+}
+
+Image read_image(const std::filesystem::path& path) {
+    auto in = OIIO::ImageInput::open(path.string());
+    if (!in) throw InputError(path, "cannot read image: " + OIIO::geterror());
+    const auto& spec = in->spec();
+    Image image;
+    image.width = spec.width;
+    image.height = spec.height;
+    std::vector<std::uint8_t> pixels(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
+                                     static_cast<std::size_t>(spec.nchannels));
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, pixels.data()))
+        throw InputError(path, "cannot read image: " + in->geterror());
+    image.rgb.resize(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) * 3);
+    for (std::size_t i = 0; i < image.rgb.size() / 3; ++i)
+        for (std::size_t c = 0; c < 3; ++c)
+            image.rgb[3 * i + c] =
+                pixels[i * static_cast<std::size_t>(spec.nchannels) +
+                       std::min<std::size_t>(c, static_cast<std::size_t>(spec.nchannels) - 1)];
+    return image;
+}
+
+}  // namespace avsi::stimuli
