@@ -15,7 +15,11 @@ struct Interval {
     double start_s = 0.0;
     double end_s = 0.0;
     std::string text;
-    bool operator==(const Interval&) const = default;
+    int line = 0;  // source line of the label (0 if not read from a file); not compared
+
+    bool operator==(const Interval& other) const {
+        return start_s == other.start_s && end_s == other.end_s && text == other.text;
+    }
 };
 
 struct Tier {

@@ -1,6 +1,8 @@
 // The project phone set (ARPAbet with stress on vowels, silence `sil`), the
 // 17 phonetic features of the reference study (Beskow, §4.4), timed phone
 // sequences, and mappings from espeak-ng mnemonics and MFA-style IPA.
+// The data live in protocols/phones.tsv and protocols/phone_map.tsv
+// (documented in protocols/README.md).
 #pragma once
 
 #include <array>
@@ -9,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace avsi {
@@ -82,18 +85,32 @@ public:
     Phone parse_label(std::string_view label, std::string_view where) const;
 
     // Maps one espeak-ng phoneme mnemonic (as reported in its phoneme events)
-    // to one or more project phones; stress markers in the mnemonic set the
-    // vowel stress. Throws InputError naming the mnemonic if it has no mapping.
-    std::vector<Phone> from_espeak(std::string_view mnemonic, std::string_view where) const;
+    // to one or more project phones (none for internal markers such as ":");
+    // leading stress marks ("'V", ",aU") set the vowel stress. `variant` picks
+    // table-specific rows ("en" for the non-rhotic English tables) before the
+    // shared ones. Throws InputError naming the mnemonic if it has no mapping.
+    std::vector<Phone> from_espeak(std::string_view mnemonic, std::string_view where,
+                                   std::string_view variant = {}) const;
+    // Splits leading espeak-ng stress marks off a mnemonic: ("'V") -> ("V", true),
+    // ("%@") -> ("@", false), ("k") -> ("k", nullopt).
+    std::pair<std::string, std::optional<bool>> split_espeak_stress(std::string_view mnemonic) const;
     // Maps one IPA phone label as the Montreal Forced Aligner's English models
-    // write it ("ɑː", "tʃ", "ɹ", "spn", "") to project phones.
+    // write it ("ɑː", "tʃ", "ɹ", "spn", "") to project phones. A leading ˈ or ˌ
+    // marks the vowel stressed; a label not in the table is retried without
+    // trailing modifiers (tʰ -> t, kʷ -> k, d̪ -> d). Throws InputError naming
+    // the label and `where` if it has no mapping.
     std::vector<Phone> from_ipa(std::string_view ipa, std::string_view where) const;
+    // True if `ipa` (after the fallbacks above) has a mapping.
+    bool knows_ipa(std::string_view ipa) const;
 
 private:
     std::vector<PhoneInfo> m_phones;
     std::map<std::string, std::size_t, std::less<>> m_index;
+    // Mapping targets as written in the table ("AH0", "AY", "-" for none).
     std::map<std::string, std::vector<std::string>, std::less<>> m_espeak;
+    std::map<std::string, std::vector<std::string>, std::less<>> m_espeak_en;
     std::map<std::string, std::vector<std::string>, std::less<>> m_ipa;
+    std::map<std::string, bool, std::less<>> m_espeak_stress;  // mark -> stressed
 };
 
 }  // namespace avsi

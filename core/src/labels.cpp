@@ -1,0 +1,637 @@
+// Time-aligned label files: Praat TextGrid (long and short text formats, as
+// described in Praat's "TextGrid file formats" manual page), HTK .lab (times in
+// 100 ns units) and TSV, and their conversion to phone sequences.
+#include "avsi/core/labels.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "avsi/core/csv.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/core/log.h"
+
+namespace avsi {
+
+namespace {
+
+std::string trim(std::string_view s) {
+    std::size_t a = 0, b = s.size();
+    while (a < b && std::isspace(static_cast<unsigned char>(s[a]))) ++a;
+    while (b > a && std::isspace(static_cast<unsigned char>(s[b - 1]))) --b;
+    return std::string(s.substr(a, b - a));
+}
+
+std::string lower(std::string_view s) {
+    std::string out(s);
+    for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return out;
+}
+
+void append_utf8(std::string& out, char32_t cp) {
+    if (cp < 0x80) {
+        out += static_cast<char>(cp);
+    } else if (cp < 0x800) {
+        out += static_cast<char>(0xC0 | (cp >> 6));
+        out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else if (cp < 0x10000) {
+        out += static_cast<char>(0xE0 | (cp >> 12));
+        out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+        out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else {
+        out += static_cast<char>(0xF0 | (cp >> 18));
+        out += static_cast<char>(0x80 | ((cp >> 12) & 0x3F));
+        out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+        out += static_cast<char>(0x80 | (cp & 0x3F));
+    }
+}
+
+// Decodes UTF-16 (after its BOM) to UTF-8, counting lines for error messages.
+std::string utf16_to_utf8(std::string_view bytes, bool big_endian, const std::string& path) {
+    if (bytes.size() % 2 != 0)
+        throw InputError(path, 0, 0, "", "expected UTF-16 text (an even number of bytes), got an odd length");
+    std::string out;
+    out.reserve(bytes.size() / 2);
+    int line = 1;
+    auto unit = [&](std::size_t i) -> char32_t {
+        const auto a = static_cast<unsigned char>(bytes[i]);
+        const auto b = static_cast<unsigned char>(bytes[i + 1]);
+        return big_endian ? (char32_t(a) << 8 | b) : (char32_t(b) << 8 | a);
+    };
+    for (std::size_t i = 0; i < bytes.size(); i += 2) {
+        char32_t cp = unit(i);
+        if (cp >= 0xD800 && cp <= 0xDBFF) {
+            if (i + 3 >= bytes.size() || unit(i + 2) < 0xDC00 || unit(i + 2) > 0xDFFF)
+                throw InputError(path, line, 0, "", "expected a UTF-16 low surrogate after a high surrogate");
+            cp = 0x10000 + ((cp - 0xD800) << 10) + (unit(i + 2) - 0xDC00);
+            i += 2;
+        } else if (cp >= 0xDC00 && cp <= 0xDFFF) {
+            throw InputError(path, line, 0, "", "unexpected UTF-16 low surrogate");
+        }
+        if (cp == '\n') ++line;
+        append_utf8(out, cp);
+    }
+    return out;
+}
+
+// Reads a text file as UTF-8, converting UTF-16 (with BOM) and dropping a UTF-8 BOM.
+std::string read_unicode_text(const std::filesystem::path& path) {
+    std::string bytes = read_text_file(path);
+    if (bytes.size() >= 2 && static_cast<unsigned char>(bytes[0]) == 0xFF &&
+        static_cast<unsigned char>(bytes[1]) == 0xFE)
+        return utf16_to_utf8(std::string_view(bytes).substr(2), false, path.string());
+    if (bytes.size() >= 2 && static_cast<unsigned char>(bytes[0]) == 0xFE &&
+        static_cast<unsigned char>(bytes[1]) == 0xFF)
+        return utf16_to_utf8(std::string_view(bytes).substr(2), true, path.string());
+    if (bytes.size() >= 3 && bytes.compare(0, 3, "\xEF\xBB\xBF") == 0) bytes.erase(0, 3);
+    return bytes;
+}
+
+// ---------------------------------------------------------------------------
+// TextGrid tokens. Both Praat text formats are the same sequence of values
+// (numbers, "strings", <flags>); the long format adds "key =" labels and
+// "item [n]:" headings, which are checked when present.
+
+enum class TokenKind { Number, String, Flag };
+
+struct Token {
+    TokenKind kind;
+    std::string text;
+    int line = 0;
+    std::string key;  // the last keyword before the value (long format), or ""
+};
+
+const std::set<std::string, std::less<>> k_textgrid_keywords = {
+    "File", "type", "Object", "class", "xmin", "xmax", "tiers", "size", "item",
+    "intervals", "points", "text", "mark", "number", "time", "name"};
+
+std::vector<Token> tokenize_textgrid(const std::string& text, const std::string& path) {
+    std::vector<Token> tokens;
+    std::string key;
+    int line = 1;
+    std::size_t i = 0;
+    const std::size_t n = text.size();
+    while (i < n) {
+        const char c = text[i];
+        if (c == '\n') {
+            ++line;
+            ++i;
+        } else if (std::isspace(static_cast<unsigned char>(c)) || c == '=' || c == ':') {
+            ++i;
+        } else if (c == '!') {  // comment to the end of the line
+            while (i < n && text[i] != '\n') ++i;
+        } else if (c == '"') {
+            const int start_line = line;
+            std::string value;
+            ++i;
+            for (;;) {
+                if (i >= n)
+                    throw InputError(path, start_line, 0, "",
+                                     "expected a closing '\"' for the string, got end of file");
+                if (text[i] == '"') {
+                    if (i + 1 < n && text[i + 1] == '"') {
+                        value += '"';
+                        i += 2;
+                        continue;
+                    }
+                    ++i;
+                    break;
+                }
+                if (text[i] == '\n') ++line;
+                value += text[i++];
+            }
+            tokens.push_back({TokenKind::String, std::move(value), start_line, key});
+            key.clear();
+        } else if (c == '<') {
+            const std::size_t close = text.find('>', i);
+            const std::size_t eol = text.find('\n', i);
+            if (close == std::string::npos || close > eol)
+                throw InputError(path, line, 0, "", "expected a flag such as <exists>, got an unclosed '<'");
+            tokens.push_back({TokenKind::Flag, text.substr(i + 1, close - i - 1), line, key});
+            key.clear();
+            i = close + 1;
+        } else if (c == '[') {  // "item [3]:" — an index heading, not a value
+            const std::size_t close = text.find(']', i);
+            const std::size_t eol = text.find('\n', i);
+            if (close == std::string::npos || close > eol)
+                throw InputError(path, line, 0, "", "expected ']' to close an index such as [1], got end of line");
+            const std::string inside = text.substr(i + 1, close - i - 1);
+            if (!inside.empty() && !parse_int(inside))
+                throw InputError(path, line, 0, "", fmt::format("expected an index such as [1], got [{}]", inside));
+            i = close + 1;
+        } else if (std::isdigit(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.') {
+            std::size_t j = i;
+            while (j < n && !std::isspace(static_cast<unsigned char>(text[j]))) ++j;
+            std::string word = text.substr(i, j - i);
+            if (!parse_double(word))
+                throw InputError(path, line, 0, key, fmt::format("expected a number, got \"{}\"", word));
+            tokens.push_back({TokenKind::Number, std::move(word), line, key});
+            key.clear();
+            i = j;
+        } else {
+            std::size_t j = i;
+            while (j < n && !std::isspace(static_cast<unsigned char>(text[j])) && text[j] != '=' &&
+                   text[j] != '"' && text[j] != '[' && text[j] != ':' && text[j] != '?')
+                ++j;
+            std::string word = text.substr(i, j - i);
+            if (word.empty()) {  // a lone '?' as in "tiers? <exists>"
+                ++i;
+                continue;
+            }
+            if (!k_textgrid_keywords.count(word)) {
+                const std::string close = closest_match(
+                    word, std::vector<std::string>(k_textgrid_keywords.begin(), k_textgrid_keywords.end()));
+                throw InputError(path, line, 0, "",
+                                 fmt::format("expected a number, a \"string\" or a TextGrid keyword, got "
+                                             "\"{}\"{}",
+                                             word, close.empty() ? "" : fmt::format(" (did you mean '{}'?)", close)));
+            }
+            key = word;
+            i = j;
+        }
+    }
+    return tokens;
+}
+
+// Reads values from the token list in the order both formats share.
+class TextGridParser {
+public:
+    TextGridParser(std::vector<Token> tokens, std::string path, int last_line)
+        : m_tokens(std::move(tokens)), m_path(std::move(path)), m_last_line(last_line) {}
+
+    TextGrid parse() {
+        const Token& type = next_string("type", "the file type \"ooTextFile\"");
+        if (type.text != "ooTextFile" && type.text != "ooTextFile short")
+            fail(type, "File type", fmt::format("expected \"ooTextFile\" (a Praat text file), got \"{}\"", type.text));
+        const Token& cls = next_string("class", "the object class \"TextGrid\"");
+        if (cls.text != "TextGrid")
+            fail(cls, "Object class", fmt::format("expected \"TextGrid\", got \"{}\"", cls.text));
+
+        TextGrid grid;
+        grid.start_s = next_number("xmin", "xmin");
+        grid.end_s = next_number("xmax", "xmax");
+        if (grid.end_s < grid.start_s)
+            fail(previous(), "xmax", fmt::format("expected xmax >= xmin ({}), got {}", grid.start_s, grid.end_s));
+        std::size_t tier_count = 0;
+        if (m_pos < m_tokens.size() && m_tokens[m_pos].kind == TokenKind::Flag) {
+            const Token& flag = m_tokens[m_pos++];
+            if (flag.text == "exists") tier_count = next_count("size", "size (number of tiers)");
+            else if (flag.text != "absent")
+                fail(flag, "tiers", fmt::format("expected <exists> or <absent>, got <{}>", flag.text));
+        } else {
+            tier_count = next_count("size", "size (number of tiers)");
+        }
+        for (std::size_t t = 0; t < tier_count; ++t) grid.tiers.push_back(parse_tier(grid, t + 1));
+        if (m_pos < m_tokens.size())
+            fail(m_tokens[m_pos], "",
+                 fmt::format("expected the end of the file after {} tiers, got \"{}\"", tier_count,
+                             m_tokens[m_pos].text));
+        return grid;
+    }
+
+private:
+    Tier parse_tier(const TextGrid& grid, std::size_t number) {
+        Tier tier;
+        const std::string what = fmt::format("tier {}", number);
+        const Token& cls = next_string("class", what + " class");
+        if (cls.text == "IntervalTier") tier.is_interval = true;
+        else if (cls.text == "TextTier") tier.is_interval = false;
+        else fail(cls, what + " class", fmt::format("expected \"IntervalTier\" or \"TextTier\", got \"{}\"", cls.text));
+        tier.name = next_string("name", what + " name").text;
+        const std::string where = fmt::format("tier '{}'", tier.name);
+        tier.start_s = next_number("xmin", where + " xmin");
+        tier.end_s = next_number("xmax", where + " xmax");
+        if (tier.end_s < tier.start_s)
+            fail(previous(), where + " xmax", fmt::format("expected xmax >= xmin ({}), got {}", tier.start_s, tier.end_s));
+        (void)grid;
+        const std::size_t count = next_count("size", where + " size");
+        double previous_end = tier.start_s;
+        for (std::size_t k = 0; k < count; ++k) {
+            Interval item;
+            if (tier.is_interval) {
+                const std::string iw = fmt::format("{} interval {}", where, k + 1);
+                item.start_s = next_number("xmin", iw + " xmin");
+                const int start_line = previous().line;
+                item.end_s = next_number("xmax", iw + " xmax");
+                if (item.end_s < item.start_s)
+                    fail(previous(), iw + " xmax",
+                         fmt::format("expected xmax >= xmin ({}), got {}", item.start_s, item.end_s));
+                if (item.start_s < previous_end - 1e-9)
+                    fail_line(start_line, iw + " xmin",
+                              fmt::format("expected a start at or after the previous interval's end ({}), got {}",
+                                          previous_end, item.start_s));
+                const Token& text = next_string("text", iw + " text");
+                item.text = text.text;
+                item.line = text.line;
+                previous_end = item.end_s;
+            } else {
+                const std::string pw = fmt::format("{} point {}", where, k + 1);
+                item.start_s = next_number("number", pw + " time", "time");
+                item.end_s = item.start_s;
+                if (item.start_s < previous_end - 1e-9 && k > 0)
+                    fail(previous(), pw + " time",
+                         fmt::format("expected a time at or after the previous point ({}), got {}",
+                                     previous_end, item.start_s));
+                const Token& mark = next_string("mark", pw + " mark");
+                item.text = mark.text;
+                item.line = mark.line;
+                previous_end = item.start_s;
+            }
+            tier.items.push_back(std::move(item));
+        }
+        return tier;
+    }
+
+    const Token& previous() const { return m_tokens[m_pos - 1]; }
+
+    [[noreturn]] void fail(const Token& token, const std::string& field, const std::string& message) const {
+        throw InputError(m_path, token.line, 0, field, message);
+    }
+    [[noreturn]] void fail_line(int line, const std::string& field, const std::string& message) const {
+        throw InputError(m_path, line, 0, field, message);
+    }
+
+    const Token& next(const std::string& what) {
+        if (m_pos >= m_tokens.size())
+            throw InputError(m_path, m_last_line, 0, what,
+                             "expected a value, got the end of the file (truncated TextGrid?)");
+        return m_tokens[m_pos++];
+    }
+
+    void check_key(const Token& token, const std::string& what, std::string_view key,
+                   std::string_view alt_key = {}) const {
+        if (!token.key.empty() && token.key != key && (alt_key.empty() || token.key != alt_key))
+            fail(token, what, fmt::format("expected the key '{}', got '{}'", key, token.key));
+    }
+
+    const Token& next_string(std::string_view key, const std::string& what) {
+        const Token& token = next(what);
+        if (token.kind != TokenKind::String)
+            fail(token, what, fmt::format("expected a \"string\", got {}", describe(token)));
+        check_key(token, what, key);
+        return token;
+    }
+
+    double next_number(std::string_view key, const std::string& what, std::string_view alt_key = {}) {
+        const Token& token = next(what);
+        if (token.kind != TokenKind::Number)
+            fail(token, what, fmt::format("expected a number, got {}", describe(token)));
+        check_key(token, what, key, alt_key);
+        return *parse_double(token.text);
+    }
+
+    std::size_t next_count(std::string_view key, const std::string& what) {
+        const Token& token = next(what);
+        const auto value = token.kind == TokenKind::Number ? parse_int(token.text) : std::nullopt;
+        if (!value || *value < 0)
+            fail(token, what, fmt::format("expected a count (an integer >= 0), got {}", describe(token)));
+        check_key(token, what, key);
+        return static_cast<std::size_t>(*value);
+    }
+
+    static std::string describe(const Token& token) {
+        switch (token.kind) {
+            case TokenKind::Number: return fmt::format("the number {}", token.text);
+            case TokenKind::String: return fmt::format("the string \"{}\"", token.text);
+            case TokenKind::Flag: return fmt::format("<{}>", token.text);
+        }
+        return token.text;
+    }
+
+    std::vector<Token> m_tokens;
+    std::string m_path;
+    int m_last_line;
+    std::size_t m_pos = 0;
+};
+
+std::string textgrid_string(const std::string& text) {
+    std::string out = "\"";
+    for (char c : text) {
+        if (c == '"') out += '"';
+        out += c;
+    }
+    out += '"';
+    return out;
+}
+
+// Splits a label-file line into fields: on tabs if it has any, else on spaces.
+std::vector<std::string> split_fields(const std::string& line) {
+    std::vector<std::string> fields;
+    if (line.find('\t') != std::string::npos) {
+        std::size_t start = 0;
+        for (;;) {
+            const std::size_t tab = line.find('\t', start);
+            fields.push_back(trim(line.substr(start, tab == std::string::npos ? std::string::npos : tab - start)));
+            if (tab == std::string::npos) break;
+            start = tab + 1;
+        }
+        return fields;
+    }
+    std::size_t i = 0;
+    while (i < line.size()) {
+        while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+        std::size_t j = i;
+        while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
+        if (j > i) fields.push_back(line.substr(i, j - i));
+        i = j;
+    }
+    return fields;
+}
+
+// Calls `fn(line_number, line)` for each line, without the line end.
+template <typename Fn>
+void for_each_line(const std::string& text, Fn fn) {
+    std::size_t pos = 0;
+    int number = 0;
+    while (pos < text.size()) {
+        std::size_t end = text.find('\n', pos);
+        if (end == std::string::npos) end = text.size();
+        std::string line = text.substr(pos, end - pos);
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        fn(++number, line);
+        pos = end + 1;
+    }
+}
+
+}  // namespace
+
+const Tier& TextGrid::tier(const std::string& name, const std::string& path) const {
+    for (const auto& t : tiers)
+        if (t.name == name) return t;
+    std::vector<std::string> names;
+    std::string list;
+    for (const auto& t : tiers) {
+        names.push_back(t.name);
+        list += (list.empty() ? "'" : ", '") + t.name + "'";
+    }
+    const std::string close = closest_match(name, names);
+    throw InputError(path, 0, 0, "tier",
+                     fmt::format("expected a tier named '{}', got tiers: {}{}", name,
+                                 list.empty() ? "(none)" : list,
+                                 close.empty() ? "" : fmt::format(" (did you mean '{}'?)", close)));
+}
+
+TextGrid read_textgrid(const std::filesystem::path& path) {
+    const std::string text = read_unicode_text(path);
+    if (text.rfind("ooBinaryFile", 0) == 0)
+        throw InputError(path.string(), 1, 0, "",
+                         "expected a Praat text file, got a binary TextGrid (save it as text in Praat)");
+    const int last_line = static_cast<int>(std::count(text.begin(), text.end(), '\n')) +
+                          (text.empty() || text.back() == '\n' ? 0 : 1);
+    TextGridParser parser(tokenize_textgrid(text, path.string()), path.string(), std::max(1, last_line));
+    return parser.parse();
+}
+
+void write_textgrid(const std::filesystem::path& path, const TextGrid& grid) {
+    std::string out;
+    out += "File type = \"ooTextFile\"\nObject class = \"TextGrid\"\n\n";
+    out += fmt::format("xmin = {} \nxmax = {} \n", grid.start_s, grid.end_s);
+    if (grid.tiers.empty()) {
+        out += "tiers? <absent> \n";
+    } else {
+        out += fmt::format("tiers? <exists> \nsize = {} \nitem []: \n", grid.tiers.size());
+    }
+    for (std::size_t t = 0; t < grid.tiers.size(); ++t) {
+        const Tier& tier = grid.tiers[t];
+        out += fmt::format("    item [{}]:\n", t + 1);
+        out += fmt::format("        class = \"{}\" \n", tier.is_interval ? "IntervalTier" : "TextTier");
+        out += fmt::format("        name = {} \n", textgrid_string(tier.name));
+        out += fmt::format("        xmin = {} \n        xmax = {} \n", tier.start_s, tier.end_s);
+        const char* items = tier.is_interval ? "intervals" : "points";
+        out += fmt::format("        {}: size = {} \n", items, tier.items.size());
+        for (std::size_t k = 0; k < tier.items.size(); ++k) {
+            const Interval& item = tier.items[k];
+            out += fmt::format("        {} [{}]:\n", items, k + 1);
+            if (tier.is_interval) {
+                out += fmt::format("            xmin = {} \n            xmax = {} \n", item.start_s, item.end_s);
+                out += fmt::format("            text = {} \n", textgrid_string(item.text));
+            } else {
+                out += fmt::format("            number = {} \n", item.start_s);
+                out += fmt::format("            mark = {} \n", textgrid_string(item.text));
+            }
+        }
+    }
+    write_text_file(path, out);
+}
+
+std::vector<Interval> read_htk_lab(const std::filesystem::path& path) {
+    const std::string text = read_unicode_text(path);
+    const std::string p = path.string();
+    std::vector<Interval> intervals;
+    for_each_line(text, [&](int number, const std::string& line) {
+        const auto fields = split_fields(line);
+        if (fields.empty()) return;
+        if (fields.size() < 3)
+            throw InputError(p, number, 0, "",
+                             fmt::format("expected \"start end label\" (times in 100 ns units), got \"{}\"", trim(line)));
+        const auto start = parse_int(fields[0]);
+        const auto end = parse_int(fields[1]);
+        if (!start || *start < 0)
+            throw InputError(p, number, 1, "start",
+                             fmt::format("expected a time in 100 ns units (an integer >= 0), got \"{}\"", fields[0]));
+        if (!end || *end < *start)
+            throw InputError(p, number, 0, "end",
+                             fmt::format("expected a time in 100 ns units (an integer >= start {}), got \"{}\"",
+                                         *start, fields[1]));
+        for (std::size_t f = 3; f < fields.size(); ++f)
+            if (!parse_double(fields[f]))
+                throw InputError(p, number, 0, "score",
+                                 fmt::format("expected a numeric score after the label, got \"{}\"", fields[f]));
+        intervals.push_back({static_cast<double>(*start) * 1e-7, static_cast<double>(*end) * 1e-7, fields[2], number});
+    });
+    return intervals;
+}
+
+std::vector<Interval> read_label_tsv(const std::filesystem::path& path) {
+    const std::string text = read_unicode_text(path);
+    const std::string p = path.string();
+    std::vector<Interval> intervals;
+    bool first = true;
+    for_each_line(text, [&](int number, const std::string& line) {
+        const std::string trimmed = trim(line);
+        if (trimmed.empty() || trimmed[0] == '#') return;
+        const auto fields = split_fields(line);
+        const bool is_first = first;
+        first = false;
+        if (is_first && fields.size() >= 2 && !parse_double(fields[0]) && !parse_double(fields[1]))
+            return;  // header line, e.g. "start_s end_s phone"
+        if (fields.size() != 3)
+            throw InputError(p, number, 0, "",
+                             fmt::format("expected 3 fields \"start_s end_s label\", got {}", fields.size()));
+        const auto start = parse_double(fields[0]);
+        const auto end = parse_double(fields[1]);
+        if (!start || *start < 0)
+            throw InputError(p, number, 1, "start_s",
+                             fmt::format("expected a time in seconds >= 0, got \"{}\"", fields[0]));
+        if (!end || *end < *start)
+            throw InputError(p, number, 0, "end_s",
+                             fmt::format("expected a time in seconds >= start_s ({}), got \"{}\"", *start, fields[1]));
+        intervals.push_back({*start, *end, fields[2], number});
+    });
+    return intervals;
+}
+
+PhoneSequence phones_from_intervals(const std::vector<Interval>& intervals, const std::string& source_path) {
+    const PhoneInventory& inventory = PhoneInventory::builtin();
+    PhoneSequence phones;
+    auto push = [&phones](Phone phone) {
+        if (!phones.empty() && phone.symbol == "sil" && phones.back().symbol == "sil") {
+            phones.back().end_s = phone.end_s;
+            return;
+        }
+        phones.push_back(std::move(phone));
+    };
+    double previous_end = 0.0;
+    for (std::size_t k = 0; k < intervals.size(); ++k) {
+        const Interval& iv = intervals[k];
+        const std::string field = fmt::format("interval {}", k + 1);
+        if (!(iv.start_s >= 0.0) || !(iv.end_s >= iv.start_s) || !std::isfinite(iv.end_s))
+            throw InputError(source_path, iv.line, 0, field,
+                             fmt::format("expected 0 <= start <= end, got {} .. {}", iv.start_s, iv.end_s));
+        if (iv.start_s < previous_end - 1e-6)
+            throw InputError(source_path, iv.line, 0, field,
+                             fmt::format("expected a start at or after the previous label's end ({}), got {}",
+                                         previous_end, iv.start_s));
+        const std::string label = trim(iv.text);
+        std::vector<Phone> mapped;
+        try {
+            mapped.push_back(inventory.parse_label(label, source_path));
+        } catch (const InputError&) {
+            try {
+                mapped = inventory.from_ipa(label, source_path);
+            } catch (const InputError&) {
+                throw InputError(source_path, iv.line, 0, field,
+                                 fmt::format("unknown phone label \"{}\": expected an ARPAbet phone of the "
+                                             "project set (AA1, P, sil) or an IPA label listed in "
+                                             "protocols/phone_map.tsv",
+                                             label));
+            }
+        }
+        if (iv.end_s <= iv.start_s) {
+            log_debug("{}: skipping the zero-length label \"{}\" at {} s", source_path, label, iv.start_s);
+            continue;
+        }
+        if (iv.start_s > previous_end + 1e-6) push({"sil", previous_end, iv.start_s, false});
+        const double start = std::max(iv.start_s, phones.empty() ? 0.0 : phones.back().end_s);
+        const double step = (iv.end_s - start) / static_cast<double>(std::max<std::size_t>(1, mapped.size()));
+        for (std::size_t m = 0; m < mapped.size(); ++m) {
+            Phone phone = mapped[m];
+            phone.start_s = start + step * static_cast<double>(m);
+            phone.end_s = m + 1 == mapped.size() ? iv.end_s : start + step * static_cast<double>(m + 1);
+            push(std::move(phone));
+        }
+        previous_end = iv.end_s;
+    }
+    return phones;
+}
+
+PhoneSequence read_phones(const std::filesystem::path& path, const LabelReadOptions& options) {
+    const std::string ext = lower(path.extension().string());
+    std::vector<Interval> intervals;
+    if (ext == ".textgrid") {
+        const TextGrid grid = read_textgrid(path);
+        const Tier& tier = grid.tier(options.tier, path.string());
+        if (!tier.is_interval)
+            throw InputError(path.string(), 0, 0, "tier",
+                             fmt::format("expected '{}' to be an interval tier, got a point tier", options.tier));
+        intervals = tier.items;
+    } else if (ext == ".lab") {
+        intervals = read_htk_lab(path);
+    } else if (ext == ".tsv") {
+        intervals = read_label_tsv(path);
+    } else {
+        throw InputError(path, fmt::format("unsupported label file extension '{}'; supported extensions are "
+                                           "'.TextGrid', '.lab' and '.tsv'",
+                                           path.extension().string()));
+    }
+    return phones_from_intervals(intervals, path.string());
+}
+
+void write_phones_tsv(const std::filesystem::path& path, const PhoneSequence& phones) {
+    const PhoneInventory& inventory = PhoneInventory::builtin();
+    std::string out = "start_s\tend_s\tphone\n";
+    for (const Phone& phone : phones)
+        out += fmt::format("{:.6f}\t{:.6f}\t{}\n", phone.start_s, phone.end_s,
+                           phone_label(phone, inventory.is_vowel(phone.symbol)));
+    write_text_file(path, out);
+}
+
+void write_phones_textgrid(const std::filesystem::path& path, const PhoneSequence& phones) {
+    const PhoneInventory& inventory = PhoneInventory::builtin();
+    TextGrid grid;
+    grid.start_s = phones.empty() ? 0.0 : std::min(0.0, phones.front().start_s);
+    grid.end_s = phones.empty() ? 0.0 : phones.back().end_s;
+    Tier tier;
+    tier.name = "phones";
+    tier.start_s = grid.start_s;
+    tier.end_s = grid.end_s;
+    for (const Phone& phone : phones)
+        tier.items.push_back({phone.start_s, phone.end_s, phone_label(phone, inventory.is_vowel(phone.symbol))});
+    grid.tiers.push_back(std::move(tier));
+    write_textgrid(path, grid);
+}
+
+void check_phone_sequence(const PhoneSequence& phones, const std::string& source_path, double tolerance_s) {
+    const PhoneInventory& inventory = PhoneInventory::builtin();
+    DiagnosticList problems;
+    for (std::size_t k = 0; k < phones.size(); ++k) {
+        const Phone& phone = phones[k];
+        const std::string field = fmt::format("phone {} ({})", k + 1, phone.symbol);
+        if (!inventory.contains(phone.symbol))
+            problems.add(source_path, 0, 0, field, "expected a phone of the project set");
+        if (!(phone.end_s > phone.start_s))
+            problems.add(source_path, 0, 0, field,
+                         fmt::format("expected end > start, got {} .. {}", phone.start_s, phone.end_s));
+        if (k > 0 && std::abs(phone.start_s - phones[k - 1].end_s) > tolerance_s)
+            problems.add(source_path, 0, 0, field,
+                         fmt::format("expected a start at the previous phone's end ({}), got {}",
+                                     phones[k - 1].end_s, phone.start_s));
+    }
+    problems.throw_if_any();
+}
+
+}  // namespace avsi

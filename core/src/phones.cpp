@@ -1,0 +1,428 @@
+// The project phone set and its mappings, loaded from protocols/phones.tsv and
+// protocols/phone_map.tsv. Features follow Beskow §4.4: consonant/vowel, six
+// place features, five manner features, four 3-valued vowel features, stress.
+#include "avsi/core/phones.h"
+
+#include <cctype>
+#include <mutex>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "avsi/core/csv.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+
+namespace avsi {
+
+namespace {
+
+constexpr std::array<std::string_view, feature_count> k_feature_names = {
+    "vowel",    "bilabial",  "labiodental", "dental", "retroflex", "alveolar",
+    "velar",    "nasal",     "fricative",   "stop",   "release",   "voiced",
+    "open",     "front",     "rounded",     "protruded", "stress"};
+
+// One non-comment line of a tab-separated protocol file.
+struct TsvLine {
+    int line = 0;
+    std::vector<std::string> fields;
+};
+
+// Splits a tab-separated file into lines of fields (no quoting: symbols such
+// as `"` and `'` are data). Blank lines and lines starting with '#' are skipped.
+std::vector<TsvLine> read_tsv_lines(const std::filesystem::path& path) {
+    std::string text = read_text_file(path);
+    if (text.size() >= 3 && text.compare(0, 3, "\xEF\xBB\xBF") == 0) text.erase(0, 3);
+    std::vector<TsvLine> lines;
+    int number = 0;
+    std::size_t pos = 0;
+    while (pos <= text.size()) {
+        std::size_t end = text.find('\n', pos);
+        if (end == std::string::npos) end = text.size();
+        std::string line = text.substr(pos, end - pos);
+        ++number;
+        pos = end + 1;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (line.empty() || line[0] == '#') {
+            if (end == text.size()) break;
+            continue;
+        }
+        TsvLine parsed;
+        parsed.line = number;
+        std::size_t start = 0;
+        for (;;) {
+            const std::size_t tab = line.find('\t', start);
+            parsed.fields.push_back(line.substr(start, tab == std::string::npos ? std::string::npos
+                                                                                 : tab - start));
+            if (tab == std::string::npos) break;
+            start = tab + 1;
+        }
+        lines.push_back(std::move(parsed));
+        if (end == text.size()) break;
+    }
+    return lines;
+}
+
+std::vector<std::string> split_spaces(std::string_view text) {
+    std::vector<std::string> out;
+    std::size_t i = 0;
+    while (i < text.size()) {
+        while (i < text.size() && text[i] == ' ') ++i;
+        std::size_t j = i;
+        while (j < text.size() && text[j] != ' ') ++j;
+        if (j > i) out.emplace_back(text.substr(i, j - i));
+        i = j;
+    }
+    return out;
+}
+
+std::string upper(std::string_view s) {
+    std::string out(s);
+    for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    return out;
+}
+
+// Decodes the last code point of a UTF-8 string; returns {code point, byte length}.
+std::pair<char32_t, std::size_t> last_code_point(std::string_view s) {
+    std::size_t start = s.size();
+    while (start > 0) {
+        --start;
+        const auto c = static_cast<unsigned char>(s[start]);
+        if ((c & 0xC0) != 0x80) break;
+    }
+    const std::size_t len = s.size() - start;
+    const auto* p = reinterpret_cast<const unsigned char*>(s.data() + start);
+    char32_t cp = 0;
+    if (len == 1) cp = p[0];
+    else if (len == 2) cp = ((p[0] & 0x1F) << 6) | (p[1] & 0x3F);
+    else if (len == 3) cp = ((p[0] & 0x0F) << 12) | ((p[1] & 0x3F) << 6) | (p[2] & 0x3F);
+    else if (len == 4)
+        cp = ((p[0] & 0x07) << 18) | ((p[1] & 0x3F) << 12) | ((p[2] & 0x3F) << 6) | (p[3] & 0x3F);
+    return {cp, len};
+}
+
+// IPA modifiers that do not change which project phone a label is:
+// spacing modifier letters (ʰ ʲ ʷ ː ˞ …) and combining diacritics (̪ ̩ ̃ ̥ …).
+bool is_ipa_modifier(char32_t cp) {
+    return (cp >= 0x02B0 && cp <= 0x02FF && cp != 0x02C8 && cp != 0x02CC) ||
+           (cp >= 0x0300 && cp <= 0x036F) || cp == 0x1DBF;
+}
+
+// Interprets mapping targets ("AY", "AH0", "-") as phones; a vowel without a
+// digit takes `stress` (only the first such vowel: later ones are unstressed).
+std::vector<Phone> make_phones(const PhoneInventory& inventory,
+                               const std::vector<std::string>& targets, bool stress) {
+    std::vector<Phone> out;
+    bool stress_used = false;
+    for (const auto& target : targets) {
+        if (target == "-") continue;
+        Phone phone = inventory.parse_label(target, "phone_map.tsv");
+        const bool has_digit = std::isdigit(static_cast<unsigned char>(target.back())) != 0;
+        if (inventory.is_vowel(phone.symbol) && !has_digit) {
+            phone.stressed = stress && !stress_used;
+            stress_used = true;
+        }
+        out.push_back(std::move(phone));
+    }
+    return out;
+}
+
+}  // namespace
+
+std::string phone_label(const Phone& phone, bool is_vowel) {
+    if (!is_vowel) return phone.symbol;
+    return phone.symbol + (phone.stressed ? "1" : "0");
+}
+
+const std::array<std::string_view, feature_count>& feature_names() { return k_feature_names; }
+
+const PhoneInventory& PhoneInventory::builtin() {
+    static const PhoneInventory inventory =
+        load(std::filesystem::path(AVSI_PROTOCOLS_DIR) / "phones.tsv",
+             std::filesystem::path(AVSI_PROTOCOLS_DIR) / "phone_map.tsv");
+    return inventory;
+}
+
+PhoneInventory PhoneInventory::load(const std::filesystem::path& phones_tsv,
+                                    const std::filesystem::path& map_tsv) {
+    PhoneInventory inv;
+    DiagnosticList problems;
+    const std::string ppath = phones_tsv.string();
+
+    // Step 1: the phone table, header first.
+    const auto lines = read_tsv_lines(phones_tsv);
+    const std::vector<std::string> fixed = {"symbol", "class", "ipa", "example"};
+    std::vector<std::string> expected_header = fixed;
+    for (auto name : k_feature_names) expected_header.emplace_back(name);
+    if (lines.empty()) throw InputError(phones_tsv, "expected a header line and phones, got an empty file");
+    if (lines[0].fields != expected_header) {
+        std::string want, got;
+        for (const auto& h : expected_header) want += (want.empty() ? "" : " ") + h;
+        for (const auto& h : lines[0].fields) got += (got.empty() ? "" : " ") + h;
+        throw InputError(ppath, lines[0].line, 0, "header",
+                         fmt::format("expected columns \"{}\", got \"{}\"", want, got));
+    }
+    for (std::size_t li = 1; li < lines.size(); ++li) {
+        const auto& row = lines[li];
+        if (row.fields.size() != expected_header.size()) {
+            problems.add(ppath, row.line, 0, "",
+                         fmt::format("expected {} tab-separated fields, got {}",
+                                     expected_header.size(), row.fields.size()));
+            continue;
+        }
+        PhoneInfo info;
+        info.symbol = row.fields[0];
+        const std::string& cls = row.fields[1];
+        if (cls == "vowel") info.phone_class = PhoneClass::Vowel;
+        else if (cls == "consonant") info.phone_class = PhoneClass::Consonant;
+        else if (cls == "silence") info.phone_class = PhoneClass::Silence;
+        else
+            problems.add(ppath, row.line, 0, "class",
+                         fmt::format("expected vowel, consonant or silence, got \"{}\"", cls));
+        info.ipa = row.fields[2];
+        info.example = row.fields[3];
+        if (info.symbol.empty() ||
+            (info.symbol != "sil" && info.symbol != upper(info.symbol)))
+            problems.add(ppath, row.line, 0, "symbol",
+                         fmt::format("expected an upper-case ARPAbet symbol or sil, got \"{}\"",
+                                     info.symbol));
+        if (inv.m_index.count(info.symbol))
+            problems.add(ppath, row.line, 0, "symbol",
+                         fmt::format("duplicate phone \"{}\"", info.symbol));
+        for (std::size_t f = 0; f < feature_count; ++f) {
+            const std::string& text = row.fields[fixed.size() + f];
+            const bool three_valued = f >= static_cast<std::size_t>(Feature::Open) &&
+                                      f <= static_cast<std::size_t>(Feature::Protruded);
+            const auto value = parse_double(text);
+            const bool ok = value && (*value == 0.0 || *value == 1.0 ||
+                                      (three_valued && *value == 0.5));
+            if (!ok) {
+                problems.add(ppath, row.line, 0, std::string(k_feature_names[f]),
+                             fmt::format("expected {}, got \"{}\"",
+                                         three_valued ? "0, 0.5 or 1" : "0 or 1", text));
+                continue;
+            }
+            info.features[f] = static_cast<float>(*value);
+        }
+        const float stress = info.features[static_cast<std::size_t>(Feature::Stress)];
+        if (stress != 0.0f)
+            problems.add(ppath, row.line, 0, "stress",
+                         "expected 0 (stress is set per phone token, e.g. AA1 vs AA0), got 1");
+        const bool vowel_feature = info.features[static_cast<std::size_t>(Feature::Vowel)] == 1.0f;
+        if (vowel_feature != (info.phone_class == PhoneClass::Vowel))
+            problems.add(ppath, row.line, 0, "vowel",
+                         fmt::format("expected {} for class {}, got {}",
+                                     info.phone_class == PhoneClass::Vowel ? 1 : 0, cls,
+                                     vowel_feature ? 1 : 0));
+        inv.m_index[info.symbol] = inv.m_phones.size();
+        inv.m_phones.push_back(std::move(info));
+    }
+    if (!inv.m_index.count("sil"))
+        problems.add(ppath, 0, 0, "symbol", "expected a phone \"sil\" (silence), got none");
+    problems.throw_if_any();
+
+    // Step 2: the mapping table.
+    const std::string mpath = map_tsv.string();
+    const auto map_lines = read_tsv_lines(map_tsv);
+    const std::vector<std::string> map_header = {"source", "symbol", "phones", "note"};
+    if (map_lines.empty() || map_lines[0].fields != map_header)
+        throw InputError(mpath, map_lines.empty() ? 0 : map_lines[0].line, 0, "header",
+                         "expected columns \"source symbol phones note\"");
+    for (std::size_t li = 1; li < map_lines.size(); ++li) {
+        const auto& row = map_lines[li];
+        if (row.fields.size() < 3 || row.fields.size() > 4) {
+            problems.add(mpath, row.line, 0, "",
+                         fmt::format("expected 3 or 4 tab-separated fields, got {}", row.fields.size()));
+            continue;
+        }
+        const std::string& source = row.fields[0];
+        std::string symbol = row.fields[1];
+        if (symbol == "<empty>") symbol.clear();
+        const std::string& phones_text = row.fields[2];
+        if (source == "espeak" && phones_text.rfind("stress=", 0) == 0) {
+            if (phones_text != "stress=1" && phones_text != "stress=0") {
+                problems.add(mpath, row.line, 0, "phones",
+                             fmt::format("expected stress=1 or stress=0, got \"{}\"", phones_text));
+                continue;
+            }
+            inv.m_espeak_stress[symbol] = phones_text == "stress=1";
+            continue;
+        }
+        std::map<std::string, std::vector<std::string>, std::less<>>* table = nullptr;
+        if (source == "espeak") table = &inv.m_espeak;
+        else if (source == "espeak-en") table = &inv.m_espeak_en;
+        else if (source == "ipa") table = &inv.m_ipa;
+        else {
+            problems.add(mpath, row.line, 0, "source",
+                         fmt::format("expected espeak, espeak-en or ipa, got \"{}\"", source));
+            continue;
+        }
+        auto targets = split_spaces(phones_text);
+        if (targets.empty()) {
+            problems.add(mpath, row.line, 0, "phones", "expected one or more phones or '-', got nothing");
+            continue;
+        }
+        bool ok = true;
+        for (const auto& target : targets) {
+            if (target == "-") continue;
+            try {
+                (void)inv.parse_label(target, mpath);
+            } catch (const InputError& e) {
+                problems.add(mpath, row.line, 0, "phones", e.first().message);
+                ok = false;
+            }
+        }
+        if (table->count(symbol)) {
+            problems.add(mpath, row.line, 0, "symbol",
+                         fmt::format("duplicate {} symbol \"{}\"", source, symbol));
+            ok = false;
+        }
+        if (ok) (*table)[symbol] = std::move(targets);
+    }
+    problems.throw_if_any();
+    return inv;
+}
+
+bool PhoneInventory::contains(std::string_view symbol) const { return m_index.count(symbol) > 0; }
+
+const PhoneInfo& PhoneInventory::info(std::string_view symbol, std::string_view where) const {
+    const auto it = m_index.find(symbol);
+    if (it != m_index.end()) return m_phones[it->second];
+    std::vector<std::string> names;
+    for (const auto& p : m_phones) names.push_back(p.symbol);
+    const std::string close = closest_match(std::string(symbol), names);
+    throw InputError(std::string(where), 0, 0, "phone",
+                     fmt::format("unknown phone \"{}\"{}", symbol,
+                                 close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
+}
+
+bool PhoneInventory::is_vowel(std::string_view symbol) const {
+    const auto it = m_index.find(symbol);
+    return it != m_index.end() && m_phones[it->second].phone_class == PhoneClass::Vowel;
+}
+
+FeatureVector PhoneInventory::features_of(const Phone& phone) const {
+    const PhoneInfo& pi = info(phone.symbol);
+    FeatureVector features = pi.features;
+    features[static_cast<std::size_t>(Feature::Stress)] =
+        (phone.stressed && pi.phone_class == PhoneClass::Vowel) ? 1.0f : 0.0f;
+    return features;
+}
+
+Phone PhoneInventory::parse_label(std::string_view label, std::string_view where) const {
+    Phone phone;
+    const std::string up = upper(label);
+    if (up.empty() || up == "SIL" || up == "SP") {
+        phone.symbol = "sil";
+        return phone;
+    }
+    std::string base = up;
+    std::optional<char> digit;
+    if (std::isdigit(static_cast<unsigned char>(base.back()))) {
+        digit = base.back();
+        base.pop_back();
+    }
+    const auto it = m_index.find(base);
+    if (it == m_index.end() || base == "SIL") {
+        std::vector<std::string> names;
+        for (const auto& p : m_phones) names.push_back(p.symbol);
+        const std::string close = closest_match(base, names);
+        throw InputError(std::string(where), 0, 0, "phone",
+                         fmt::format("unknown phone \"{}\": expected an ARPAbet phone of the project "
+                                     "set (AA1, P, sil, …){}",
+                                     label, close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
+    }
+    const PhoneInfo& pi = m_phones[it->second];
+    if (digit) {
+        if (pi.phone_class != PhoneClass::Vowel || *digit > '2')
+            throw InputError(std::string(where), 0, 0, "phone",
+                             fmt::format("unknown phone \"{}\": only vowels carry a stress digit "
+                                         "(0, 1 or 2)", label));
+        phone.stressed = *digit != '0';
+    }
+    phone.symbol = pi.symbol;
+    return phone;
+}
+
+std::pair<std::string, std::optional<bool>> PhoneInventory::split_espeak_stress(
+    std::string_view mnemonic) const {
+    std::optional<bool> stress;
+    // Strip the longest stress mark at the front, repeatedly ("'" then ",").
+    for (;;) {
+        std::size_t best = 0;
+        bool best_value = false;
+        for (const auto& [mark, value] : m_espeak_stress) {
+            if (mark.size() > best && mnemonic.size() > mark.size() &&
+                mnemonic.substr(0, mark.size()) == mark) {
+                best = mark.size();
+                best_value = value;
+            }
+        }
+        if (best == 0) break;
+        stress = stress.value_or(false) || best_value;
+        mnemonic.remove_prefix(best);
+    }
+    return {std::string(mnemonic), stress};
+}
+
+std::vector<Phone> PhoneInventory::from_espeak(std::string_view mnemonic, std::string_view where,
+                                               std::string_view variant) const {
+    const auto [base, stress] = split_espeak_stress(mnemonic);
+    const std::vector<std::string>* targets = nullptr;
+    if (variant == "en") {
+        const auto it = m_espeak_en.find(base);
+        if (it != m_espeak_en.end()) targets = &it->second;
+    }
+    if (!targets) {
+        const auto it = m_espeak.find(base);
+        if (it != m_espeak.end()) targets = &it->second;
+    }
+    if (!targets) {
+        std::vector<std::string> names;
+        for (const auto& [k, v] : m_espeak) names.push_back(k);
+        const std::string close = closest_match(base, names);
+        throw InputError(std::string(where), 0, 0, "espeak phoneme",
+                         fmt::format("unknown espeak-ng phoneme mnemonic \"{}\": not in "
+                                     "protocols/phone_map.tsv{}",
+                                     base, close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
+    }
+    return make_phones(*this, *targets, stress.value_or(false));
+}
+
+bool PhoneInventory::knows_ipa(std::string_view ipa) const {
+    try {
+        (void)from_ipa(ipa, "");
+        return true;
+    } catch (const InputError&) {
+        return false;
+    }
+}
+
+std::vector<Phone> PhoneInventory::from_ipa(std::string_view ipa, std::string_view where) const {
+    std::string_view label = ipa;
+    bool stress = false;
+    // A leading primary (ˈ U+02C8) or secondary (ˌ U+02CC) stress mark.
+    for (std::string_view mark : {std::string_view("\xCB\x88"), std::string_view("\xCB\x8C")}) {
+        if (label.size() > mark.size() && label.substr(0, mark.size()) == mark) {
+            label.remove_prefix(mark.size());
+            stress = true;
+        }
+    }
+    std::string_view key = label;
+    for (;;) {
+        const auto it = m_ipa.find(key);
+        if (it != m_ipa.end()) {
+            return make_phones(*this, it->second, stress);
+        }
+        if (key.empty()) break;
+        const auto [cp, len] = last_code_point(key);
+        if (!is_ipa_modifier(cp) || len >= key.size()) break;
+        key.remove_suffix(len);
+    }
+    throw InputError(std::string(where), 0, 0, "phone",
+                     fmt::format("unknown phone label \"{}\": neither an ARPAbet phone (AA1, P, sil) "
+                                 "nor an IPA label in protocols/phone_map.tsv",
+                                 ipa));
+}
+
+}  // namespace avsi

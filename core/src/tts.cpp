@@ -1,0 +1,294 @@
+// Text-to-speech through libespeak-ng: audio from the synth callback, phone
+// timing from espeakEVENT_PHONEME events, stress from espeak_TextToPhonemes,
+// all mapped into the project phone set through protocols/phone_map.tsv.
+#include "avsi/core/tts.h"
+
+#include <espeak-ng/speak_lib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "avsi/core/error.h"
+#include "avsi/core/log.h"
+
+namespace avsi {
+
+namespace {
+
+struct EspeakEvent {
+    std::string mnemonic;  // phoneme events only
+    long sample = 0;       // audio position in samples
+    int word = 0;          // index of the word the phoneme belongs to (0 before the first)
+};
+
+// What the synth callback collects for one synthesize_speech call.
+struct Collector {
+    std::vector<short> samples;
+    std::vector<EspeakEvent> phonemes;
+    long end_sample = -1;
+    int word = 0;
+};
+
+std::mutex g_espeak_mutex;  // espeak-ng's state is global and not thread-safe
+Collector* g_collector = nullptr;
+int g_sample_rate_hz = 0;
+
+int synth_callback(short* wav, int count, espeak_EVENT* events) {
+    if (!g_collector) return 1;
+    if (wav && count > 0) g_collector->samples.insert(g_collector->samples.end(), wav, wav + count);
+    for (espeak_EVENT* e = events; e && e->type != espeakEVENT_LIST_TERMINATED; ++e) {
+        if (e->type == espeakEVENT_WORD) {
+            ++g_collector->word;
+        } else if (e->type == espeakEVENT_PHONEME) {
+            char name[sizeof(e->id.string) + 1] = {};
+            std::memcpy(name, e->id.string, sizeof(e->id.string));
+            g_collector->phonemes.push_back({name, static_cast<long>(e->sample), g_collector->word});
+        } else if (e->type == espeakEVENT_END || e->type == espeakEVENT_MSG_TERMINATED) {
+            g_collector->end_sample = std::max(g_collector->end_sample, static_cast<long>(e->sample));
+        }
+    }
+    return 0;
+}
+
+// Initialises espeak-ng once (caller holds the mutex).
+void ensure_initialized() {
+    if (g_sample_rate_hz > 0) return;
+    const int rate = espeak_Initialize(AUDIO_OUTPUT_SYNCHRONOUS, 0, nullptr,
+                                       espeakINITIALIZE_PHONEME_EVENTS | espeakINITIALIZE_DONT_EXIT);
+    if (rate <= 0)
+        throw std::runtime_error("espeak-ng could not be initialised (is espeak-ng-data installed?)");
+    g_sample_rate_hz = rate;
+    espeak_SetSynthCallback(synth_callback);
+}
+
+// The language codes of the installed English voices ("en-us", "en-gb-x-rp", …).
+std::vector<std::string> english_voice_languages() {
+    std::vector<std::string> out;
+    for (const espeak_VOICE** v = espeak_ListVoices(nullptr); v && *v; ++v) {
+        // `languages`: repeated [priority byte][language\0], ending with a 0 byte.
+        for (const char* p = (*v)->languages; p && *p; p += std::strlen(p + 1) + 2) {
+            const std::string language(p + 1);
+            if (language.rfind("en", 0) == 0 &&
+                std::find(out.begin(), out.end(), language) == out.end())
+                out.push_back(language);
+        }
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+// Selects the voice; returns the phone-map variant ("" for en-us tables, "en"
+// for the non-rhotic English tables). Caller holds the mutex.
+std::string select_voice(const std::string& voice) {
+    const auto english = english_voice_languages();
+    std::string list;
+    for (const auto& l : english) list += (list.empty() ? "" : ", ") + l;
+    if (voice.empty() || espeak_SetVoiceByName(voice.c_str()) != EE_OK) {
+        const std::string close = closest_match(voice, english);
+        throw InputError("", 0, 0, "voice",
+                         fmt::format("unknown espeak-ng voice \"{}\"{}; English voices: {}", voice,
+                                     close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close), list));
+    }
+    const espeak_VOICE* current = espeak_GetCurrentVoice();
+    const std::string language = current && current->languages ? std::string(current->languages + 1) : "";
+    const std::string identifier = current && current->identifier ? current->identifier : "";
+    if (language.rfind("en", 0) != 0)
+        throw InputError("", 0, 0, "voice",
+                         fmt::format("voice \"{}\" speaks \"{}\"; the phone mapping covers English voices "
+                                     "only: {}",
+                                     voice, language, list));
+    std::string id_lower = identifier;
+    for (char& c : id_lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return id_lower.find("en-us") != std::string::npos ? "" : "en";
+}
+
+struct StressToken {
+    std::string base;
+    std::optional<bool> stress;
+};
+
+// espeak_TextToPhonemes output for the whole text, split into mnemonics with
+// their stress marks separated. Caller holds the mutex.
+std::vector<StressToken> stress_tokens(const std::string& text, const PhoneInventory& inventory) {
+    std::vector<StressToken> tokens;
+    const void* pointer = text.c_str();
+    const int mode = static_cast<int>('|') << 8;  // ASCII names, '|' between phonemes
+    while (pointer) {
+        const char* out = espeak_TextToPhonemes(&pointer, espeakCHARS_UTF8, mode);
+        if (!out) break;
+        std::string clause(out);
+        std::size_t i = 0;
+        while (i < clause.size()) {
+            std::size_t j = i;
+            while (j < clause.size() && clause[j] != '|' && clause[j] != ' ') ++j;
+            if (j > i) {
+                auto [base, stress] = inventory.split_espeak_stress(std::string_view(clause).substr(i, j - i));
+                tokens.push_back({std::move(base), stress});
+            }
+            i = j + 1;
+        }
+    }
+    return tokens;
+}
+
+// For each event, the stress of the matching TextToPhonemes token (Levenshtein
+// alignment over mnemonics; substitutions also carry stress across).
+std::vector<bool> align_stress(const std::vector<EspeakEvent>& events, const std::vector<StressToken>& tokens) {
+    const std::size_t n = events.size(), m = tokens.size();
+    std::vector<std::vector<int>> cost(n + 1, std::vector<int>(m + 1, 0));
+    for (std::size_t i = 0; i <= n; ++i) cost[i][0] = static_cast<int>(i);
+    for (std::size_t j = 0; j <= m; ++j) cost[0][j] = static_cast<int>(j);
+    for (std::size_t i = 1; i <= n; ++i)
+        for (std::size_t j = 1; j <= m; ++j) {
+            const int sub = events[i - 1].mnemonic == tokens[j - 1].base ? 0 : 1;
+            cost[i][j] = std::min({cost[i - 1][j - 1] + sub, cost[i - 1][j] + 1, cost[i][j - 1] + 1});
+        }
+    std::vector<bool> stressed(n, false);
+    std::size_t i = n, j = m;
+    while (i > 0 && j > 0) {
+        const int sub = events[i - 1].mnemonic == tokens[j - 1].base ? 0 : 1;
+        if (cost[i][j] == cost[i - 1][j - 1] + sub) {
+            stressed[i - 1] = tokens[j - 1].stress.value_or(false);
+            --i;
+            --j;
+        } else if (cost[i][j] == cost[i - 1][j] + 1) {
+            --i;
+        } else {
+            --j;
+        }
+    }
+    return stressed;
+}
+
+// A phone with times in samples, and the word it came from.
+struct SamplePhone {
+    Phone phone;
+    long start = 0;
+    long end = 0;
+    int word = 0;
+};
+
+}  // namespace
+
+TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings) {
+    if (text.find_first_not_of(" \t\r\n") == std::string::npos)
+        throw InputError("", 0, 0, "text", "expected some text to speak, got an empty string");
+    if (settings.rate_wpm < espeakRATE_MINIMUM || settings.rate_wpm > espeakRATE_MAXIMUM)
+        throw InputError("", 0, 0, "rate_wpm",
+                         fmt::format("expected words per minute in [{}, {}], got {}", espeakRATE_MINIMUM,
+                                     espeakRATE_MAXIMUM, settings.rate_wpm));
+    if (settings.pitch < 0 || settings.pitch > 99)
+        throw InputError("", 0, 0, "pitch", fmt::format("expected a pitch in [0, 99], got {}", settings.pitch));
+    for (const auto& [name, value] : {std::pair{"lead_silence_s", settings.lead_silence_s},
+                                      std::pair{"trail_silence_s", settings.trail_silence_s}})
+        if (!(value >= 0.0 && value <= 60.0))
+            throw InputError("", 0, 0, name, fmt::format("expected seconds in [0, 60], got {}", value));
+    const PhoneInventory& inventory = PhoneInventory::builtin();
+
+    // Step 1: synthesise under the lock, collecting samples, events and stress.
+    Collector collector;
+    std::vector<StressToken> tokens;
+    std::string variant;
+    int rate_hz = 0;
+    {
+        std::lock_guard lock(g_espeak_mutex);
+        ensure_initialized();
+        rate_hz = g_sample_rate_hz;
+        variant = select_voice(settings.voice);
+        espeak_SetParameter(espeakRATE, settings.rate_wpm, 0);
+        espeak_SetParameter(espeakPITCH, settings.pitch, 0);
+        tokens = stress_tokens(text, inventory);
+        g_collector = &collector;
+        const espeak_ERROR status = espeak_Synth(text.c_str(), text.size() + 1, 0, POS_CHARACTER, 0,
+                                                 espeakCHARS_UTF8, nullptr, nullptr);
+        espeak_Synchronize();
+        g_collector = nullptr;
+        if (status != EE_OK)
+            throw std::runtime_error(fmt::format("espeak-ng failed to synthesise (error {})", int(status)));
+    }
+    const std::string where = fmt::format("text \"{}\" (espeak-ng voice {})", text, settings.voice);
+    if (collector.phonemes.empty() || collector.samples.empty())
+        throw InputError(where, 0, 0, "text", "espeak-ng produced no speech for this text");
+    log_debug("espeak-ng: {} phoneme events, {} samples at {} Hz", collector.phonemes.size(),
+              collector.samples.size(), rate_hz);
+
+    // Step 2: phones in samples. Each phoneme ends where the next begins.
+    const auto stressed = align_stress(collector.phonemes, tokens);
+    const long total = static_cast<long>(collector.samples.size());
+    std::vector<SamplePhone> phones;
+    auto append = [&phones](SamplePhone p) {
+        if (p.end <= p.start) return;
+        if (!phones.empty() && p.phone.symbol == "sil" && phones.back().phone.symbol == "sil") {
+            phones.back().end = p.end;
+            return;
+        }
+        phones.push_back(std::move(p));
+    };
+    append({{"sil"}, 0, std::clamp(collector.phonemes.front().sample, 0L, total), 0});
+    for (std::size_t k = 0; k < collector.phonemes.size(); ++k) {
+        const EspeakEvent& event = collector.phonemes[k];
+        const long start = std::clamp(std::max(event.sample, phones.empty() ? 0L : phones.back().end), 0L, total);
+        const long next = k + 1 < collector.phonemes.size() ? collector.phonemes[k + 1].sample : total;
+        const long end = std::clamp(std::max(next, start), start, total);
+        const std::string mnemonic = (stressed[k] ? "'" : "") + event.mnemonic;
+        const auto mapped = inventory.from_espeak(mnemonic, where, variant);
+        if (mapped.empty()) {  // an internal marker: its time joins the previous phone
+            if (!phones.empty()) phones.back().end = end;
+            else append({{"sil"}, start, end, event.word});
+            continue;
+        }
+        const double step = double(end - start) / double(mapped.size());
+        for (std::size_t m = 0; m < mapped.size(); ++m) {
+            const long s = start + std::lround(step * double(m));
+            const long e = m + 1 == mapped.size() ? end : start + std::lround(step * double(m + 1));
+            append({mapped[m], s, e, event.word});
+        }
+    }
+    if (phones.back().end < total) append({{"sil"}, phones.back().end, total, phones.back().word});
+
+    // Step 3: an R after R or ER in the same word is the r-colouring already
+    // written (en-us "our" = aU 3 r- -> AW ER R): it joins the phone before.
+    std::vector<SamplePhone> merged;
+    for (auto& p : phones) {
+        if (!merged.empty() && p.phone.symbol == "R" && merged.back().word == p.word &&
+            (merged.back().phone.symbol == "R" || merged.back().phone.symbol == "ER")) {
+            merged.back().end = p.end;
+            continue;
+        }
+        merged.push_back(std::move(p));
+    }
+
+    // Step 4: lead and trail silence cut or padded to the settings.
+    if (!merged.empty() && merged.back().phone.symbol == "sil") merged.pop_back();
+    if (!merged.empty() && merged.front().phone.symbol == "sil") merged.erase(merged.begin());
+    if (merged.empty()) throw InputError(where, 0, 0, "text", "espeak-ng produced only silence for this text");
+    const long speech_start = merged.front().start;
+    const long speech_end = merged.back().end;
+    const long lead = std::lround(settings.lead_silence_s * rate_hz);
+    const long trail = std::lround(settings.trail_silence_s * rate_hz);
+    const long shift = lead - speech_start;
+    std::vector<short> samples = std::move(collector.samples);
+    if (shift > 0) samples.insert(samples.begin(), static_cast<std::size_t>(shift), short{0});
+    else samples.erase(samples.begin(), samples.begin() + (-shift));
+    const long total_out = speech_end + shift + trail;
+    samples.resize(static_cast<std::size_t>(total_out), short{0});
+
+    TtsResult result;
+    result.audio.sample_rate_hz = rate_hz;
+    result.audio.channels = 1;
+    result.audio.samples.reserve(samples.size());
+    for (short s : samples) result.audio.samples.push_back(static_cast<float>(s) / 32768.0f);
+    auto seconds = [rate_hz](long sample) { return static_cast<double>(sample) / rate_hz; };
+    if (lead > 0) result.phones.push_back({"sil", 0.0, seconds(lead), false});
+    for (const auto& p : merged)
+        result.phones.push_back({p.phone.symbol, seconds(p.start + shift), seconds(p.end + shift), p.phone.stressed});
+    if (trail > 0) result.phones.push_back({"sil", seconds(speech_end + shift), seconds(total_out), false});
+    return result;
+}
+
+}  // namespace avsi
