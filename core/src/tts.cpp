@@ -90,7 +90,7 @@ std::string select_voice(const std::string& voice) {
     for (const auto& l : english) list += (list.empty() ? "" : ", ") + l;
     if (voice.empty() || espeak_SetVoiceByName(voice.c_str()) != EE_OK) {
         const std::string close = closest_match(voice, english);
-        throw InputError("", 0, 0, "voice",
+        throw InputError("tts", 0, 0, "voice",
                          fmt::format("unknown espeak-ng voice \"{}\"{}; English voices: {}", voice,
                                      close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close), list));
     }
@@ -98,7 +98,7 @@ std::string select_voice(const std::string& voice) {
     const std::string language = current && current->languages ? std::string(current->languages + 1) : "";
     const std::string identifier = current && current->identifier ? current->identifier : "";
     if (language.rfind("en", 0) != 0)
-        throw InputError("", 0, 0, "voice",
+        throw InputError("tts", 0, 0, "voice",
                          fmt::format("voice \"{}\" speaks \"{}\"; the phone mapping covers English voices "
                                      "only: {}",
                                      voice, language, list));
@@ -177,17 +177,17 @@ struct SamplePhone {
 
 TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings) {
     if (text.find_first_not_of(" \t\r\n") == std::string::npos)
-        throw InputError("", 0, 0, "text", "expected some text to speak, got an empty string");
+        throw InputError("tts", 0, 0, "text", "expected some text to speak, got an empty string");
     if (settings.rate_wpm < espeakRATE_MINIMUM || settings.rate_wpm > espeakRATE_MAXIMUM)
-        throw InputError("", 0, 0, "rate_wpm",
+        throw InputError("tts", 0, 0, "rate_wpm",
                          fmt::format("expected words per minute in [{}, {}], got {}", espeakRATE_MINIMUM,
                                      espeakRATE_MAXIMUM, settings.rate_wpm));
     if (settings.pitch < 0 || settings.pitch > 99)
-        throw InputError("", 0, 0, "pitch", fmt::format("expected a pitch in [0, 99], got {}", settings.pitch));
+        throw InputError("tts", 0, 0, "pitch", fmt::format("expected a pitch in [0, 99], got {}", settings.pitch));
     for (const auto& [name, value] : {std::pair{"lead_silence_s", settings.lead_silence_s},
                                       std::pair{"trail_silence_s", settings.trail_silence_s}})
         if (!(value >= 0.0 && value <= 60.0))
-            throw InputError("", 0, 0, name, fmt::format("expected seconds in [0, 60], got {}", value));
+            throw InputError("tts", 0, 0, name, fmt::format("expected seconds in [0, 60], got {}", value));
     const PhoneInventory& inventory = PhoneInventory::builtin();
 
     // Step 1: synthesise under the lock, collecting samples, events and stress.

@@ -1,0 +1,100 @@
+// `avsi phones`: text (through espeak-ng) or a recording's alignment
+// (TextGrid, HTK .lab, TSV) to a timed phone sequence in the project phone set.
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "avsi/core/audio.h"
+#include "avsi/core/error.h"
+#include "avsi/core/labels.h"
+#include "avsi/core/log.h"
+#include "avsi/core/tts.h"
+#include "command.h"
+
+namespace avsi::cli {
+namespace {
+
+struct PhonesOptions {
+    std::string text;
+    std::string textgrid;
+    std::string lab;
+    std::string tsv;
+    std::string tier = "phones";
+    std::string wav;
+    std::string out;
+    TtsSettings tts;
+};
+
+std::string lower_extension(const std::filesystem::path& path) {
+    std::string ext = path.extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return ext;
+}
+
+int run_phones(const PhonesOptions& o) {
+    const int inputs = int(!o.text.empty()) + int(!o.textgrid.empty()) + int(!o.lab.empty()) + int(!o.tsv.empty());
+    if (inputs != 1)
+        throw UsageError("give exactly one input: --text, --textgrid, --lab or --tsv");
+    if (!o.wav.empty() && o.text.empty()) throw UsageError("--wav writes synthesised speech; it needs --text");
+    const std::string out_ext = lower_extension(o.out);
+    if (out_ext != ".tsv" && out_ext != ".textgrid")
+        throw UsageError(fmt::format("--out {}: unsupported extension '{}'; supported extensions are '.tsv' "
+                                     "and '.TextGrid'",
+                                     o.out, std::filesystem::path(o.out).extension().string()));
+
+    PhoneSequence phones;
+    if (!o.text.empty()) {
+        TtsResult result = synthesize_speech(o.text, o.tts);
+        phones = std::move(result.phones);
+        if (!o.wav.empty()) {
+            write_audio(o.wav, result.audio);
+            log_info("wrote {} ({:.3f} s, {} Hz)", o.wav, result.audio.duration_s(), result.audio.sample_rate_hz);
+        }
+    } else {
+        const std::string input = !o.textgrid.empty() ? o.textgrid : !o.lab.empty() ? o.lab : o.tsv;
+        const std::string want = !o.textgrid.empty() ? ".textgrid" : !o.lab.empty() ? ".lab" : ".tsv";
+        if (lower_extension(input) != want)
+            throw UsageError(fmt::format("{} does not end in '{}'", input, want == ".textgrid" ? ".TextGrid" : want));
+        LabelReadOptions read_options;
+        read_options.tier = o.tier;
+        phones = read_phones(input, read_options);
+    }
+    if (out_ext == ".tsv") write_phones_tsv(o.out, phones);
+    else write_phones_textgrid(o.out, phones);
+    log_info("wrote {} ({} phones)", o.out, phones.size());
+    return ExitSuccess;
+}
+
+const bool registered = register_command({
+    "phones",
+    "Text or an alignment (TextGrid, .lab, .tsv) to a timed phone sequence",
+    [](CLI::App& sub) -> std::function<int()> {
+        auto o = std::make_shared<PhonesOptions>();
+        sub.add_option("--text", o->text, "Text to synthesise with espeak-ng")->capture_default_str();
+        sub.add_option("--textgrid", o->textgrid, "Praat TextGrid to read phones from (long or short text format)")
+            ->capture_default_str();
+        sub.add_option("--lab", o->lab, "HTK label file to read phones from (times in 100 ns units)")
+            ->capture_default_str();
+        sub.add_option("--tsv", o->tsv, "TSV label file to read phones from (start_s end_s phone)")
+            ->capture_default_str();
+        sub.add_option("--tier", o->tier, "TextGrid tier holding the phones")->capture_default_str();
+        sub.add_option("--voice", o->tts.voice, "espeak-ng voice (English: en-us, en, en-gb-x-rp, ...)")
+            ->capture_default_str();
+        sub.add_option("--rate", o->tts.rate_wpm, "Speaking rate, words per minute (80-450)")->capture_default_str();
+        sub.add_option("--pitch", o->tts.pitch, "espeak-ng pitch (0-99)")->capture_default_str();
+        sub.add_option("--lead-silence", o->tts.lead_silence_s, "Silence before the speech, seconds")
+            ->capture_default_str();
+        sub.add_option("--trail-silence", o->tts.trail_silence_s, "Silence after the speech, seconds")
+            ->capture_default_str();
+        sub.add_option("--wav", o->wav, "Write the synthesised speech here (WAV, with --text)")
+            ->capture_default_str();
+        sub.add_option("--out", o->out, "Output phones: .tsv (start_s end_s phone) or .TextGrid")
+            ->required()
+            ->capture_default_str();
+        return [o] { return run_phones(*o); };
+    }});
+
+}  // namespace
+}  // namespace avsi::cli

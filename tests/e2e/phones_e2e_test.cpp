@@ -1,0 +1,121 @@
+// `avsi phones` end to end: text and label-file inputs, exit codes 0/1/2, and
+// compiler-style error messages for malformed label files.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "avsi/core/audio.h"
+#include "avsi/core/files.h"
+#include "avsi/core/labels.h"
+
+namespace avsi {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+    int exit_code = -1;
+    std::string out;
+    std::string err;
+};
+
+const fs::path data_dir = fs::path(AVSI_TEST_DATA_DIR) / "core";
+
+fs::path work_dir() {
+    const fs::path dir = fs::temp_directory_path() / ("avsi_e2e_phones_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    return dir;
+}
+
+std::string quote(const std::string& s) {
+    std::string out = "'";
+    for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return out + "'";
+}
+
+// Runs `avsi <args>` with stdout and stderr captured to files.
+RunResult run_avsi(const std::string& args) {
+    const fs::path dir = work_dir();
+    const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
+    const std::string command = quote(AVSI_CLI_PATH) + " " + args + " >" + quote(out.string()) + " 2>" +
+                                quote(err.string());
+    const int status = std::system(command.c_str());
+    RunResult r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = read_text_file(out);
+    r.err = read_text_file(err);
+    return r;
+}
+
+TEST(PhonesCli, TextGivesWavAndContiguousPhonesCoveringIt) {
+    const fs::path dir = work_dir();
+    const RunResult r = run_avsi("phones --text 'Come here John.' --wav " + quote((dir / "s.wav").string()) +
+                                 " --out " + quote((dir / "s.tsv").string()));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.out, "");
+    const Audio audio = read_audio(dir / "s.wav");
+    const PhoneSequence phones = read_phones(dir / "s.tsv");
+    std::vector<std::string> symbols;
+    for (const auto& p : phones)
+        if (p.symbol != "sil") symbols.push_back(p.symbol);
+    EXPECT_EQ(symbols, (std::vector<std::string>{"K", "AH", "M", "HH", "IH", "R", "JH", "AA", "N"}));
+    EXPECT_NO_THROW(check_phone_sequence(phones, "s.tsv", 2e-6));
+    EXPECT_EQ(phones.front().start_s, 0.0);
+    EXPECT_NEAR(phones.back().end_s, audio.duration_s(), 0.020);
+    EXPECT_EQ(audio.sample_rate_hz, 22050);
+}
+
+TEST(PhonesCli, TextGridInReadsBackAsWritten) {
+    const fs::path dir = work_dir();
+    RunResult r = run_avsi("phones --textgrid " + quote((data_dir / "short.TextGrid").string()) +
+                           " --tier phones --out " + quote((dir / "p.TextGrid").string()));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(read_phones(dir / "p.TextGrid"), read_phones(data_dir / "long.TextGrid"));
+    r = run_avsi("phones --lab " + quote((data_dir / "come.lab").string()) + " --out " +
+                 quote((dir / "lab.tsv").string()));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(read_phones(dir / "lab.tsv").size(), 4u);
+}
+
+TEST(PhonesCli, MalformedLabelFilesFailWithFileLineAndExitOne) {
+    const fs::path dir = work_dir();
+    for (const auto& [file, line] : {std::pair{"malformed_number.TextGrid", 17},
+                                     {"malformed_truncated.TextGrid", 40},
+                                     {"malformed_string.TextGrid", 68}}) {
+        SCOPED_TRACE(file);
+        const std::string path = (data_dir / file).string();
+        const RunResult r = run_avsi("phones --textgrid " + quote(path) + " --out " + quote((dir / "x.tsv").string()));
+        EXPECT_EQ(r.exit_code, 1);
+        EXPECT_EQ(r.err.rfind(path + ":" + std::to_string(line) + ": error: ", 0), 0u) << r.err;
+    }
+    const std::string lab = (data_dir / "malformed.lab").string();
+    const RunResult r = run_avsi("phones --lab " + quote(lab) + " --out " + quote((dir / "x.tsv").string()));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.err.rfind(lab + ":3: error: ", 0), 0u) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "x.tsv"));
+}
+
+TEST(PhonesCli, BadUsageExitsTwoAndBadVoiceOne) {
+    EXPECT_EQ(run_avsi("phones --text hi").exit_code, 2);  // --out is required
+    EXPECT_EQ(run_avsi("phones --out x.tsv").exit_code, 2);  // no input
+    const RunResult voice = run_avsi("phones --text hi --voice en-uss --out " + quote((work_dir() / "v.tsv").string()));
+    EXPECT_EQ(voice.exit_code, 1);
+    EXPECT_NE(voice.err.find("did you mean \"en-us\""), std::string::npos) << voice.err;
+}
+
+TEST(PhonesCli, HelpListsEveryOptionWithDefaults) {
+    const RunResult r = run_avsi("phones --help");
+    EXPECT_EQ(r.exit_code, 0);
+    for (const char* option : {"--text", "--textgrid", "--lab", "--tsv", "--tier", "--voice", "--rate", "--pitch",
+                               "--lead-silence", "--trail-silence", "--wav", "--out"})
+        EXPECT_NE(r.out.find(option), std::string::npos) << option;
+    EXPECT_NE(r.out.find("=en-us"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("=phones"), std::string::npos) << r.out;
+}
+
+}  // namespace
+}  // namespace avsi
