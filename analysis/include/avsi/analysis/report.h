@@ -1,0 +1,66 @@
+// `avsi analyze`: the repeated-measures ANOVA, sphericity, pairwise
+// comparisons and descriptives of a scores.csv, written as a report folder:
+//   index.html       self-contained page (inline CSS, plot as base64 PNG, no links)
+//   report.md        the same in Markdown
+//   anova.json       every number, full precision (the HTML shows these values)
+//   pairwise.csv     all pairs: paired LSD, pooled LSD, Holm, Bonferroni, CI, d_z
+//   descriptives.csv means, SDs and Cousineau-Morey within-subject CIs
+//   plot.png, plot.svg  percent correct by condition with within-subject CIs
+//   glmer.R          lme4::glmer(correct ~ condition + (1|subject) + (1|sentence))
+//                    on keywords.csv, for those who want the keyword-level model
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "avsi/analysis/descriptives.h"
+#include "avsi/analysis/pairwise.h"
+#include "avsi/analysis/rm_anova.h"
+#include "avsi/analysis/scores.h"
+
+namespace avsi::analysis {
+
+struct AnalysisResult {
+    WithinData data;
+    AnovaResult anova;
+    std::vector<PairwiseComparison> pairwise;
+    std::vector<ConditionSummary> descriptives;
+};
+
+// Runs the ANOVA, the pairwise comparisons and the descriptives.
+AnalysisResult analyze(const WithinData& data, double confidence = 0.95);
+
+// APA-style result line, e.g. "F(5, 120) = 9.13, p < .001, ηp² = .27".
+std::string apa_anova(const AnovaResult& anova);
+// APA p: "p = .032", "p < .001" (no leading zero).
+std::string apa_p(double p);
+// A p value for tables: 4 decimals, or scientific below 1e-4 ("2.50e-150").
+std::string table_p(double p);
+
+struct ReportSettings {
+    std::filesystem::path out_dir;
+    std::filesystem::path source;        // the scores.csv analysed (named in the report)
+    std::filesystem::path keywords_csv;  // for glmer.R; empty: keywords.csv beside the source
+    std::string title = "Keyword intelligibility by condition";
+    double confidence = 0.95;
+};
+
+// The anova.json document (as text) for a result.
+std::string anova_json(const AnalysisResult& result, const ReportSettings& settings);
+
+// Writes every file of the report folder listed above.
+void write_report(const AnalysisResult& result, const ReportSettings& settings);
+
+struct AnalyzeSettings {
+    std::filesystem::path input;  // scores.csv (an avsi SQLite database is refused with advice)
+    std::filesystem::path out_dir;
+    std::filesystem::path keywords_csv;
+    double confidence = 0.95;
+    std::string title = "Keyword intelligibility by condition";
+};
+
+// `avsi analyze`: reads the scores, analyses them and writes the report.
+AnalysisResult analyze_file(const AnalyzeSettings& settings);
+
+}  // namespace avsi::analysis

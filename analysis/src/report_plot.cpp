@@ -1,0 +1,132 @@
+// Cairo drawing of the report figure (see report_plot.h).
+#include "report_plot.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <cairo-svg.h>
+#include <cairo.h>
+#include <fmt/format.h>
+
+#include "avsi/core/error.h"
+
+namespace avsi::analysis::detail {
+
+namespace {
+
+void draw(cairo_t* cr, const PlotData& d, double width, double height) {
+    const double left = 80, right = 30, top = 50, bottom = 110;
+    const double pw = width - left - right, ph = height - top - bottom;
+    const double y_min = 0.0, y_max = 100.0;
+    auto y_of = [&](double v) { return top + ph * (1.0 - (std::clamp(v, y_min, y_max) - y_min) / (y_max - y_min)); };
+
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_paint(cr);
+    cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+
+    // Grid and y axis labels every 10 %.
+    cairo_set_font_size(cr, 12);
+    for (int v = 0; v <= 100; v += 10) {
+        const double y = y_of(v);
+        cairo_set_source_rgb(cr, 0.88, 0.88, 0.88);
+        cairo_set_line_width(cr, 1);
+        cairo_move_to(cr, left, y);
+        cairo_line_to(cr, left + pw, y);
+        cairo_stroke(cr);
+        const std::string label = std::to_string(v);
+        cairo_text_extents_t ext;
+        cairo_text_extents(cr, label.c_str(), &ext);
+        cairo_set_source_rgb(cr, 0.2, 0.2, 0.2);
+        cairo_move_to(cr, left - 8 - ext.width, y + ext.height / 2);
+        cairo_show_text(cr, label.c_str());
+    }
+    // Axes.
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_line_width(cr, 1.5);
+    cairo_move_to(cr, left, top);
+    cairo_line_to(cr, left, top + ph);
+    cairo_line_to(cr, left + pw, top + ph);
+    cairo_stroke(cr);
+
+    // Means with CI whiskers.
+    const std::size_t k = d.conditions.size();
+    const double step = k ? pw / double(k) : pw;
+    for (std::size_t j = 0; j < k; ++j) {
+        const double x = left + step * (double(j) + 0.5);
+        const double bar_w = std::min(60.0, step * 0.6);
+        cairo_set_source_rgb(cr, 0.35, 0.55, 0.8);
+        cairo_rectangle(cr, x - bar_w / 2, y_of(d.means[j]), bar_w, y_of(0) - y_of(d.means[j]));
+        cairo_fill(cr);
+        cairo_set_source_rgb(cr, 0, 0, 0);
+        cairo_set_line_width(cr, 1.5);
+        cairo_move_to(cr, x, y_of(d.ci_low[j]));
+        cairo_line_to(cr, x, y_of(d.ci_high[j]));
+        for (double v : {d.ci_low[j], d.ci_high[j]}) {
+            cairo_move_to(cr, x - 8, y_of(v));
+            cairo_line_to(cr, x + 8, y_of(v));
+        }
+        cairo_stroke(cr);
+        // Condition label, rotated when long.
+        cairo_set_font_size(cr, 12);
+        cairo_text_extents_t ext;
+        cairo_text_extents(cr, d.conditions[j].c_str(), &ext);
+        cairo_save(cr);
+        if (ext.width > step - 6) {
+            cairo_move_to(cr, x, top + ph + 14);
+            cairo_rotate(cr, M_PI / 6);
+        } else {
+            cairo_move_to(cr, x - ext.width / 2, top + ph + 18);
+        }
+        cairo_show_text(cr, d.conditions[j].c_str());
+        cairo_restore(cr);
+    }
+
+    // Title, y label, caption.
+    cairo_set_font_size(cr, 16);
+    cairo_move_to(cr, left, 30);
+    cairo_show_text(cr, d.title.c_str());
+    cairo_set_font_size(cr, 13);
+    cairo_save(cr);
+    cairo_text_extents_t ext;
+    cairo_text_extents(cr, d.y_label.c_str(), &ext);
+    cairo_move_to(cr, 24, top + ph / 2 + ext.width / 2);
+    cairo_rotate(cr, -M_PI / 2);
+    cairo_show_text(cr, d.y_label.c_str());
+    cairo_restore(cr);
+    cairo_set_font_size(cr, 11);
+    cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
+    cairo_move_to(cr, left, height - 12);
+    cairo_show_text(cr, d.caption.c_str());
+}
+
+void check(cairo_status_t status, const std::filesystem::path& path) {
+    if (status != CAIRO_STATUS_SUCCESS)
+        throw InputError(path, fmt::format("cannot write the plot: {}", cairo_status_to_string(status)));
+}
+
+}  // namespace
+
+void write_plot_png(const std::filesystem::path& path, const PlotData& data, int width, int height) {
+    AVSI_ASSERT(data.means.size() == data.conditions.size());
+    cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width, height);
+    cairo_t* cr = cairo_create(surface);
+    draw(cr, data, width, height);
+    cairo_destroy(cr);
+    const cairo_status_t status = cairo_surface_write_to_png(surface, path.c_str());
+    cairo_surface_destroy(surface);
+    check(status, path);
+}
+
+void write_plot_svg(const std::filesystem::path& path, const PlotData& data, int width, int height) {
+    AVSI_ASSERT(data.means.size() == data.conditions.size());
+    cairo_surface_t* surface = cairo_svg_surface_create(path.c_str(), width, height);
+    cairo_t* cr = cairo_create(surface);
+    draw(cr, data, width, height);
+    cairo_destroy(cr);
+    cairo_surface_finish(surface);
+    const cairo_status_t status = cairo_surface_status(surface);
+    cairo_surface_destroy(surface);
+    check(status, path);
+}
+
+}  // namespace avsi::analysis::detail

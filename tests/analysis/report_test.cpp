@@ -1,0 +1,178 @@
+// The report for the 25 × 6 reference data set: self-contained valid HTML,
+// a non-empty PNG, and HTML numbers equal to anova.json.
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <algorithm>
+#include <cctype>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "avsi/analysis/report.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+
+namespace avsi::analysis {
+namespace {
+
+namespace fs = std::filesystem;
+
+class Report : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        dir = fs::temp_directory_path() / "avsi_report_test";
+        fs::remove_all(dir);
+        AnalyzeSettings s;
+        s.input = AVSI_TEST_DATA_DIR "/analysis/balanced.csv";
+        s.out_dir = dir / "report";
+        result = analyze_file(s);
+        html = read_text_file(dir / "report" / "index.html");
+        doc = nlohmann::json::parse(read_text_file(dir / "report" / "anova.json"));
+    }
+    static void TearDownTestSuite() { fs::remove_all(dir); }
+    static inline fs::path dir;
+    static inline AnalysisResult result;
+    static inline std::string html;
+    static inline nlohmann::json doc;
+};
+
+TEST_F(Report, WritesEveryFile) {
+    for (const char* f : {"index.html", "report.md", "anova.json", "pairwise.csv", "descriptives.csv", "plot.png",
+                          "plot.svg", "glmer.R"}) {
+        SCOPED_TRACE(f);
+        ASSERT_TRUE(fs::exists(dir / "report" / f));
+        EXPECT_GT(fs::file_size(dir / "report" / f), 100u);
+    }
+    EXPECT_EQ(result.anova.n, 25u);
+    EXPECT_EQ(result.anova.k, 6u);
+}
+
+TEST_F(Report, PngIsANonEmptyImage) {
+    const std::string png = read_text_file(dir / "report" / "plot.png");
+    ASSERT_GT(png.size(), 2000u);
+    EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+    const std::string svg = read_text_file(dir / "report" / "plot.svg");
+    EXPECT_NE(svg.find("<svg"), std::string::npos);
+}
+
+TEST_F(Report, HtmlIsSelfContained) {
+    EXPECT_EQ(html.find("http://"), std::string::npos);
+    EXPECT_EQ(html.find("https://"), std::string::npos);
+    EXPECT_EQ(html.find("<link"), std::string::npos);
+    EXPECT_EQ(html.find("<script"), std::string::npos);
+    // Every src is inline data (std::regex would recurse through the base64).
+    int images = 0;
+    for (std::size_t at = html.find("src=\""); at != std::string::npos; at = html.find("src=\"", at + 1)) {
+        EXPECT_EQ(html.compare(at + 5, 22, "data:image/png;base64,"), 0);
+        ++images;
+    }
+    EXPECT_EQ(images, 1);
+}
+
+TEST_F(Report, HtmlTagsAreBalanced) {
+    // A small parser: every non-void element closed in order.
+    const std::vector<std::string> void_elements = {"meta", "img", "br", "hr", "link", "input"};
+    std::vector<std::string> stack;
+    for (std::size_t at = html.find('<'); at != std::string::npos; at = html.find('<', at + 1)) {
+        const std::size_t end = html.find('>', at);
+        ASSERT_NE(end, std::string::npos);
+        std::string inside = html.substr(at + 1, end - at - 1);
+        if (inside.empty() || inside[0] == '!') continue;
+        const bool closing = inside[0] == '/';
+        if (closing) inside.erase(0, 1);
+        std::size_t name_end = 0;
+        while (name_end < inside.size() && std::isalnum(static_cast<unsigned char>(inside[name_end]))) ++name_end;
+        ASSERT_GT(name_end, 0u) << "bad tag <" << inside << ">";
+        const std::string name = inside.substr(0, name_end);
+        const std::string rest = inside.substr(name_end);
+        if (closing) {
+            ASSERT_FALSE(stack.empty()) << "unexpected </" << name << ">";
+            ASSERT_EQ(stack.back(), name) << "</" << name << "> closes <" << stack.back() << ">";
+            stack.pop_back();
+        } else if (std::find(void_elements.begin(), void_elements.end(), name) == void_elements.end() &&
+                   (rest.empty() || rest.back() != '/')) {
+            stack.push_back(name);
+        }
+    }
+    EXPECT_TRUE(stack.empty()) << "unclosed <" << (stack.empty() ? "" : stack.back()) << ">";
+    EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
+    // xmllint, when installed, must accept it as well-formed markup.
+    if (std::system("command -v xmllint >/dev/null 2>&1") == 0) {
+        const std::string cmd = "xmllint --noout '" + (dir / "report" / "index.html").string() + "' 2>/dev/null";
+        EXPECT_EQ(std::system(cmd.c_str()), 0);
+    }
+}
+
+TEST_F(Report, HtmlNumbersEqualAnovaJson) {
+    int compared = 0;
+    const std::string key = "data-key=\"", value = "\" data-value=\"";
+    for (std::size_t at = html.find(key); at != std::string::npos; at = html.find(key, at + 1)) {
+        const std::size_t key_end = html.find('"', at + key.size());
+        const std::string pointer = html.substr(at + key.size(), key_end - at - key.size());
+        if (html.compare(key_end, value.size(), value) != 0) continue;  // the APA paragraph
+        const std::size_t v0 = key_end + value.size();
+        SCOPED_TRACE(pointer);
+        const auto shown = nlohmann::json::parse(html.substr(v0, html.find('"', v0) - v0));
+        const auto& stored = doc.at(nlohmann::json::json_pointer(pointer));
+        if (stored.is_null()) {
+            EXPECT_TRUE(shown.is_null());
+        } else {
+            EXPECT_EQ(shown.get<double>(), stored.get<double>());
+        }
+        ++compared;
+    }
+    EXPECT_GT(compared, 150);  // ANOVA, sphericity, 6 descriptives, 15 pairs
+    // The values stored are the computed ones.
+    EXPECT_EQ(doc["anova"]["F"].get<double>(), *result.anova.F);
+    EXPECT_EQ(doc["anova"]["p"].get<double>(), *result.anova.p_value);
+    EXPECT_EQ(doc["sphericity"]["huynh_feldt"]["epsilon"].get<double>(), *result.anova.huynh_feldt.epsilon);
+    // The APA line shown is the stored one, built from the stored numbers.
+    const std::string apa = doc["apa"].get<std::string>();
+    std::string apa_html;
+    for (char c : apa) apa_html += c == '<' ? std::string("&lt;") : std::string(1, c);
+    EXPECT_NE(html.find(apa_html), std::string::npos);
+    char expected[128];
+    std::snprintf(expected, sizeof expected, "F(5, 120) = %.2f, p < .001", doc["anova"]["F"].get<double>());
+    EXPECT_EQ(apa.rfind(expected, 0), 0u) << apa;
+}
+
+TEST_F(Report, GlmerScriptFitsTheKeywordModel) {
+    const std::string r = read_text_file(dir / "report" / "glmer.R");
+    EXPECT_NE(r.find("glmer(correct ~ condition + (1 | subject) + (1 | sentence)"), std::string::npos);
+    EXPECT_NE(r.find("family = binomial"), std::string::npos);
+    EXPECT_NE(r.find(R"(levels = c("c1", "c2", "c3", "c4", "c5", "c6"))"), std::string::npos);
+}
+
+TEST(Apa, FormatsLikeThePaper) {
+    AnovaResult a;
+    a.df_conditions = 5;
+    a.df_error = 120;
+    a.F = 9.1312;
+    a.p_value = 2.1e-7;
+    a.partial_eta_sq = 0.2747;
+    EXPECT_EQ(apa_anova(a), "F(5, 120) = 9.13, p < .001, ηp² = .27");
+    a.p_value = 0.0321;
+    EXPECT_EQ(apa_anova(a), "F(5, 120) = 9.13, p = .032, ηp² = .27");
+    EXPECT_EQ(table_p(2.5e-150), "2.50e-150");
+}
+
+TEST(AnalyzeFile, RefusesSessionDatabaseWithAdvice) {
+    const fs::path db = fs::temp_directory_path() / "avsi_analyze_refuse.sqlite";
+    write_text_file(db, std::string("SQLite format 3\0rest-of-header-bytes", 36));
+    AnalyzeSettings s;
+    s.input = db;
+    s.out_dir = fs::temp_directory_path() / "avsi_analyze_refuse_out";
+    try {
+        analyze_file(s);
+        FAIL() << "expected InputError";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("avsi export"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("avsi score"), std::string::npos);
+    }
+    EXPECT_FALSE(fs::exists(s.out_dir));
+    fs::remove(db);
+}
+
+}  // namespace
+}  // namespace avsi::analysis
