@@ -1,0 +1,42 @@
+// `avsi synth`: phones (a label file, or text through espeak-ng) → control
+// model → articulatory trajectory (CSV or MPEG-4 FAP), optionally with an
+// SVG plot of one parameter's dominance functions and trajectory.
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "avsi/synth/synthesis.h"
+#include "command.h"
+
+namespace avsi::cli {
+namespace {
+
+const bool registered = register_command({
+    "synth",
+    "Phones or text to articulatory parameter trajectories with a control model",
+    [](CLI::App& sub) -> std::function<int()> {
+        auto o = std::make_shared<synth::SynthesisSettings>();
+        o->model_path = std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "cohen-massaro.json";
+        sub.add_option("--model", o->model_path,
+                       "Model file (JSON: rule, cohen-massaro, mpeg4-cohen-massaro or ohman)")
+            ->capture_default_str();
+        sub.add_option("--phones", o->phones_path, "Timed phones: .tsv, .TextGrid or .lab")->capture_default_str();
+        sub.add_option("--text", o->text, "Text to synthesise with espeak-ng (instead of --phones)")
+            ->capture_default_str();
+        sub.add_option("--voice", o->voice, "espeak-ng voice for --text")->capture_default_str();
+        sub.add_option("--wav", o->wav_path, "Write the synthesised speech here (with --text)")
+            ->capture_default_str();
+        sub.add_option("--fps", o->fps, "Frame rate of the trajectory")->capture_default_str();
+        sub.add_option("--out", o->out_path, "Output trajectory (.csv or .fap)")->required()->capture_default_str();
+        sub.add_option("--format", o->format, "Output format: csv, fap, or auto (by --out extension)")
+            ->capture_default_str();
+        sub.add_option("--plot", o->plot_path, "Write an SVG plot of one parameter here")->capture_default_str();
+        sub.add_option("--param", o->plot_param, "Parameter to plot (snake_case name)")->capture_default_str();
+        return [o] {
+            synth::run_synthesis(*o);
+            return 0;
+        };
+    }});
+
+}  // namespace
+}  // namespace avsi::cli

@@ -1,0 +1,114 @@
+// The Cohen-Massaro model of coarticulation (Beskow §4.2, eq. 7–8): each
+// segment i has, per articulatory parameter, a target T_i and a dominance
+//
+//     D_i(t) = α_i·exp(−θ_i·(τ_i − t)^c_i)   for t <  τ_i   (anticipatory)
+//     D_i(t) = α_i·exp(−φ_i·(t − τ_i)^c_i)   for t >= τ_i   (carry-over)
+//
+// with τ_i the segment centre (s), θ, φ in s^−c; and the trajectory is the
+// dominance-weighted mean of the targets, z(t) = Σ T_i D_i(t) / Σ D_i(t).
+// Free parameters per phone and parameter: T, α, θ, φ; the exponent c per
+// phone (as the issue specifies; the paper has c_i per segment of a phone).
+// Silence segments take part like any phone, with their own (neutral)
+// targets, so the face returns to rest in pauses and at utterance edges.
+//
+// Evaluation is linear in utterance length: for the frames in the Voronoi
+// cell of segment j (the times nearer τ_j than any other centre) the sum is
+// bounded below by L_j = min D_j over those frames, and every segment whose
+// dominance is below δ_j = ε·L_j / (ΔT·N) at all of them is skipped (ΔT the
+// spread of the targets, N the number of segments). The skipped segments
+// change z by at most ΔT·Σ_skipped D / Σ_kept D < N·δ_j·ΔT / L_j = ε, so the
+// result stays within ε of the full sum. Each segment's reach follows from
+// solving α·exp(−θ r^c) = δ for r. Sums run in the log domain, shifted by
+// the largest dominance, so they neither underflow nor overflow.
+#pragma once
+
+#include <array>
+#include <map>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "avsi/synth/control_model.h"
+
+namespace avsi::synth {
+
+// One phone's Cohen-Massaro parameters for one articulatory parameter.
+struct CohenMassaroParams {
+    double target = 0.0;     // T, in the parameter's units
+    double alpha = 1.0;      // α, peak dominance, > 0
+    double theta_per_s = 30.0;  // θ, anticipatory rate (s^−c), > 0
+    double phi_per_s = 30.0;    // φ, carry-over rate (s^−c), > 0
+};
+
+// One phone's table: c and the 10 parameters' (T, α, θ, φ).
+struct CohenMassaroPhone {
+    double c = 1.0;  // dominance exponent, > 0
+    std::array<CohenMassaroParams, param_count> params{};
+};
+
+// One segment of an utterance, for one articulatory parameter: what eq. 7–8
+// need. Also used by the MPEG-4 variant, the plots and the training gradient.
+struct CmSegment {
+    double tau_s = 0.0;  // centre (plus any offset)
+    double target = 0.0;
+    double alpha = 1.0;
+    double theta_per_s = 30.0;
+    double phi_per_s = 30.0;
+    double c = 1.0;
+};
+
+// D_i(t) of eq. 7.
+double dominance(const CmSegment& segment, double t_s);
+// ln D_i(t), finite even where D_i(t) underflows.
+double log_dominance(const CmSegment& segment, double t_s);
+
+// Default bound for the skipped dominance: results within this of the full sum.
+inline constexpr double cm_default_tolerance = 5e-10;
+
+// z(t) of eq. 8 at each time by the full O(N·F) sum (the reference).
+// segments non-empty; times any order; out.size() == times.size().
+void cohen_massaro_full(std::span<const CmSegment> segments, std::span<const double> times_s,
+                        std::span<double> out);
+
+// z(t) of eq. 8 in O(N + F) (per segment, a bounded number of neighbours):
+// within `tolerance` of cohen_massaro_full. times must be ascending.
+void cohen_massaro_bounded(std::span<const CmSegment> segments, std::span<const double> times_s,
+                           std::span<double> out, double tolerance = cm_default_tolerance);
+
+// A model whose trajectories are eq. 8 over per-segment dominance functions
+// (Cohen-Massaro and its MPEG-4 variant); evaluation by the bounded sum.
+class DominanceModel : public ControlModel {
+public:
+    // The segments of an utterance for every parameter, in utterance order.
+    // Throws InputError for a phone the model has no entry for.
+    virtual std::array<std::vector<CmSegment>, param_count> segments_all(const PhoneSequence& phones) const = 0;
+    // The segments for one parameter.
+    std::vector<CmSegment> segments(const PhoneSequence& phones, Param param) const;
+
+    void evaluate(const PhoneSequence& phones, std::span<const double> times_s,
+                  std::vector<Frame>& out) const override;
+
+    // Evaluation tolerance (see the file comment); 0 means the full sum.
+    double tolerance = cm_default_tolerance;
+};
+
+// Phone-keyed Cohen-Massaro tables (kind "cohen-massaro").
+class CohenMassaroModel : public DominanceModel {
+public:
+    using Table = std::map<std::string, CohenMassaroPhone, std::less<>>;
+
+    explicit CohenMassaroModel(Table phones) : m_phones(std::move(phones)) {}
+
+    std::string_view kind() const override { return "cohen-massaro"; }
+    std::string to_json_text() const override;
+    // τ = segment centre; T, α, θ, φ, c from the phone's entry.
+    std::array<std::vector<CmSegment>, param_count> segments_all(const PhoneSequence& phones) const override;
+
+    const Table& phones() const { return m_phones; }
+    Table& phones() { return m_phones; }
+
+private:
+    Table m_phones;
+};
+
+}  // namespace avsi::synth

@@ -1,0 +1,80 @@
+// Öhman's model of coarticulation as extended by Beskow (§4.3, eq. 15–17):
+// a vowel track v(t) blended between successive vowel targets a_j,
+//
+//     v(t) = Σ_j a_j b_j(t) / Σ_j b_j(t)                          (eq. 17)
+//
+// onto which each consonant i pulls with coarticulation factor w_ci ∈ [0,1]:
+//
+//     z(t) = v(t) + Σ_{i ∈ C} w_ci k_i(t) (c_i − v(t))            (eq. 16)
+//
+// Blend functions are cubic (Hermite "smoothstep") on each side of their
+// peak: b_j is 1 at vowel j's centre and 0 with zero slope at the centres of
+// the neighbouring vowels; k_i is 1 at consonant i's centre and 0 with zero
+// slope at the centres of the preceding and following segments. Both have
+// zero slope at their peak too, so z is continuous with a continuous first
+// derivative everywhere.
+//
+// Decisions (documented here and tested):
+// - Silence (`sil`) is a vowel-like anchor of the vowel track with its own
+//   (neutral) targets, so pauses and utterance edges return to rest rather
+//   than holding the last vowel's shape, and a consonant next to a pause
+//   blends toward rest.
+// - Edges: before the first anchor's centre the vowel track is that anchor's
+//   target (b = 1), after the last likewise; a first/last segment that is a
+//   consonant keeps k = 1 from its centre to the utterance edge.
+// - An utterance with no vowel or silence at all has v(t) = neutral.
+// - Consecutive consonants pull independently; each one's k reaches 0 at its
+//   neighbours' centres, so consonants never coarticulate with each other
+//   (as in the paper).
+//
+// Model file (kind "ohman"):
+//     {"kind": "ohman", "version": 1, "provenance": {…},
+//      "vowels": {"AA": {"jaw_rotation": 0.9, …all 10…}, "sil": {…}, …},
+//      "consonants": {"P": {"jaw_rotation": {"target": 0.1, "w": 0.9}, …}, …}}
+#pragma once
+
+#include <map>
+#include <string>
+
+#include "avsi/synth/control_model.h"
+
+namespace avsi::synth {
+
+struct OhmanConsonantParam {
+    double target = 0.0;       // c_i
+    double coarticulation_factor = 1.0;  // w_ci ∈ [0, 1]
+};
+
+using OhmanConsonant = std::array<OhmanConsonantParam, param_count>;
+
+// The cubic blend half: 0 with zero slope at x = 0, 1 with zero slope at x = 1.
+double smoothstep(double x);
+
+class OhmanModel : public ControlModel {
+public:
+    using VowelTable = std::map<std::string, Frame, std::less<>>;
+    using ConsonantTable = std::map<std::string, OhmanConsonant, std::less<>>;
+
+    OhmanModel(VowelTable vowels, ConsonantTable consonants)
+        : m_vowels(std::move(vowels)), m_consonants(std::move(consonants)) {}
+
+    std::string_view kind() const override { return "ohman"; }
+    void evaluate(const PhoneSequence& phones, std::span<const double> times_s,
+                  std::vector<Frame>& out) const override;
+    std::string to_json_text() const override;
+
+    // The vowel track v(t) alone (eq. 17), for plots and the training gradient.
+    void vowel_track(const PhoneSequence& phones, std::span<const double> times_s,
+                     std::vector<Frame>& out) const;
+
+    const VowelTable& vowels() const { return m_vowels; }
+    const ConsonantTable& consonants() const { return m_consonants; }
+    VowelTable& vowels() { return m_vowels; }
+    ConsonantTable& consonants() { return m_consonants; }
+
+private:
+    VowelTable m_vowels;          // vowels and `sil`: targets a
+    ConsonantTable m_consonants;  // consonants: targets c and factors w
+};
+
+}  // namespace avsi::synth

@@ -1,0 +1,318 @@
+// MPEG-4 FAP streams: the parameter ↔ FAP mapping and the v2.1 text format
+// (see fap.h). The mapping rows, FAP by FAP (MPEG-4 names, FAPU, direction):
+//
+//   3  open_jaw              MNS  down+     jaw_rotation · jaw_open_mm
+//   4  lower_t_midlip        MNS  down+    −upper_lip_raise · lip_raise_mm
+//   5  raise_b_midlip        MNS  up+      −lower_lip_depression · lip_depress_mm
+//   6  stretch_l_cornerlip   MW   out+      stretch_left · corner_stretch_mm − lip_rounding · rounding_mm
+//   7  stretch_r_cornerlip   MW   out+      stretch_right · corner_stretch_mm − lip_rounding · rounding_mm
+//   8  lower_t_lip_lm        MNS  down+     side_fraction × FAP 4
+//   9  lower_t_lip_rm        MNS  down+     side_fraction × FAP 4
+//   10 raise_b_lip_lm        MNS  up+       side_fraction × FAP 5
+//   11 raise_b_lip_rm        MNS  up+       side_fraction × FAP 5
+//   12 raise_l_cornerlip     MNS  up+       stretch_left · corner_raise_fraction · corner_stretch_mm
+//   13 raise_r_cornerlip     MNS  up+       stretch_right · corner_raise_fraction · corner_stretch_mm
+//   14 thrust_jaw            MNS  fwd+      jaw_thrust · jaw_thrust_mm
+//   15 shift_jaw             MW   right+   −jaw_shift · jaw_shift_mm   (jaw_shift is toward the speaker's left)
+//   16 push_b_lip            MNS  fwd+     −lower_lip_retraction · lip_protrusion_mm
+//   17 push_t_lip            MNS  fwd+     −upper_lip_retraction · lip_protrusion_mm
+//   51–60                    the outer-lip twins of 4–13, same rows
+//
+// FAP 18 (depress_chin) is not driven by any parameter and is not written.
+#include "avsi/synth/fap.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "avsi/core/csv.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/core/log.h"
+
+namespace avsi::synth {
+
+namespace {
+
+struct FapRow {
+    int fap;  // 1-based
+    Fapu unit;
+    Frame mm_per_unit{};  // displacement (mm) per unit of each parameter
+};
+
+std::vector<FapRow> mapping_rows(const FapMapping& m) {
+    auto row = [](int fap, Fapu unit) { return FapRow{fap, unit, {}}; };
+    const auto P = [](Param p) { return index(p); };
+    std::vector<FapRow> rows;
+    FapRow r = row(3, Fapu::MNS);
+    r.mm_per_unit[P(Param::JawRotation)] = m.jaw_open_mm;
+    rows.push_back(r);
+    for (int outer : {0, 1}) {
+        const int o = outer ? 47 : 0;  // 4 → 51, …, 13 → 60
+        r = row(4 + o, Fapu::MNS);
+        r.mm_per_unit[P(Param::UpperLipRaise)] = -m.lip_raise_mm;
+        rows.push_back(r);
+        r = row(5 + o, Fapu::MNS);
+        r.mm_per_unit[P(Param::LowerLipDepression)] = -m.lip_depress_mm;
+        rows.push_back(r);
+        r = row(6 + o, Fapu::MW);
+        r.mm_per_unit[P(Param::MouthCornerStretchLeft)] = m.corner_stretch_mm;
+        r.mm_per_unit[P(Param::LipRounding)] = -m.rounding_mm;
+        rows.push_back(r);
+        r = row(7 + o, Fapu::MW);
+        r.mm_per_unit[P(Param::MouthCornerStretchRight)] = m.corner_stretch_mm;
+        r.mm_per_unit[P(Param::LipRounding)] = -m.rounding_mm;
+        rows.push_back(r);
+        for (int fap : {8, 9}) {
+            r = row(fap + o, Fapu::MNS);
+            r.mm_per_unit[P(Param::UpperLipRaise)] = -m.side_fraction * m.lip_raise_mm;
+            rows.push_back(r);
+        }
+        for (int fap : {10, 11}) {
+            r = row(fap + o, Fapu::MNS);
+            r.mm_per_unit[P(Param::LowerLipDepression)] = -m.side_fraction * m.lip_depress_mm;
+            rows.push_back(r);
+        }
+        r = row(12 + o, Fapu::MNS);
+        r.mm_per_unit[P(Param::MouthCornerStretchLeft)] = m.corner_raise_fraction * m.corner_stretch_mm;
+        rows.push_back(r);
+        r = row(13 + o, Fapu::MNS);
+        r.mm_per_unit[P(Param::MouthCornerStretchRight)] = m.corner_raise_fraction * m.corner_stretch_mm;
+        rows.push_back(r);
+    }
+    r = row(14, Fapu::MNS);
+    r.mm_per_unit[P(Param::JawThrust)] = m.jaw_thrust_mm;
+    rows.push_back(r);
+    r = row(15, Fapu::MW);
+    r.mm_per_unit[P(Param::JawShift)] = -m.jaw_shift_mm;
+    rows.push_back(r);
+    r = row(16, Fapu::MNS);
+    r.mm_per_unit[P(Param::LowerLipRetraction)] = -m.lip_protrusion_mm;
+    rows.push_back(r);
+    r = row(17, Fapu::MNS);
+    r.mm_per_unit[P(Param::UpperLipRetraction)] = -m.lip_protrusion_mm;
+    rows.push_back(r);
+    std::sort(rows.begin(), rows.end(), [](const FapRow& a, const FapRow& b) { return a.fap < b.fap; });
+    return rows;
+}
+
+double fapu_mm(Fapu unit, const FapUnits& units) { return unit == Fapu::MNS ? units.mns_mm() : units.mw_mm(); }
+
+// The matrix from parameters to FAP values in FAPU, for the given rows.
+Eigen::MatrixXd fapu_matrix(const std::vector<FapRow>& rows, const FapUnits& units) {
+    Eigen::MatrixXd a(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(param_count));
+    for (std::size_t r = 0; r < rows.size(); ++r)
+        for (std::size_t p = 0; p < param_count; ++p)
+            a(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(p)) =
+                rows[r].mm_per_unit[p] / fapu_mm(rows[r].unit, units);
+    return a;
+}
+
+Eigen::MatrixXd pseudo_inverse(const Eigen::MatrixXd& a) {
+    return Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>(a).pseudoInverse();
+}
+
+}  // namespace
+
+const std::vector<int>& mapped_faps() {
+    static const std::vector<int> faps = [] {
+        std::vector<int> out;
+        for (const auto& r : mapping_rows(FapMapping{})) out.push_back(r.fap);
+        return out;
+    }();
+    return faps;
+}
+
+FapStream trajectory_to_fap(const Trajectory& trajectory, const FapUnits& units, const FapMapping& mapping,
+                            const std::string& name) {
+    const auto rows = mapping_rows(mapping);
+    FapStream out;
+    out.name = name;
+    out.fps = trajectory.fps;
+    out.frames.reserve(trajectory.size());
+    for (const Frame& f : trajectory.frames) {
+        FapFrame frame;
+        for (const auto& r : rows) {
+            double mm = 0.0;
+            for (std::size_t p = 0; p < param_count; ++p) mm += r.mm_per_unit[p] * f[p];
+            frame.mask[r.fap - 1] = true;
+            frame.values[r.fap - 1] = std::round(mm / fapu_mm(r.unit, units));
+        }
+        out.frames.push_back(frame);
+    }
+    return out;
+}
+
+Trajectory fap_to_trajectory(const FapStream& stream, const FapUnits& units, const FapMapping& mapping) {
+    const auto all_rows = mapping_rows(mapping);
+    Trajectory out;
+    out.fps = stream.fps;
+    out.frames.reserve(stream.frames.size());
+    // One least-squares solve per distinct mask (usually one per file).
+    std::map<std::string, std::pair<std::vector<std::size_t>, Eigen::MatrixXd>> solvers;
+    for (const FapFrame& frame : stream.frames) {
+        std::string key;
+        std::vector<std::size_t> present;
+        for (std::size_t r = 0; r < all_rows.size(); ++r) {
+            const bool has = frame.mask[all_rows[r].fap - 1];
+            key += has ? '1' : '0';
+            if (has) present.push_back(r);
+        }
+        auto it = solvers.find(key);
+        if (it == solvers.end()) {
+            std::vector<FapRow> rows;
+            for (std::size_t r : present) rows.push_back(all_rows[r]);
+            Eigen::MatrixXd pinv = rows.empty() ? Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(param_count), 0)
+                                                : pseudo_inverse(fapu_matrix(rows, units));
+            std::vector<std::string> undetermined;
+            for (const auto& info : params()) {
+                bool used = false;
+                for (const auto& r : rows) used = used || r.mm_per_unit[index(info.param)] != 0.0;
+                if (!used) undetermined.emplace_back(info.name);
+            }
+            if (!undetermined.empty())
+                log_warning("FAP stream \"{}\": no FAP present drives {}; left at neutral", stream.name,
+                            fmt::format("{}", fmt::join(undetermined, ", ")));
+            it = solvers.emplace(key, std::make_pair(present, std::move(pinv))).first;
+        }
+        const auto& [rows_present, pinv] = it->second;
+        Eigen::VectorXd b(static_cast<Eigen::Index>(rows_present.size()));
+        for (std::size_t q = 0; q < rows_present.size(); ++q)
+            b(static_cast<Eigen::Index>(q)) = frame.values[all_rows[rows_present[q]].fap - 1];
+        Frame f{};
+        if (!rows_present.empty()) {
+            const Eigen::VectorXd x = pinv * b;
+            for (std::size_t p = 0; p < param_count; ++p) f[p] = x(static_cast<Eigen::Index>(p));
+        }
+        out.frames.push_back(f);
+    }
+    return out;
+}
+
+Frame fap_quantisation_bound(const FapUnits& units, const FapMapping& mapping) {
+    const Eigen::MatrixXd pinv = pseudo_inverse(fapu_matrix(mapping_rows(mapping), units));
+    Frame out{};
+    for (std::size_t p = 0; p < param_count; ++p)
+        out[p] = 0.5 * pinv.row(static_cast<Eigen::Index>(p)).cwiseAbs().sum();
+    return out;
+}
+
+void write_fap(const std::filesystem::path& path, const FapStream& stream) {
+    std::string name = stream.name.empty() ? "avsi" : stream.name;
+    for (char& ch : name)
+        if (std::isspace(static_cast<unsigned char>(ch))) ch = '_';
+    std::string text = fmt::format("2.1 {} {} {}\n", name, stream.fps, stream.frames.size());
+    for (std::size_t k = 0; k < stream.frames.size(); ++k) {
+        const FapFrame& f = stream.frames[k];
+        AVSI_ASSERT(!f.mask[0] && !f.mask[1]);
+        for (int i = 0; i < fap_count; ++i) {
+            text += f.mask[i] ? '1' : '0';
+            text += i + 1 < fap_count ? ' ' : '\n';
+        }
+        text += std::to_string(k);
+        for (int i = 0; i < fap_count; ++i)
+            if (f.mask[i]) text += fmt::format(" {}", f.values[i]);
+        text += '\n';
+    }
+    write_text_file(path, text);
+}
+
+FapStream read_fap(const std::filesystem::path& path) {
+    const std::string text = read_text_file(path);
+    const std::string file = path.string();
+    // Meaningful lines with their numbers.
+    std::vector<std::pair<int, std::vector<std::string>>> lines;
+    {
+        std::istringstream in(text);
+        std::string line;
+        int number = 0;
+        while (std::getline(in, line)) {
+            ++number;
+            if (!line.empty() && line.back() == '\r') line.pop_back();
+            std::istringstream words(line);
+            std::vector<std::string> tokens;
+            for (std::string w; words >> w;) tokens.push_back(w);
+            if (tokens.empty() || tokens[0][0] == '#') continue;
+            lines.emplace_back(number, std::move(tokens));
+        }
+    }
+    if (lines.empty()) throw InputError(path, "empty FAP file: expected a header `2.1 name fps frames`");
+    FapStream out;
+    const auto& [header_line, header] = lines[0];
+    if (header.size() != 4 || header[0] != "2.1")
+        throw InputError(file, header_line, 1, "header",
+                         fmt::format("expected `2.1 name fps frames`, got \"{}\"", fmt::join(header, " ")));
+    out.name = header[1];
+    const auto fps = parse_double(header[2]);
+    if (!fps || *fps <= 0.0)
+        throw InputError(file, header_line, 0, "fps", fmt::format("expected a positive number, got \"{}\"", header[2]));
+    out.fps = *fps;
+    const auto declared = parse_int(header[3]);
+    if (!declared || *declared < 0)
+        throw InputError(file, header_line, 0, "frames",
+                         fmt::format("expected a non-negative integer, got \"{}\"", header[3]));
+    std::size_t li = 1;
+    long long first_number = 0;
+    for (long long k = 0; k < *declared; ++k) {
+        if (li >= lines.size())
+            throw InputError(file, lines.back().first, 0, "frames",
+                             fmt::format("header declares {} frames, file ends after {}", *declared, k));
+        const auto& [mask_line, mask_tokens] = lines[li];
+        if (mask_tokens.size() != static_cast<std::size_t>(fap_count))
+            throw InputError(file, mask_line, 0, fmt::format("frame {} mask", k),
+                             fmt::format("expected {} mask entries (0/1), got {}", fap_count, mask_tokens.size()));
+        FapFrame frame;
+        std::size_t expected_values = 0;
+        for (int i = 0; i < fap_count; ++i) {
+            const std::string& m = mask_tokens[i];
+            if (m != "0" && m != "1")
+                throw InputError(file, mask_line, 0, fmt::format("frame {} mask entry {}", k, i + 1),
+                                 fmt::format("expected 0 or 1, got \"{}\"", m));
+            frame.mask[i] = m == "1";
+            if (frame.mask[i]) expected_values += i == 0 ? 4 : i == 1 ? 6 : 1;
+        }
+        if (li + 1 >= lines.size())
+            throw InputError(file, mask_line, 0, fmt::format("frame {}", k),
+                             "expected a value line after the mask line, got end of file");
+        const auto& [value_line, values] = lines[li + 1];
+        const auto number = parse_int(values[0]);
+        if (!number)
+            throw InputError(file, value_line, 0, fmt::format("frame {} number", k),
+                             fmt::format("expected an integer frame number, got \"{}\"", values[0]));
+        if (k == 0) first_number = *number;
+        if (*number != first_number + k)
+            throw InputError(file, value_line, 0, fmt::format("frame {} number", k),
+                             fmt::format("expected frame number {}, got {}", first_number + k, *number));
+        if (values.size() - 1 != expected_values)
+            throw InputError(file, value_line, 0, fmt::format("frame {} values", k),
+                             fmt::format("expected {} values for the {} FAPs set in the mask, got {}", expected_values,
+                                         std::count(frame.mask.begin(), frame.mask.end(), true), values.size() - 1));
+        std::size_t v = 1;
+        for (int i = 0; i < fap_count; ++i) {
+            if (!frame.mask[i]) continue;
+            const std::size_t width = i == 0 ? 4 : i == 1 ? 6 : 1;
+            for (std::size_t w = 0; w < width; ++w, ++v) {
+                const auto x = parse_double(values[v]);
+                if (!x)
+                    throw InputError(file, value_line, 0, fmt::format("frame {} FAP {}", k, i + 1),
+                                     fmt::format("expected a number, got \"{}\"", values[v]));
+                if (width == 1) frame.values[i] = *x;
+            }
+        }
+        frame.mask[0] = frame.mask[1] = false;  // viseme/expression values dropped
+        out.frames.push_back(frame);
+        li += 2;
+    }
+    if (li < lines.size())
+        throw InputError(file, lines[li].first, 0, "frames",
+                         fmt::format("header declares {} frames, but more lines follow", *declared));
+    return out;
+}
+
+}  // namespace avsi::synth

@@ -1,0 +1,206 @@
+// Öhman's model (Beskow §4.3, eq. 15–17): vowel track plus consonant
+// gestures with cubic blends; edge and silence decisions in ohman.h.
+#include "avsi/synth/ohman.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "avsi/core/error.h"
+#include "model_json.h"
+
+namespace avsi::synth {
+
+double smoothstep(double x) {
+    if (x <= 0.0) return 0.0;
+    if (x >= 1.0) return 1.0;
+    return x * x * (3.0 - 2.0 * x);
+}
+
+namespace {
+
+bool is_anchor(const Phone& phone) { return phone.symbol == "sil" || detail::is_vowel_symbol(phone.symbol); }
+
+// The resolved utterance: centres, and per segment its vowel targets or
+// consonant parameters.
+struct Resolved {
+    std::vector<double> centres;
+    std::vector<double> anchor_centres;
+    std::vector<const Frame*> anchor_targets;
+    std::vector<const OhmanConsonant*> consonant;  // per segment; nullptr for anchors
+};
+
+// Index n of the last centre <= t, or -1 if t is before the first centre.
+long bracket(const std::vector<double>& centres, double t) {
+    return static_cast<long>(std::upper_bound(centres.begin(), centres.end(), t) - centres.begin()) - 1;
+}
+
+// Eq. 17 with cubic blends: between consecutive anchor centres the two
+// blends are 1 − s(x) and s(x) (they sum to 1); beyond the first/last centre
+// the track holds that anchor's target; with no anchor it is neutral.
+Frame vowel_track_at(const Resolved& r, double t) {
+    Frame v{};
+    const std::size_t m = r.anchor_centres.size();
+    if (m == 0) {
+        for (const auto& info : params()) v[index(info.param)] = info.neutral;
+        return v;
+    }
+    const long j = bracket(r.anchor_centres, t);
+    if (j < 0) return *r.anchor_targets.front();
+    if (static_cast<std::size_t>(j) + 1 >= m) return *r.anchor_targets.back();
+    const double a = r.anchor_centres[j], b = r.anchor_centres[j + 1];
+    const double s = smoothstep((t - a) / (b - a));
+    const Frame& left = *r.anchor_targets[j];
+    const Frame& right = *r.anchor_targets[j + 1];
+    for (std::size_t p = 0; p < param_count; ++p) v[p] = left[p] * (1.0 - s) + right[p] * s;
+    return v;
+}
+
+// k_i(t) for the consonant at segment i (eq. 16's blend): 1 at τ_i, 0 with
+// zero slope at τ_{i−1} and τ_{i+1}; held at 1 toward an utterance edge.
+double consonant_blend(const std::vector<double>& c, std::size_t i, double t) {
+    const double tau = c[i];
+    if (t <= tau) {
+        if (i == 0) return 1.0;
+        return smoothstep((t - c[i - 1]) / (tau - c[i - 1]));
+    }
+    if (i + 1 == c.size()) return 1.0;
+    return smoothstep((c[i + 1] - t) / (c[i + 1] - tau));
+}
+
+}  // namespace
+
+void OhmanModel::vowel_track(const PhoneSequence& phones, std::span<const double> times_s,
+                             std::vector<Frame>& out) const {
+    check_phones_for_synthesis(phones);
+    Resolved r;
+    for (std::size_t i = 0; i < phones.size(); ++i) {
+        if (!is_anchor(phones[i])) continue;
+        const Frame* a = find_phone_entry(m_vowels, phones[i]);
+        if (!a) detail::missing_phone(phones[i], i, kind());
+        r.anchor_centres.push_back(phones[i].centre_s());
+        r.anchor_targets.push_back(a);
+    }
+    out.resize(times_s.size());
+    for (std::size_t k = 0; k < times_s.size(); ++k) out[k] = vowel_track_at(r, times_s[k]);
+}
+
+void OhmanModel::evaluate(const PhoneSequence& phones, std::span<const double> times_s,
+                          std::vector<Frame>& out) const {
+    check_phones_for_synthesis(phones);
+    Resolved r;
+    r.consonant.assign(phones.size(), nullptr);
+    for (std::size_t i = 0; i < phones.size(); ++i) {
+        r.centres.push_back(phones[i].centre_s());
+        if (is_anchor(phones[i])) {
+            const Frame* a = find_phone_entry(m_vowels, phones[i]);
+            if (!a) detail::missing_phone(phones[i], i, kind());
+            r.anchor_centres.push_back(phones[i].centre_s());
+            r.anchor_targets.push_back(a);
+        } else {
+            const OhmanConsonant* c = find_phone_entry(m_consonants, phones[i]);
+            if (!c) detail::missing_phone(phones[i], i, kind());
+            r.consonant[i] = c;
+        }
+    }
+    out.resize(times_s.size());
+    for (std::size_t k = 0; k < times_s.size(); ++k) {
+        const double t = times_s[k];
+        const Frame v = vowel_track_at(r, t);
+        Frame z = v;
+        // Only the segments whose centres bracket t can have k_i(t) > 0.
+        const long n = bracket(r.centres, t);
+        for (long i : {n, n + 1}) {
+            if (i < 0 || static_cast<std::size_t>(i) >= phones.size()) continue;
+            const OhmanConsonant* c = r.consonant[static_cast<std::size_t>(i)];
+            if (!c) continue;
+            const double blend = consonant_blend(r.centres, static_cast<std::size_t>(i), t);
+            if (blend == 0.0) continue;
+            for (std::size_t p = 0; p < param_count; ++p)
+                z[p] += (*c)[p].coarticulation_factor * blend * ((*c)[p].target - v[p]);
+        }
+        out[k] = z;
+    }
+}
+
+std::string OhmanModel::to_json_text() const {
+    using detail::json;
+    json j = detail::model_header(*this);
+    json vowels = json::object();
+    for (const auto& [key, targets] : m_vowels) {
+        json t = json::object();
+        for (const auto& info : params()) t[std::string(info.name)] = targets[index(info.param)];
+        vowels[key] = t;
+    }
+    json consonants = json::object();
+    for (const auto& [key, c] : m_consonants) {
+        json t = json::object();
+        for (const auto& info : params()) {
+            const auto& q = c[index(info.param)];
+            t[std::string(info.name)] = json{{"target", q.target}, {"w", q.coarticulation_factor}};
+        }
+        consonants[key] = t;
+    }
+    j["vowels"] = vowels;
+    j["consonants"] = consonants;
+    return j.dump(2) + "\n";
+}
+
+namespace detail {
+
+std::unique_ptr<ControlModel> load_ohman(const json& root, const std::filesystem::path&, JsonReader& reader) {
+    reader.check_keys(root, {"kind", "version", "provenance", "vowels", "consonants"}, "");
+    std::vector<std::string> names;
+    for (const auto& info : params()) names.emplace_back(info.name);
+    auto base_of = [](const std::string& key) {
+        return (key.size() > 1 && (key.back() == '0' || key.back() == '1')) ? key.substr(0, key.size() - 1) : key;
+    };
+    OhmanModel::VowelTable vowels;
+    if (const json* node = reader.require(root, "vowels", "/vowels")) {
+        for (const auto& [key, entry] : node->items()) {
+            const std::string base = "/vowels/" + pointer_token(key);
+            if (!reader.phone_key(key, base)) continue;
+            if (base_of(key) != "sil" && !is_vowel_symbol(base_of(key))) {
+                reader.error(base, fmt::format("\"{}\" is a consonant; it belongs under /consonants", key));
+                continue;
+            }
+            reader.check_keys(entry, names, base, "parameter");
+            Frame f{};
+            for (const auto& info : params()) {
+                const std::string pp = base + "/" + std::string(info.name);
+                if (const json* v = reader.require(entry, std::string(info.name), pp))
+                    if (auto x = reader.param_value(*v, info.param, pp)) f[index(info.param)] = *x;
+            }
+            vowels[key] = f;
+        }
+    }
+    OhmanModel::ConsonantTable consonants;
+    if (const json* node = reader.require(root, "consonants", "/consonants")) {
+        for (const auto& [key, entry] : node->items()) {
+            const std::string base = "/consonants/" + pointer_token(key);
+            if (!reader.phone_key(key, base)) continue;
+            if (base_of(key) == "sil" || is_vowel_symbol(base_of(key))) {
+                reader.error(base, fmt::format("\"{}\" is a vowel or silence; it belongs under /vowels", key));
+                continue;
+            }
+            reader.check_keys(entry, names, base, "parameter");
+            OhmanConsonant c{};
+            for (const auto& info : params()) {
+                const std::string pp = base + "/" + std::string(info.name);
+                const json* q = reader.require(entry, std::string(info.name), pp);
+                if (!q) continue;
+                reader.check_keys(*q, {"target", "w"}, pp);
+                if (const json* t = reader.require(*q, "target", pp + "/target"))
+                    if (auto x = reader.param_value(*t, info.param, pp + "/target")) c[index(info.param)].target = *x;
+                if (auto w = reader.number_field(*q, "w", pp + "/w", 0.0, 1.0))
+                    c[index(info.param)].coarticulation_factor = *w;
+            }
+            consonants[key] = c;
+        }
+    }
+    return std::make_unique<OhmanModel>(std::move(vowels), std::move(consonants));
+}
+
+}  // namespace detail
+}  // namespace avsi::synth

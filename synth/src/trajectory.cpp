@@ -1,0 +1,94 @@
+// Trajectory frame counts and CSV I/O (`time_s,<param>…`).
+#include "avsi/synth/trajectory.h"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "avsi/core/csv.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+
+namespace avsi::synth {
+
+std::size_t frame_count(double duration_s, double fps) {
+    AVSI_ASSERT(fps > 0.0);
+    if (!(duration_s > 0.0)) return 0;
+    return static_cast<std::size_t>(std::ceil(duration_s * fps - 1e-9));
+}
+
+Trajectory read_trajectory_csv(const std::filesystem::path& path) {
+    const CsvTable table = read_csv(path);
+    const std::string file = path.string();
+    const std::size_t time_col = table.require_column("time_s");
+    std::array<std::size_t, param_count> cols{};
+    for (const auto& info : params()) cols[index(info.param)] = table.require_column(info.name);
+
+    DiagnosticList problems;
+    std::vector<double> times;
+    Trajectory out;
+    for (const auto& row : table.rows) {
+        if (row.fields.size() != table.header.size()) {
+            problems.add(file, row.line, 0, "",
+                         fmt::format("expected {} fields, got {}", table.header.size(), row.fields.size()));
+            continue;
+        }
+        const auto t = parse_double(row.fields[time_col]);
+        if (!t) {
+            problems.add(file, row.line, static_cast<int>(time_col) + 1, "time_s",
+                         fmt::format("expected a number, got \"{}\"", row.fields[time_col]));
+            continue;
+        }
+        Frame frame{};
+        for (const auto& info : params()) {
+            const std::size_t c = cols[index(info.param)];
+            const auto v = parse_double(row.fields[c]);
+            if (!v) {
+                problems.add(file, row.line, static_cast<int>(c) + 1, std::string(info.name),
+                             fmt::format("expected a number, got \"{}\"", row.fields[c]));
+                continue;
+            }
+            frame[index(info.param)] = *v;
+        }
+        times.push_back(*t);
+        out.frames.push_back(frame);
+    }
+    problems.throw_if_any();
+    if (times.size() < 2)
+        throw InputError(path, fmt::format("expected at least 2 frames to know the frame rate, got {}",
+                                           times.size()));
+    if (std::abs(times[0]) > 1e-6)
+        throw InputError(file, table.rows[0].line, 0, "time_s",
+                         fmt::format("expected the first frame at 0 s, got {}", times[0]));
+    double fps = 1.0 / (times[1] - times[0]);
+    if (!(fps > 0.0) || !std::isfinite(fps))
+        throw InputError(file, table.rows[1].line, 0, "time_s", "expected increasing times");
+    if (std::abs(fps - std::round(fps)) < 1e-6 * fps) fps = std::round(fps);
+    // A constant step: every time within 1 µs of k / fps.
+    for (std::size_t k = 0; k < times.size(); ++k) {
+        const double expected = static_cast<double>(k) / fps;
+        if (std::abs(times[k] - expected) > 1e-6)
+            throw InputError(file, table.rows[k].line, 0, "time_s",
+                             fmt::format("expected a constant frame step of {} s (frame {} at {} s), got {}",
+                                         1.0 / fps, k, expected, times[k]));
+    }
+    out.fps = fps;
+    return out;
+}
+
+void write_trajectory_csv(const std::filesystem::path& path, const Trajectory& trajectory) {
+    std::string text = "time_s";
+    for (const auto& info : params()) {
+        text += ',';
+        text += info.name;
+    }
+    text += '\n';
+    for (std::size_t k = 0; k < trajectory.size(); ++k) {
+        text += fmt::format("{}", trajectory.time_s(k));
+        for (double v : trajectory.frames[k]) text += fmt::format(",{}", v);
+        text += '\n';
+    }
+    write_text_file(path, text);
+}
+
+}  // namespace avsi::synth
