@@ -123,9 +123,21 @@ void cohen_massaro_bounded(std::span<const CmSegment> segments, std::span<const 
     for (std::size_t i = 0; i < n; ++i) taus[i] = segs[i].tau;
 
     std::vector<std::size_t> candidates;
-    std::vector<double> logs;
+    std::vector<double> logs, num, den;
     std::size_t k = 0;
     const std::size_t frames = times_s.size();
+    // Uniformly spaced times allow the c = 1 recurrence (see step 5).
+    bool uniform = frames >= 2;
+    const double step = uniform ? (times_s[frames - 1] - times_s[0]) / static_cast<double>(frames - 1) : 0.0;
+    for (std::size_t f = 0; uniform && f < frames; ++f)
+        uniform = std::abs(times_s[f] - (times_s[0] + step * static_cast<double>(f))) <= 1e-12 * (1.0 + std::abs(times_s[f]));
+    std::vector<double> rise_factor(n), fall_factor(n), last_weight(n, 0.0);
+    std::vector<std::size_t> last_frame(n, static_cast<std::size_t>(-2));
+    if (uniform)
+        for (std::size_t i = 0; i < n; ++i) {
+            rise_factor[i] = std::exp(segs[i].theta * step);
+            fall_factor[i] = std::exp(-segs[i].phi * step);
+        }
     for (std::size_t j = 0; j < n && k < frames; ++j) {
         // Step 2: the frames of cell j (nearer τ_j than the next centre).
         const double upper = j + 1 < n ? 0.5 * (taus[j] + taus[j + 1]) : std::numeric_limits<double>::infinity();
@@ -149,8 +161,49 @@ void cohen_massaro_bounded(std::span<const CmSegment> segments, std::span<const 
             if (s.tau - reach(x, s.theta, s.c) > tb || s.tau + reach(x, s.phi, s.c) < ta) continue;
             candidates.push_back(i);
         }
+        // Step 5: the weighted mean over the candidates.
+        if (uniform && ln_delta > -680.0) {
+            // Absolute dominances (every kept one is >= δ_j > e^−680, none
+            // overflows), for c = 1 by the recurrence D(t + h) = D(t)·e^{±rate·h}
+            // along the frames, continued from the previous cell.
+            num.assign(k - k0, 0.0);
+            den.assign(k - k0, 0.0);
+            for (std::size_t i : candidates) {
+                const Seg& sg = segs[i];
+                if (sg.c != 1.0) {
+                    for (std::size_t f = k0; f < k; ++f) {
+                        const double w = std::exp(log_dom(sg, times_s[f]));
+                        num[f - k0] += sg.target * w;
+                        den[f - k0] += w;
+                    }
+                    continue;
+                }
+                const double rise = rise_factor[i], fall = fall_factor[i];
+                double w;
+                if (last_frame[i] + 1 == k0 && k0 > 0 && (times_s[k0 - 1] < sg.tau) == (times_s[k0] < sg.tau))
+                    w = last_weight[i] * (times_s[k0] < sg.tau ? rise : fall);
+                else
+                    w = std::exp(log_dom(sg, times_s[k0]));
+                num[0] += sg.target * w;
+                den[0] += w;
+                for (std::size_t f = k0 + 1; f < k; ++f) {
+                    const bool before = times_s[f] < sg.tau;
+                    if (before == (times_s[f - 1] < sg.tau))
+                        w *= before ? rise : fall;
+                    else
+                        w = std::exp(log_dom(sg, times_s[f]));  // crossed the peak
+                    num[f - k0] += sg.target * w;
+                    den[f - k0] += w;
+                }
+                last_frame[i] = k - 1;
+                last_weight[i] = w;
+            }
+            for (std::size_t f = k0; f < k; ++f) out[f] = num[f - k0] / den[f - k0];
+            continue;
+        }
+        // General times or extreme dominance ranges: per frame in the log
+        // domain, shifted by the largest dominance.
         logs.resize(candidates.size());
-        // Step 5: the weighted mean over the kept segments, log-shifted.
         for (std::size_t f = k0; f < k; ++f) {
             const double t = times_s[f];
             double top = -std::numeric_limits<double>::infinity();
@@ -158,14 +211,14 @@ void cohen_massaro_bounded(std::span<const CmSegment> segments, std::span<const 
                 logs[q] = log_dom(segs[candidates[q]], t);
                 top = std::max(top, logs[q]);
             }
-            double num = 0.0, den = 0.0;
+            double num_f = 0.0, den_f = 0.0;
             for (std::size_t q = 0; q < candidates.size(); ++q) {
                 if (logs[q] < ln_delta) continue;
                 const double w = std::exp(logs[q] - top);
-                num += segs[candidates[q]].target * w;
-                den += w;
+                num_f += segs[candidates[q]].target * w;
+                den_f += w;
             }
-            out[f] = num / den;
+            out[f] = num_f / den_f;
         }
     }
 }

@@ -18,8 +18,11 @@
 // spread of the targets, N the number of segments). The skipped segments
 // change z by at most ΔT·Σ_skipped D / Σ_kept D < N·δ_j·ΔT / L_j = ε, so the
 // result stays within ε of the full sum. Each segment's reach follows from
-// solving α·exp(−θ r^c) = δ for r. Sums run in the log domain, shifted by
-// the largest dominance, so they neither underflow nor overflow.
+// solving α·exp(−θ r^c) = δ for r. On uniformly spaced frames the kept
+// dominances are summed as absolute values (all >= δ_j, so no underflow),
+// for c = 1 by the exact recurrence D(t + h) = D(t)·exp(±rate·h); otherwise
+// (or when δ_j < e^−680) per frame in the log domain, shifted by the largest
+// dominance.
 #pragma once
 
 #include <array>
