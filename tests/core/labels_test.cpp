@@ -6,9 +6,11 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/rng.h"
 
 namespace avsi {
 namespace {
@@ -145,6 +147,37 @@ INSTANTIATE_TEST_SUITE_P(
                       MalformedCase{"unknown_phone.TextGrid", 44, "unknown phone label \"QQ9\""},
                       MalformedCase{"malformed.lab", 3, "x4000000"},
                       MalformedCase{"malformed.tsv", 3, "expected 3 fields"}));
+
+TEST(TextGrid, DamagedFilesNeverCrash) {
+    // Property: every truncation and seeded byte damage of a valid TextGrid
+    // either reads or throws InputError naming the file.
+    const fs::path dir = temp_dir();
+    const fs::path path = dir / "damaged.TextGrid";
+    for (const char* name : {"long.TextGrid", "short.TextGrid"}) {
+        const std::string good = read_text_file(data_dir / name);
+        std::vector<std::string> variants;
+        for (std::size_t n = 0; n < good.size(); n += 29) variants.push_back(good.substr(0, n));
+        const std::uint64_t seed = 20240601;
+        SCOPED_TRACE(::testing::Message() << name << " seed " << seed);
+        Rng rng(seed);
+        const std::string alphabet = "\"<>[]=:!-.0123456789 \nxabc\xC3\xFF";
+        for (int k = 0; k < 150; ++k) {
+            std::string damaged = good;
+            for (int d = 0; d < 3; ++d)
+                damaged[rng.uniform_int(damaged.size())] = alphabet[rng.uniform_int(alphabet.size())];
+            variants.push_back(std::move(damaged));
+        }
+        for (const auto& text : variants) {
+            std::ofstream(path, std::ios::binary | std::ios::trunc) << text;  // no fsync: fast
+            try {
+                (void)read_phones(path);
+            } catch (const InputError& e) {
+                EXPECT_EQ(e.first().path, path.string());
+            }
+        }
+    }
+    fs::remove_all(dir);
+}
 
 TEST(TextGrid, MissingTierListsTheTiers) {
     LabelReadOptions options;
