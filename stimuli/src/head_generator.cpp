@@ -381,7 +381,7 @@ void build_lids(Generated& g, glm::vec3 center, float radius) {
             for (int j = 0; j <= naz; ++j) {
                 const float az = -az_max + 2.0f * az_max * float(j) / float(naz);
                 const float edge = upper ? 0.44f * std::cos(az * 0.86f) - 0.02f : -0.30f * std::cos(az * 0.86f) + 0.02f;
-                const float far = upper ? 1.25f : -1.1f;
+                const float far = upper ? 1.55f : -1.1f;
                 const float el = edge + (far - edge) * t;
                 glm::vec3 c = i == 0 ? lash_color : (i == 1 ? mix3(lid_color, lash_color, upper ? 0.5f : 0.2f) : lid_color);
                 // A lid fold: the upper lid's skin swells slightly above the edge.
@@ -609,7 +609,7 @@ nlohmann::json make_rig(const Generated& g) {
         op["note"] = note;
         transforms.push_back(op);
     };
-    add("lip_rounding", {{"scale", {{"pivot", vec(mc)}, {"factor", {-0.45, 0.05, 0.0}}}}}, lips,
+    add("lip_rounding", {{"scale", {{"pivot", vec(mc)}, {"factor", {-0.55, 0.05, 0.0}}}}}, lips,
         "narrow the mouth toward its centre (negative spreads it)");
     add("lip_rounding", {{"translate", {0.0, 0.0, 5.0}}}, lips, "rounded lips protrude");
     add("lip_rounding", {{"translate", {0.0, 2.4, 0.0}}}, upper_centre, "open the middle into an O: upper lip up");
@@ -623,10 +623,10 @@ nlohmann::json make_rig(const Generated& g) {
     add("mouth_corner_stretch_right", {{"translate", {-5.0, 0.6, -2.5}}}, corner(-1.0f), "right corner outward");
     add("jaw_thrust", {{"translate", {0.0, 0.0, 4.0}}}, jaw, "jaw forward");
     add("jaw_shift", {{"translate", {4.0, 0.0, 0.0}}}, jaw, "jaw to the speaker's left");
-    add("jaw_rotation", {{"rotate", {{"pivot", vec(hinge)}, {"axis", {1.0, 0.0, 0.0}}, {"angle_deg", 13.0}}}}, jaw,
+    add("jaw_rotation", {{"rotate", {{"pivot", vec(hinge)}, {"axis", {1.0, 0.0, 0.0}}, {"angle_deg", 15.0}}}}, jaw,
         "open the jaw about the condylar hinge (1 = ~20 mm incisor gap)");
     for (const auto* eye : {&g.left_eye, &g.right_eye}) {
-        add("blink", {{"rotate", {{"pivot", vec(*eye)}, {"axis", {1.0, 0.0, 0.0}}, {"angle_deg", 44.0}}}},
+        add("blink", {{"rotate", {{"pivot", vec(*eye)}, {"axis", {1.0, 0.0, 0.0}}, {"angle_deg", 46.0}}}},
             json{{"groups", {"upper_lids"}}, {"falloff", {ellipsoid(*eye, {20, 20, 20}, 0.9f)}}},
             "close the upper eyelid");
     }

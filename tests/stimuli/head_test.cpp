@@ -1,0 +1,118 @@
+// The built-in head: mesh size and regions, reproducible generation, the
+// FAPUs, rig loading errors, and what the rig transforms do.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/stimuli/head.h"
+#include "avsi/stimuli/head_generator.h"
+
+namespace avsi::stimuli {
+namespace {
+
+using synth::index;
+using synth::Param;
+
+const Head& head() {
+    static const Head h = load_default_head();
+    return h;
+}
+
+float mean_y(const PosedMesh& posed, const Head& h, const std::string& group) {
+    const int g = h.mesh.group_index(group);
+    double sum = 0;
+    std::size_t n = 0;
+    for (std::size_t t = 0; t < h.mesh.triangle_group.size(); ++t)
+        if (h.mesh.triangle_group[t] == g)
+            for (int k = 0; k < 3; ++k, ++n) sum += posed.positions[h.mesh.indices[3 * t + static_cast<std::size_t>(k)]].y;
+    return static_cast<float>(sum / double(n));
+}
+
+TEST(Head, DefaultMeshHasTheFaceRegionsAndEnoughTriangles) {
+    EXPECT_GE(head().mesh.triangle_count(), 8000u);
+    for (const char* g : {"skin", "upper_lip", "lower_lip", "upper_cavity", "lower_cavity", "upper_teeth",
+                          "lower_teeth", "tongue", "eyes", "upper_lids", "neck"})
+        EXPECT_GE(head().mesh.group_index(g), 0) << g;
+    EXPECT_LT(std::filesystem::file_size(default_head_obj()), 5u * 1024 * 1024);
+}
+
+TEST(Head, GeneratorReproducesTheCommittedFiles) {
+    const auto dir = std::filesystem::temp_directory_path() / "avsi_head_gen_test";
+    generate_head(dir / "head.obj", dir / "head.rig.json");
+    EXPECT_EQ(sha256_file(dir / "head.obj"), sha256_file(default_head_obj()))
+        << "protocols/head/head.obj is out of date: run scripts/make-head";
+    EXPECT_EQ(sha256_file(dir / "head.rig.json"), sha256_file(default_head_rig()));
+    std::filesystem::remove_all(dir);
+}
+
+TEST(Head, FapusAreAdultProportions) {
+    const Fapu f = fapu(head());
+    EXPECT_NEAR(f.es, 62.0, 6.0);    // eye separation, mm
+    EXPECT_NEAR(f.mw, 48.0, 6.0);    // mouth width
+    EXPECT_NEAR(f.ens, 45.0, 8.0);   // eye to nose bottom
+    EXPECT_NEAR(f.mns, 18.0, 6.0);   // nose bottom to mouth
+    EXPECT_NEAR(f.irisd, 11.5, 1.0);
+}
+
+TEST(Head, RestPoseIsTheNeutralMesh) {
+    PosedMesh posed;
+    pose_head(head(), Pose{}, posed);
+    ASSERT_EQ(posed.positions.size(), head().mesh.positions.size());
+    EXPECT_TRUE(std::equal(posed.positions.begin(), posed.positions.end(), head().mesh.positions.begin()));
+}
+
+TEST(Head, JawRotationLowersTheLowerTeethAndLipButNotTheUpperTeeth) {
+    PosedMesh rest, open;
+    pose_head(head(), Pose{}, rest);
+    Pose p;
+    p.params[index(Param::JawRotation)] = 1.0;
+    pose_head(head(), p, open);
+    const float lower_drop = mean_y(rest, head(), "lower_teeth") - mean_y(open, head(), "lower_teeth");
+    EXPECT_GT(lower_drop, 10.0f);  // the row's mean: ~20 mm at the incisors, less at the back
+    EXPECT_LT(lower_drop, 25.0f);
+    EXPECT_FLOAT_EQ(mean_y(rest, head(), "upper_teeth"), mean_y(open, head(), "upper_teeth"));
+    EXPECT_GT(mean_y(rest, head(), "lower_lip") - mean_y(open, head(), "lower_lip"), 12.0f);
+}
+
+TEST(Head, RoundingNarrowsTheMouthAndSpreadingWidensIt) {
+    auto width = [&](double rounding) {
+        Pose p;
+        p.params[index(Param::LipRounding)] = rounding;
+        PosedMesh posed;
+        pose_head(head(), p, posed);
+        const int g = head().mesh.group_index("upper_lip");
+        float lo = 1e9f, hi = -1e9f;
+        for (std::size_t t = 0; t < head().mesh.triangle_group.size(); ++t)
+            if (head().mesh.triangle_group[t] == g)
+                for (int k = 0; k < 3; ++k) {
+                    const float x = posed.positions[head().mesh.indices[3 * t + static_cast<std::size_t>(k)]].x;
+                    lo = std::min(lo, x);
+                    hi = std::max(hi, x);
+                }
+        return hi - lo;
+    };
+    EXPECT_LT(width(1.0), 0.75f * width(0.0));
+    EXPECT_GT(width(-0.5), 1.1f * width(0.0));
+}
+
+TEST(Head, RigWithUnknownChannelNamesTheFieldAndSuggests) {
+    const auto dir = std::filesystem::temp_directory_path() / "avsi_rig_test";
+    write_text_file(dir / "bad.rig.json",
+                    R"({"format": "avsi-rig", "landmarks": {}, "transforms": [
+                        {"channel": "jaw_rotaton", "translate": [0, 1, 0]}]})");
+    try {
+        load_head(default_head_obj(), dir / "bad.rig.json");
+        FAIL() << "expected InputError";
+    } catch (const InputError& e) {
+        const std::string text = e.what();
+        EXPECT_NE(text.find("transforms[0].channel"), std::string::npos) << text;
+        EXPECT_NE(text.find("did you mean 'jaw_rotation'"), std::string::npos) << text;
+    }
+    std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace avsi::stimuli

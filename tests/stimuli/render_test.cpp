@@ -1,0 +1,164 @@
+// Rendering (OSMesa, llvmpipe): golden images of the rest pose and several
+// articulations compared with OIIO under thresholds, and region-mask checks
+// of lip closure and jaw opening. AVSI_UPDATE_GOLDEN=1 rewrites the goldens.
+#include <gtest/gtest.h>
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+
+#include <cstdlib>
+#include <map>
+#include <set>
+
+#include "avsi/stimuli/contact_sheet.h"
+#include "avsi/stimuli/image_io.h"
+#include "avsi/stimuli/renderer.h"
+
+namespace avsi::stimuli {
+namespace {
+
+const Head& head() {
+    static const Head h = load_default_head();
+    return h;
+}
+
+Pose target(const std::string& phone) {
+    static const auto entries = read_sheet_targets(default_sheet_targets());
+    for (const auto& e : entries)
+        if (e.phone == phone) return e.pose;
+    ADD_FAILURE() << "no target for " << phone;
+    return {};
+}
+
+// A close-up of the lower face, as the contact sheet shows it.
+OffscreenRenderer& closeup() {
+    static RenderSettings rs = [] {
+        RenderSettings s;
+        s.width = 320;
+        s.height = 240;
+        s.framing_mm = 150.0f;
+        return s;
+    }();
+    static OffscreenRenderer r(head(), rs);
+    return r;
+}
+
+struct MouthMeasure {
+    int opening_pixels = 0;  // cavity, inner lip, teeth or tongue visible
+    int opening_height = 0;  // rows with opening pixels in the middle column band
+    int mouth_width = 0;     // horizontal extent of the lips
+};
+
+MouthMeasure measure(const Image& regions) {
+    std::set<int> opening, lips;
+    for (const char* g : {"upper_cavity", "lower_cavity", "upper_inner", "lower_inner", "upper_teeth", "lower_teeth", "tongue"})
+        opening.insert(head().mesh.group_index(g) + 1);
+    for (const char* g : {"upper_lip", "lower_lip"}) lips.insert(head().mesh.group_index(g) + 1);
+    MouthMeasure m;
+    int lo = regions.width, hi = -1;
+    for (int y = 0; y < regions.height; ++y) {
+        bool row_open = false;
+        for (int x = 0; x < regions.width; ++x) {
+            const int id = regions.pixel(x, y)[0];
+            if (opening.count(id)) {
+                ++m.opening_pixels;
+                if (std::abs(x - regions.width / 2) <= 3) row_open = true;
+            }
+            if (lips.count(id)) lo = std::min(lo, x), hi = std::max(hi, x);
+        }
+        m.opening_height += row_open ? 1 : 0;
+    }
+    m.mouth_width = hi >= lo ? hi - lo + 1 : 0;
+    return m;
+}
+
+TEST(Renderer, RunsOnOsmesaCoreProfile) {
+    EXPECT_FALSE(closeup().gl_renderer().empty());
+    const Image image = closeup().render(Pose{});
+    EXPECT_EQ(image.width, 320);
+    EXPECT_EQ(image.height, 240);
+    // The corner is background, the centre is face.
+    EXPECT_NE(image.pixel(160, 120)[0], image.pixel(0, 0)[0]);
+}
+
+TEST(Renderer, BilabialTargetShowsNoOralCavityBetweenTheLips) {
+    for (const char* phone : {"sil", "P"}) {
+        SCOPED_TRACE(phone);
+        const MouthMeasure m = measure(closeup().render(target(phone), RenderMode::Regions));
+        EXPECT_EQ(m.opening_pixels, 0);
+        EXPECT_GT(m.mouth_width, 40);
+    }
+}
+
+// At /ɑ/ the vertical opening at the midline is at least 25 % of the mouth width
+// (the lips' full horizontal extent; measured 0.29 with the built-in head).
+TEST(Renderer, OpenVowelOpensTheMouthToAStatedFractionOfItsWidth) {
+    const MouthMeasure m = measure(closeup().render(target("AA"), RenderMode::Regions));
+    ASSERT_GT(m.mouth_width, 0);
+    EXPECT_GE(double(m.opening_height) / double(m.mouth_width), 0.25)
+        << "opening " << m.opening_height << " px, width " << m.mouth_width << " px";
+}
+
+TEST(Renderer, RoundedVowelIsNarrowerThanSpreadVowel) {
+    const MouthMeasure u = measure(closeup().render(target("UW"), RenderMode::Regions));
+    const MouthMeasure i = measure(closeup().render(target("IY"), RenderMode::Regions));
+    EXPECT_LT(u.mouth_width, 0.8 * i.mouth_width);
+}
+
+TEST(Renderer, LabiodentalShowsUpperTeethAboveTheLowerLip) {
+    const Image regions = closeup().render(target("F"), RenderMode::Regions);
+    const int upper_teeth = head().mesh.group_index("upper_teeth") + 1;
+    int n = 0;
+    for (std::size_t i = 0; i < regions.rgb.size(); i += 3) n += regions.rgb[i] == upper_teeth;
+    EXPECT_GT(n, 50);
+}
+
+TEST(Renderer, BlinkClosesTheEyes) {
+    RenderSettings rs;
+    rs.width = 320;
+    rs.height = 240;
+    OffscreenRenderer r(head(), rs);
+    const int eyes = head().mesh.group_index("eyes") + 1;
+    auto eye_pixels = [&](double blink) {
+        Pose p;
+        p.blink = blink;
+        const Image img = r.render(p, RenderMode::Regions);
+        int n = 0;
+        for (std::size_t i = 0; i < img.rgb.size(); i += 3) n += img.rgb[i] == eyes;
+        return n;
+    };
+    EXPECT_GT(eye_pixels(0.0), 40);
+    EXPECT_EQ(eye_pixels(1.0), 0);
+}
+
+class Golden : public ::testing::TestWithParam<const char*> {};
+
+// Rendered frames against tests/data/stimuli/golden_<phone>.png: fail when
+// more than 0.5 % of pixels differ by more than 0.1, warn at 0.02.
+TEST_P(Golden, MatchesReferenceImage) {
+    const std::string phone = GetParam();
+    const Image image = closeup().render(target(phone));
+    const std::string path = std::string(AVSI_TEST_DATA_DIR) + "/stimuli/golden_" + phone + ".png";
+    const char* update = std::getenv("AVSI_UPDATE_GOLDEN");
+    if (update && std::string(update) == "1") {
+        write_png(path, image);
+        GTEST_SKIP() << "rewrote " << path;
+    }
+    OIIO::ImageBuf actual(OIIO::ImageSpec(image.width, image.height, 3, OIIO::TypeDesc::UINT8),
+                          const_cast<std::uint8_t*>(image.rgb.data()));
+    OIIO::ImageBuf reference(path);
+    ASSERT_TRUE(reference.read()) << "missing golden " << path << " (run with AVSI_UPDATE_GOLDEN=1)";
+    const auto result = OIIO::ImageBufAlgo::compare(actual, reference, 0.1f, 0.02f);
+    const double pixels = double(image.width) * double(image.height);
+    EXPECT_FALSE(result.error);
+    EXPECT_LE(double(result.nfail) / pixels, 0.005) << "max error " << result.maxerror << " at " << result.maxx
+                                                   << "," << result.maxy;
+    if (double(result.nwarn) / pixels > 0.02)
+        std::fprintf(stderr, "warning: %s: %llu pixels differ by more than 0.02\n", path.c_str(),
+                     static_cast<unsigned long long>(result.nwarn));
+}
+
+INSTANTIATE_TEST_SUITE_P(Articulations, Golden, ::testing::Values("sil", "P", "F", "UW", "IY", "AA"));
+
+}  // namespace
+}  // namespace avsi::stimuli
