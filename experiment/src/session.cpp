@@ -9,6 +9,9 @@
 namespace avsi::experiment {
 
 namespace {
+// Clock sums (t + 0.1 − t) can land a few ulps short of a duration.
+constexpr double time_slack_ms = 1e-6;
+
 bool blank(const std::string& s) {
     return std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isspace(c) != 0; });
 }
@@ -113,12 +116,12 @@ void SessionMachine::continue_pressed(double now_s) {
 }
 
 void SessionMachine::tick(double now_s) {
-    if (m_screen == Screen::Fixation && (now_s - m_state_start_s) * 1000.0 >= m_settings.fixation_ms) {
+    if (m_screen == Screen::Fixation && (now_s - m_state_start_s) * 1000.0 >= m_settings.fixation_ms - time_slack_ms) {
         m_screen = Screen::Stimulus;
         m_state_start_s = now_s;
         m_actions.push_back({SessionAction::Kind::StartStimulus, m_current, {}});
     } else if (m_screen == Screen::Wait &&
-               (now_s - m_state_start_s) * 1000.0 >= m_settings.response_delay_ms) {
+               (now_s - m_state_start_s) * 1000.0 >= m_settings.response_delay_ms - time_slack_ms) {
         m_screen = Screen::Response;
         m_state_start_s = now_s;
         m_response_start_s = now_s;
