@@ -12,6 +12,8 @@
 #include <map>
 #include <set>
 #include <thread>
+#include <algorithm>
+#include <cmath>
 
 #include "avsi/core/csv.h"
 #include "avsi/core/rng.h"
@@ -24,6 +26,7 @@ namespace {
 using testing::GeneratedStudy;
 using testing::temp_dir;
 using testing::write_study;
+namespace fs = std::filesystem;
 
 // One Xvfb server for the whole suite; DISPLAY points at it.
 class RunnerE2E : public ::testing::Test {
@@ -164,7 +167,9 @@ TEST_F(RunnerE2E, SigkillAtRandomPointsThenResumeLosesAndRepeatsNothing) {
         Store store(db);
         const auto plan = store.planned_trials(1);
         if (first_plan.empty()) first_plan = plan;
-        if (!plan.empty()) EXPECT_EQ(plan, first_plan) << "the trial sequence changed after a kill";
+        if (!plan.empty()) {
+            EXPECT_EQ(plan, first_plan) << "the trial sequence changed after a kill";
+        }
         const auto answered = store.answered_positions(1);
         // Nothing committed is lost: the answered set only grows.
         EXPECT_TRUE(std::includes(answered.begin(), answered.end(), answered_before.begin(), answered_before.end()));
