@@ -559,6 +559,22 @@ std::string describe(const VocoderSettings& s, double rate) {
                      "sections per band), bilinear transform with pre-warped edges, -3 dB at the band "
                      "edges, skirts {} dB/octave; {}",
                      ordinal(s.filter_order), 2 * s.filter_order, s.filter_order, slope_db, phase));
+    if (!s.zero_phase) {
+        // Group delay at each band centre, -dφ/dω by a central difference of
+        // the analysis filter's phase (the re-filter adds as much again).
+        std::vector<double> delays_ms;
+        for (std::size_t b = 0; b + 1 < edges.size(); ++b) {
+            const Sos sos = butterworth_bandpass(s.filter_order, edges[b], edges[b + 1], rate);
+            const double df = 1e-3 * (edges[b + 1] - edges[b]);
+            const double dphi = std::arg(sos_response(sos, centres[b] + df, rate) /
+                                         sos_response(sos, centres[b] - df, rate));
+            delays_ms.push_back(-dphi / (2.0 * kPi * 2.0 * df) * 1000.0);
+        }
+        std::string text;
+        for (std::size_t b = 0; b < delays_ms.size(); ++b) text += fmt::format("{}{:.2f}", b ? ", " : "", delays_ms[b]);
+        line("Group delay (ms)", text + " at the band centres, per analysis filter pass (causal filtering "
+                                        "delays narrow bands most; use zero phase to avoid it)");
+    }
     line("Envelope", fmt::format("{}, then a {}-order Butterworth low-pass at {} Hz ({} dB/octave, {}); "
                                  "negative values of the smoothed envelope set to 0",
                                  envelope, ordinal(s.envelope_filter_order), format_hz(s.envelope_cutoff_hz),

@@ -1,0 +1,35 @@
+// `avsi stoi`: the STOI (or ESTOI) of a degraded WAV against its clean version.
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "avsi/core/audio.h"
+#include "avsi/vocoder/stoi.h"
+#include "command.h"
+
+namespace avsi::cli {
+namespace {
+
+struct StoiOptions {
+    std::string clean, degraded;
+    bool extended = false;
+};
+
+const bool registered = register_command({
+    "stoi",
+    "Short-time objective intelligibility (STOI, or ESTOI with --extended) of a degraded file against the clean one",
+    [](CLI::App& sub) -> std::function<int()> {
+        auto o = std::make_shared<StoiOptions>();
+        sub.add_option("clean", o->clean, "Clean reference WAV")->required()->check(CLI::ExistingFile);
+        sub.add_option("degraded", o->degraded, "Degraded WAV (same rate and length)")->required()->check(CLI::ExistingFile);
+        sub.add_flag("--extended", o->extended, "Extended STOI (Jensen & Taal 2016) instead of STOI");
+        return [o] {
+            const double d = vocoder::stoi(read_audio(o->clean), read_audio(o->degraded), {.extended = o->extended});
+            fmt::print("{:.6f}\n", d);
+            return 0;
+        };
+    }});
+
+}  // namespace
+}  // namespace avsi::cli

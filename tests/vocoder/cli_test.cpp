@@ -1,0 +1,104 @@
+// End-to-end runs of `avsi vocode`, `avsi stoi`, `avsi mix` and
+// `avsi calibrate` (skipped when the avsi executable has not been built).
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "avsi/core/audio.h"
+#include "test_signals.h"
+
+namespace avsi::vocoder {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+    int exit_code;
+    std::string output;  // stdout and stderr
+};
+
+CliRun run(const std::string& args) {
+    std::string command = std::string(AVSI_CLI_PATH) + " " + args + " 2>&1";
+    CliRun r{-1, ""};
+    FILE* pipe = popen(command.c_str(), "r");
+    if (!pipe) return r;
+    char buffer[4096];
+    while (fgets(buffer, sizeof buffer, pipe)) r.output += buffer;
+    const int status = pclose(pipe);
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return r;
+}
+
+class VocoderCli : public ::testing::Test {
+protected:
+    void SetUp() override {
+        if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi not built: " << AVSI_CLI_PATH;
+        m_dir = fs::temp_directory_path() / ("avsi-vocoder-cli-" + std::to_string(::getpid()));
+        fs::create_directories(m_dir / "in");
+        for (int i = 0; i < 3; ++i) {
+            Audio a;
+            a.sample_rate_hz = 16000;
+            const auto x = testing::speech_like(16000, 1.5, 10 + i);
+            a.samples.assign(x.begin(), x.end());
+            write_audio(m_dir / "in" / ("s" + std::to_string(i) + ".wav"), a);
+        }
+    }
+    void TearDown() override {
+        if (!m_dir.empty()) fs::remove_all(m_dir);
+    }
+    std::string path(const std::string& name) const { return (m_dir / name).string(); }
+    fs::path m_dir;
+};
+
+TEST_F(VocoderCli, VocodesAFileAndReportsTheSettings) {
+    const CliRun r = run("vocode " + path("in/s0.wav") + " " + path("out.wav") + " --seed 5 --report");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find("Band edges (Hz):      100.0, 531.4, 1720.8, 5000.0"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("seed 5"), std::string::npos);
+    const Audio out = read_audio(path("out.wav"));
+    EXPECT_EQ(out.sample_rate_hz, 16000);
+    EXPECT_EQ(out.frames(), read_audio(path("in/s0.wav")).frames());
+    // Same seed, same file.
+    ASSERT_EQ(run("vocode " + path("in/s0.wav") + " " + path("out2.wav") + " --seed 5").exit_code, 0);
+    EXPECT_EQ(read_audio(path("out2.wav")).samples, out.samples);
+}
+
+TEST_F(VocoderCli, RefusesAHighCutoffAboveNyquist) {
+    const CliRun r = run("vocode " + path("in/s0.wav") + " " + path("out.wav") + " --high-hz 9000");
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.output.find("vocoder.high_hz: expected a frequency below the Nyquist frequency (8000.0 Hz)"),
+              std::string::npos)
+        << r.output;
+    EXPECT_FALSE(fs::exists(path("out.wav")));
+}
+
+TEST_F(VocoderCli, BatchProcessesEveryFileAndStoiScoresThem) {
+    const CliRun r = run("vocode --batch " + path("in") + " " + path("out") + " --bands 8 --noise speech-shaped --snr-db 5");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    for (int i = 0; i < 3; ++i) EXPECT_TRUE(fs::exists(path("out/s" + std::to_string(i) + ".wav")));
+    const CliRun same = run("stoi " + path("in/s0.wav") + " " + path("in/s0.wav"));
+    ASSERT_EQ(same.exit_code, 0);
+    EXPECT_EQ(same.output, "1.000000\n");
+    const CliRun d = run("stoi " + path("in/s0.wav") + " " + path("out/s0.wav") + " --extended");
+    ASSERT_EQ(d.exit_code, 0) << d.output;
+    const double value = std::stod(d.output);
+    EXPECT_GT(value, 0.0);
+    EXPECT_LT(value, 1.0);
+}
+
+TEST_F(VocoderCli, MixAddsNoiseAndCalibratePrintsItsTable) {
+    ASSERT_EQ(run("mix " + path("in/s0.wav") + " " + path("mixed.wav") + " --noise speech-shaped --snr-db 0").exit_code, 0);
+    EXPECT_TRUE(fs::exists(path("mixed.wav")));
+    const CliRun c = run("calibrate --corpus " + path("in") + " --target-estoi 0.4 --max-bands 4 --cutoffs-hz 50,160");
+    ASSERT_EQ(c.exit_code, 0) << c.output;
+    EXPECT_NE(c.output.find("closest:"), std::string::npos) << c.output;
+    EXPECT_NE(c.output.find("50 Hz"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace avsi::vocoder
