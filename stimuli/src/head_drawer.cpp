@@ -66,17 +66,9 @@ uniform vec3 u_eye;
 uniform vec3 u_light_dir[3];
 uniform vec3 u_light_color[3];
 uniform vec3 u_ambient;
-uniform int u_mode;
-uniform usamplerBuffer u_groups;
 out vec4 o_color;
 void main() {
-    if (u_mode == 1) {
-        uint g = texelFetch(u_groups, gl_PrimitiveID).r;
-        o_color = vec4(float(g + 1u) / 255.0, 0.0, 0.0, 1.0);
-        return;
-    }
     vec3 n = normalize(v_normal);
-    if (!gl_FrontFacing) n = -n;
     vec3 v = normalize(u_eye - v_position);
     vec3 c = u_ambient * v_color * v_material.z;
     for (int i = 0; i < 3; ++i) {
@@ -90,17 +82,27 @@ void main() {
 }
 )";
 
+// Region mode: the mesh group of each triangle, looked up by gl_PrimitiveID.
+const char* region_shader = R"(#version 330 core
+uniform usamplerBuffer u_groups;
+out vec4 o_color;
+void main() {
+    uint g = texelFetch(u_groups, gl_PrimitiveID).r;
+    o_color = vec4(float(g + 1u) / 255.0, 0.0, 0.0, 1.0);
+}
+)";
+
 }  // namespace
 
 struct HeadDrawer::Impl {
     detail::Gl gl;
-    GLuint vao = 0, vbo_dynamic = 0, vbo_static = 0, ebo = 0, program = 0;
+    GLuint vao = 0, vbo_dynamic = 0, vbo_static = 0, ebo = 0, program = 0, region_program = 0;
     GLuint group_buffer = 0, group_texture = 0;
     GLsizei index_count = 0;
     std::size_t vertex_count = 0;
     std::vector<float> interleaved;
-    GLint u_view_proj = -1, u_eye = -1, u_light_dir = -1, u_light_color = -1, u_ambient = -1, u_mode = -1,
-          u_groups = -1;
+    GLint u_view_proj = -1, u_eye = -1, u_light_dir = -1, u_light_color = -1, u_ambient = -1,
+          u_region_view_proj = -1, u_groups = -1;
     glm::vec3 target{0.0f};
 
     GLuint compile(GLenum type, const char* source) {
@@ -115,6 +117,25 @@ struct HeadDrawer::Impl {
             throw std::runtime_error(std::string("shader compilation failed: ") + log);
         }
         return s;
+    }
+
+    GLuint link(const char* vs_source, const char* fs_source) {
+        const GLuint vs = compile(GL_VERTEX_SHADER, vs_source);
+        const GLuint fs = compile(GL_FRAGMENT_SHADER, fs_source);
+        const GLuint program = gl.glCreateProgram();
+        gl.glAttachShader(program, vs);
+        gl.glAttachShader(program, fs);
+        gl.glLinkProgram(program);
+        gl.glDeleteShader(vs);
+        gl.glDeleteShader(fs);
+        GLint ok = 0;
+        gl.glGetProgramiv(program, GL_LINK_STATUS, &ok);
+        if (!ok) {
+            char log[2048];
+            gl.glGetProgramInfoLog(program, sizeof log, nullptr, log);
+            throw std::runtime_error(std::string("shader link failed: ") + log);
+        }
+        return program;
     }
 };
 
@@ -191,28 +212,15 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
     gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture);
     gl.glTexBuffer(GL_TEXTURE_BUFFER, GL_R8UI, d.group_buffer);
 
-    const GLuint vs = d.compile(GL_VERTEX_SHADER, vertex_shader);
-    const GLuint fs = d.compile(GL_FRAGMENT_SHADER, fragment_shader);
-    d.program = gl.glCreateProgram();
-    gl.glAttachShader(d.program, vs);
-    gl.glAttachShader(d.program, fs);
-    gl.glLinkProgram(d.program);
-    gl.glDeleteShader(vs);
-    gl.glDeleteShader(fs);
-    GLint ok = 0;
-    gl.glGetProgramiv(d.program, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        char log[2048];
-        gl.glGetProgramInfoLog(d.program, sizeof log, nullptr, log);
-        throw std::runtime_error(std::string("shader link failed: ") + log);
-    }
+    d.program = d.link(vertex_shader, fragment_shader);
+    d.region_program = d.link(vertex_shader, region_shader);
     d.u_view_proj = gl.glGetUniformLocation(d.program, "u_view_proj");
     d.u_eye = gl.glGetUniformLocation(d.program, "u_eye");
     d.u_light_dir = gl.glGetUniformLocation(d.program, "u_light_dir");
     d.u_light_color = gl.glGetUniformLocation(d.program, "u_light_color");
     d.u_ambient = gl.glGetUniformLocation(d.program, "u_ambient");
-    d.u_mode = gl.glGetUniformLocation(d.program, "u_mode");
-    d.u_groups = gl.glGetUniformLocation(d.program, "u_groups");
+    d.u_region_view_proj = gl.glGetUniformLocation(d.region_program, "u_view_proj");
+    d.u_groups = gl.glGetUniformLocation(d.region_program, "u_groups");
     d.interleaved.resize(d.vertex_count * 6);
 }
 
@@ -220,6 +228,7 @@ HeadDrawer::~HeadDrawer() {
     auto& d = *m_impl;
     auto& gl = d.gl;
     gl.glDeleteProgram(d.program);
+    gl.glDeleteProgram(d.region_program);
     gl.glDeleteTextures(1, &d.group_texture);
     GLuint buffers[] = {d.vbo_dynamic, d.vbo_static, d.ebo, d.group_buffer};
     gl.glDeleteBuffers(4, buffers);
@@ -259,7 +268,10 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
 
     gl.glViewport(0, 0, width, height);
     gl.glEnable(GL_DEPTH_TEST);
-    gl.glDisable(GL_CULL_FACE);  // the lips and cavity are seen from both sides
+    // Every part is a consistently wound surface seen from its outside (the
+    // oral cavity is the outside of the skin surface folded in), so back
+    // faces are never visible: culling them halves the rasteriser's work.
+    gl.glEnable(GL_CULL_FACE);
     if (mode == RenderMode::Regions) {
         gl.glDisable(GL_MULTISAMPLE);
         gl.glClearColor(0.0f, 0.0f, 0.0f, 1.0f);
@@ -269,16 +281,20 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
         gl.glClearColor(settings.background[0], settings.background[1], settings.background[2], 1.0f);
     }
     gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    gl.glUseProgram(d.program);
-    gl.glUniformMatrix4fv(d.u_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
-    gl.glUniform3fv(d.u_eye, 1, glm::value_ptr(eye));
-    gl.glUniform3fv(d.u_light_dir, 3, glm::value_ptr(dirs[0]));
-    gl.glUniform3fv(d.u_light_color, 3, glm::value_ptr(colors[0]));
-    gl.glUniform3fv(d.u_ambient, 1, glm::value_ptr(ambient));
-    gl.glUniform1i(d.u_mode, mode == RenderMode::Regions ? 1 : 0);
-    gl.glActiveTexture(GL_TEXTURE0);
-    gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture);
-    gl.glUniform1i(d.u_groups, 0);
+    if (mode == RenderMode::Regions) {
+        gl.glUseProgram(d.region_program);
+        gl.glUniformMatrix4fv(d.u_region_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
+        gl.glActiveTexture(GL_TEXTURE0);
+        gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture);
+        gl.glUniform1i(d.u_groups, 0);
+    } else {
+        gl.glUseProgram(d.program);
+        gl.glUniformMatrix4fv(d.u_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
+        gl.glUniform3fv(d.u_eye, 1, glm::value_ptr(eye));
+        gl.glUniform3fv(d.u_light_dir, 3, glm::value_ptr(dirs[0]));
+        gl.glUniform3fv(d.u_light_color, 3, glm::value_ptr(colors[0]));
+        gl.glUniform3fv(d.u_ambient, 1, glm::value_ptr(ambient));
+    }
     gl.glBindVertexArray(d.vao);
     gl.glDrawElements(GL_TRIANGLES, d.index_count, GL_UNSIGNED_INT, nullptr);
     gl.glBindVertexArray(0);

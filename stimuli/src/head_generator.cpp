@@ -274,7 +274,7 @@ void build_skin(Generated& g, const HeadGeneratorSettings& settings) {
     }
     const std::uint32_t back_pole = g.mesh.vertex(skull_radius(-f) * -f, hair_color);
 
-    // Triangulate: ring r (inner) to ring r+1 (outer), outward facing.
+    // Triangulate: ring r (inner) to ring r+1 (outer), counter-clockwise seen from outside.
     auto group_of = [&](std::size_t r, int j) {
         const float um = 2.0f * pi * (float(j) + 0.5f) / float(nu);
         const bool upper = std::sin(um) >= 0.0f;
@@ -290,17 +290,17 @@ void build_skin(Generated& g, const HeadGeneratorSettings& settings) {
         const int jn = (j + 1) % nu;
         // Cavity pole fan: looking from inside the cavity outward is "outside".
         g.mesh.triangle(std::sin(2.0f * pi * (float(j) + 0.5f) / float(nu)) >= 0 ? "upper_cavity" : "lower_cavity",
-                        cavity_pole, grid[0][static_cast<std::size_t>(jn)], grid[0][static_cast<std::size_t>(j)]);
+                        cavity_pole, grid[0][static_cast<std::size_t>(j)], grid[0][static_cast<std::size_t>(jn)]);
     }
     for (std::size_t r = 0; r + 1 < grid.size(); ++r) {
         for (int j = 0; j < nu; ++j) {
             const auto jj = static_cast<std::size_t>(j), jn = static_cast<std::size_t>((j + 1) % nu);
-            g.mesh.quad(group_of(r + 1, j), grid[r][jj], grid[r][jn], grid[r + 1][jn], grid[r + 1][jj]);
+            g.mesh.quad(group_of(r + 1, j), grid[r][jj], grid[r + 1][jj], grid[r + 1][jn], grid[r][jn]);
         }
     }
     for (int j = 0; j < nu; ++j) {
         const auto jj = static_cast<std::size_t>(j), jn = static_cast<std::size_t>((j + 1) % nu);
-        g.mesh.triangle("skin", grid.back()[jj], grid.back()[jn], back_pole);
+        g.mesh.triangle("skin", grid.back()[jn], grid.back()[jj], back_pole);
     }
 
     g.landmarks["mouth_middle"] = {0.0, mc.y, mc.z};

@@ -80,6 +80,7 @@ VideoWriter::VideoWriter(const std::filesystem::path& path, int width, int heigh
                          const Audio* audio, const VideoSettings& settings)
     : m_impl(std::make_unique<Impl>()) {
     auto& d = *m_impl;
+    av_log_set_level(AV_LOG_ERROR);  // libraries never print: no x264/AAC statistics on stderr
     if (width % 2 || height % 2)
         throw InputError(path, "video size must be even for yuv420p, got " + std::to_string(width) + "x" +
                                    std::to_string(height));

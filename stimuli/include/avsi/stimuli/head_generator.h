@@ -14,8 +14,8 @@
 namespace avsi::stimuli {
 
 struct HeadGeneratorSettings {
-    int azimuth_segments = 128;  // around the mouth axis (even, so corners are sampled)
-    int skin_rings = 88;         // from the lip border to the back of the head
+    int azimuth_segments = 112;  // around the mouth axis (even, so corners are sampled)
+    int skin_rings = 68;         // from the lip border to the back of the head
 };
 
 // Writes the OBJ (per-vertex colours, one group per region) and the rig JSON.
