@@ -92,7 +92,9 @@ FileReport process_file(const fs::path& input, const fs::path& output, const Pro
         if (s.noise.kind == NoiseKind::SpeechShaped)
             ltas = s.noise.ltas_from.empty() ? long_term_spectrum({audio}) : long_term_spectrum_of(s.noise.ltas_from);
         if (s.noise.kind == NoiseKind::File) noise = load_noise(s.noise.file, audio.sample_rate_hz);
-        const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, &noise, s.noise.mix.seed, &report);
+        // The same per-file noise seed as in a folder run.
+        const std::uint64_t seed = derive_seed(s.noise.mix.seed, input.filename().string());
+        const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, &noise, seed, &report);
         write_audio(output, out);
     } catch (const InputError& e) {
         // Give diagnostics without a path the input file's name.

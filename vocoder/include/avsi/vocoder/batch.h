@@ -52,7 +52,8 @@ LongTermSpectrum long_term_spectrum_of(const std::vector<std::filesystem::path>&
 Audio process_audio(const Audio& input, const ProcessSettings& settings, const LongTermSpectrum* ltas,
                     const std::vector<double>* noise_samples, std::uint64_t noise_seed, FileReport* report = nullptr);
 
-// Reads `input`, processes it, writes `output` (16-bit WAV).
+// Reads `input`, processes it, writes `output` (16-bit WAV). The noise seed
+// is derived from the seed and the file name, as in process_folder.
 FileReport process_file(const std::filesystem::path& input, const std::filesystem::path& output,
                         const ProcessSettings& settings);
 
