@@ -1,0 +1,70 @@
+// Power by simulation (`avsi power`), a planning aid: for given condition
+// means and a design like the reference study's, simulate keyword-level data
+// with subject and sentence random effects on the logit scale,
+//   logit P(correct) = logit(mean_c) + u_subject + v_sentence,
+//   u ~ N(0, subject_sd²), v ~ N(0, sentence_sd²),
+// with sentences in k lists of `sentences_per_cell`, list l shown to subject i
+// in condition (l + i) mod k (Latin-square rotation), `keywords_per_sentence`
+// Bernoulli keywords per sentence. Each simulated experiment is scored to
+// subject × condition percent correct and analysed like real data: the
+// repeated-measures ANOVA (uncorrected and Greenhouse-Geisser) and the paired
+// LSD test of one contrast. Power = share of experiments with p < alpha.
+// Every output says it is a simulation.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace avsi::analysis {
+
+struct PowerSettings {
+    std::vector<double> means_percent;          // one per condition, in (0, 100)
+    std::vector<std::size_t> subject_counts = {10, 15, 20, 25, 30, 35, 40};
+    std::size_t sentences_per_cell = 15;
+    std::size_t keywords_per_sentence = 3;
+    double subject_sd = 0.5;   // logit scale
+    double sentence_sd = 0.5;  // logit scale
+    std::size_t simulations = 1000;
+    std::uint64_t seed = 1;
+    std::size_t contrast_a = 0, contrast_b = 0;  // 0-based; a == b: last minus first
+    double alpha = 0.05;
+    std::size_t threads = 0;  // 0: all cores
+};
+
+struct PowerPoint {
+    std::size_t subjects = 0;
+    std::size_t simulations = 0;
+    double power_anova = 0.0;     // uncorrected F test
+    double power_anova_gg = 0.0;  // Greenhouse-Geisser corrected
+    double power_contrast = 0.0;  // paired LSD t-test of the contrast
+    double mc_se_anova = 0.0;     // Monte Carlo standard error sqrt(p(1-p)/sims)
+    double mc_se_contrast = 0.0;
+    double mean_percent = 0.0;    // average simulated percent correct (a sanity check)
+};
+
+struct PowerResult {
+    PowerSettings settings;
+    std::string contrast;  // e.g. "c6 - c1"
+    std::vector<PowerPoint> points;
+};
+
+// Validates the settings (InputError naming the option) and runs the
+// simulation in parallel. Results depend only on the settings and the seed,
+// not on the number of threads.
+PowerResult simulate_power(const PowerSettings& settings);
+
+// "10..40" (step 5), "10..40:2" or "10,20,30". Throws InputError naming --subjects.
+std::vector<std::size_t> parse_subject_counts(const std::string& text);
+// "60,70,75": percent means. Throws InputError naming --means.
+std::vector<double> parse_means(const std::string& text);
+// "2-1" or "c2-c1": 0-based (a, b) for k conditions. Throws InputError naming --contrast.
+std::pair<std::size_t, std::size_t> parse_contrast(const std::string& text, std::size_t k);
+
+// A plain-text table headed "Power by simulation".
+std::string power_table(const PowerResult& result);
+// power.csv (method column "simulation") and power.json.
+void write_power_files(const std::filesystem::path& out_dir, const PowerResult& result);
+
+}  // namespace avsi::analysis
