@@ -1,0 +1,103 @@
+// Training control models on measured articulation (Beskow §4): minimise
+// the summed squared error e = (z − y)ᵀ(z − y) (eq. 5) per articulatory
+// parameter with Levenberg-Marquardt (Ceres Solver) and analytic Jacobians,
+// the per-segment derivatives summed over the segments of each phone class:
+//
+// - Cohen-Massaro (eq. 9–14): per phone key and parameter T, α, θ, φ, c;
+//   computed in the log domain, ∂z/∂ψ_i = w_i·(∂ln D_i/∂ψ_i)·(T_i − z) with
+//   w_i = D_i/ΣD (eq. 10), ∂z/∂T_i = w_i (eq. 9). Note eq. 14 as printed
+//   lacks the minus sign: ∂D/∂c = −D·θ·(τ−t)^c·ln(τ−t) before the centre.
+//   The model file keeps one c per phone (cohen_massaro.h), so training runs
+//   in two stages: all five free per parameter, then c set to the median
+//   over the parameters and T, α, θ, φ refitted with it fixed.
+// - Öhman (eq. 18–20): vowel (and silence) targets a, consonant targets c and
+//   coarticulation factors w_c ∈ [0, 1], with the blend functions of ohman.h.
+// - MPEG-4 Cohen-Massaro: the viseme targets per parameter and the shared
+//   θ←, θ→ and peak offset t0 (one problem over all parameters, since they
+//   are shared); α stays the ellipse-area normalisation of the viseme set.
+//
+// Bounds: targets within each parameter's range; α ∈ [1e-3, 1e3];
+// θ, φ ∈ [0.1, 1e4]; c ∈ [0.5, 2.5]; w_c ∈ [0, 1]; t0 ∈ [−0.1, 0.1] s.
+// Per-parameter problems run in parallel across cores. Early stopping
+// (§4.1): after every iteration the held-out (test split) error is computed;
+// training stops when it has not fallen for `patience` iterations and keeps
+// the parameters with the lowest held-out error. The written model's
+// provenance records the corpus and its hash, the split, the iterations and
+// the train/test errors.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "avsi/synth/articulatory_corpus.h"
+#include "avsi/synth/cohen_massaro.h"
+#include "avsi/synth/control_model.h"
+
+namespace avsi::synth {
+
+struct TrainingSettings {
+    std::string model = "cohen-massaro";   // cohen-massaro | ohman | mpeg4-cohen-massaro
+    std::filesystem::path init_model;      // start point and untrained entries; default protocols/models/<model>.json
+    int max_iterations = 50;               // per stage
+    int patience = 3;                      // iterations without held-out improvement before stopping
+    int threads = 0;                       // 0: all cores
+    double function_tolerance = 1e-7;      // Ceres relative cost change to stop
+};
+
+struct TrainingReport {
+    std::unique_ptr<ControlModel> model;
+    int iterations = 0;                 // LM iterations summed over stages and parameters
+    double train_rmse_percent = 0.0;    // mean over parameters, non-silence frames
+    double test_rmse_percent = 0.0;
+    double train_pearson = 0.0;
+    double test_pearson = 0.0;
+    double seconds = 0.0;
+};
+
+// Trains a model of settings.model on `train`, early-stopping on `test`.
+TrainingReport train_model(const TrainingSettings& settings, const std::vector<CorpusUtterance>& train,
+                           const std::vector<CorpusUtterance>& test);
+
+struct TrainCommandSettings {
+    TrainingSettings training;
+    std::filesystem::path corpus;
+    std::filesystem::path out;
+    SplitSettings split;
+};
+
+// `avsi train`: loads the corpus, splits it, trains, writes the model JSON
+// (and for MPEG-4 CM its trained viseme set beside it, <out>.visemes.json).
+TrainingReport run_training(const TrainCommandSettings& settings);
+
+// ---- The analytic derivatives, exposed for gradient checks ----
+
+// Eq. 8 at each time and, per segment i, ∂z/∂(T, α, θ, φ, c, τ) of that
+// segment: dz[k · N + i][0..5]. Log-domain, so it never divides by zero.
+void cohen_massaro_jacobian(std::span<const CmSegment> segments, std::span<const double> times_s,
+                            std::vector<double>& z, std::vector<std::array<double, 6>>& dz);
+
+// One utterance of a phone-keyed model for one parameter: which key each
+// segment uses, and the segment centres.
+struct KeyedUtterance {
+    std::vector<double> centres_s;
+    std::vector<int> key;        // per segment
+    std::vector<bool> anchor;    // Öhman: vowel or silence
+    std::vector<double> times_s;
+};
+
+// Cohen-Massaro for one parameter: x holds 5 values per key (T, α, θ, φ, c);
+// z at the times and J = ∂z/∂x (row-major, times × x.size()) if non-null.
+void cohen_massaro_keyed(const KeyedUtterance& u, std::span<const double> x, std::vector<double>& z,
+                         std::vector<double>* jacobian);
+
+// Öhman for one parameter: x holds 2 values per key: anchors (a, unused),
+// consonants (c, w_c). Blend functions as in ohman.cpp (eq. 16–17).
+void ohman_keyed(const KeyedUtterance& u, std::span<const double> x, std::vector<double>& z,
+                 std::vector<double>* jacobian);
+
+}  // namespace avsi::synth
