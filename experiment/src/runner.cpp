@@ -30,6 +30,7 @@
 #include "avsi/experiment/design.h"
 #include "avsi/experiment/session.h"
 #include "avsi/experiment/store.h"
+#include "avsi/stimuli/video.h"
 
 namespace avsi::experiment {
 
@@ -52,6 +53,66 @@ std::vector<std::string> read_script(const fs::path& path) {
     return lines;
 }
 
+namespace {
+
+// A decoded stimulus video (the stimuli module's decoder) as a FrameSource.
+class DecodedClip : public FrameSource {
+public:
+    explicit DecodedClip(const fs::path& path) : m_video(stimuli::decode_video(path, true)) {
+        if (m_video.frames.empty() || m_video.fps <= 0)
+            throw InputError(path, "the stimulus video has no frames");
+        if (m_video.has_audio) {
+            m_rate = m_video.audio.sample_rate_hz;
+            m_audio = m_video.audio.mono();
+            // Align audio sample 0 with the first frame.
+            const double shift_s = m_video.audio_start_s - m_video.video_start_s;
+            const auto shift = static_cast<long>(std::lround(std::fabs(shift_s) * m_rate));
+            if (shift_s > 0)
+                m_audio.insert(m_audio.begin(), static_cast<std::size_t>(shift), 0.0f);
+            else if (shift > 0)
+                m_audio.erase(m_audio.begin(), m_audio.begin() + std::min<long>(shift, static_cast<long>(m_audio.size())));
+        } else {
+            // A silent stimulus still needs the audio clock: silence of the video's length.
+            m_audio.assign(static_cast<std::size_t>(std::lround(m_video.video_duration_s * m_rate)), 0.0f);
+        }
+    }
+    int width() const override { return m_video.width; }
+    int height() const override { return m_video.height; }
+    double fps() const override { return m_video.fps; }
+    int frame_count() const override { return static_cast<int>(m_video.frames.size()); }
+    const std::vector<float>& audio() const override { return m_audio; }
+    int sample_rate() const override { return m_rate; }
+    bool next_frame(VideoFrame& f) override {
+        if (m_next >= frame_count()) return false;
+        const stimuli::Image& image = m_video.frames[static_cast<std::size_t>(m_next)];
+        f.width = image.width;
+        f.height = image.height;
+        f.index = m_next;
+        f.pts_s = m_next / m_video.fps;
+        f.rgba.resize(static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height) * 4);
+        for (std::size_t i = 0, n = static_cast<std::size_t>(image.width) * image.height; i < n; ++i) {
+            f.rgba[4 * i] = image.rgb[3 * i];
+            f.rgba[4 * i + 1] = image.rgb[3 * i + 1];
+            f.rgba[4 * i + 2] = image.rgb[3 * i + 2];
+            f.rgba[4 * i + 3] = 255;
+        }
+        ++m_next;
+        return true;
+    }
+
+private:
+    stimuli::DecodedVideo m_video;
+    std::vector<float> m_audio;
+    int m_rate = 48000;
+    int m_next = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameSource> StimulusFolderOpener::open(const std::string& stimulus) {
+    return std::make_unique<DecodedClip>(m_dir / stimulus);
+}
+
 std::unique_ptr<StimulusOpener> make_stimulus_opener(const RunSettings& settings, double fps) {
     if (settings.test_pattern) {
         TestPatternSettings t;
@@ -61,12 +122,47 @@ std::unique_ptr<StimulusOpener> make_stimulus_opener(const RunSettings& settings
     if (settings.stimuli_dir.empty())
         throw UsageError("give the stimulus folder with --stimuli DIR (built by `avsi stimuli`), or "
                          "--test-pattern for a dry run with a generated clip");
-    throw InputError(settings.stimuli_dir,
-                     "not implemented yet: decoding stimulus videos in the runner (the stimuli module's "
-                     "decoder is not available in this build); use --test-pattern for a dry run");
+    return std::make_unique<StimulusFolderOpener>(settings.stimuli_dir);
 }
 
 namespace {
+
+// The few GL 1.1 entry points the runner calls itself, fetched through GLFW
+// from the window's context: the avsi executable also links OSMesa (the
+// offscreen renderer), whose exported gl* symbols must not be called here.
+struct Gl {
+    void (*BindTexture)(GLenum, GLuint) = nullptr;
+    void (*Clear)(GLbitfield) = nullptr;
+    void (*ClearColor)(GLfloat, GLfloat, GLfloat, GLfloat) = nullptr;
+    void (*DeleteTextures)(GLsizei, const GLuint*) = nullptr;
+    void (*Finish)(void) = nullptr;
+    void (*GenTextures)(GLsizei, GLuint*) = nullptr;
+    void (*PixelStorei)(GLenum, GLint) = nullptr;
+    void (*ReadBuffer)(GLenum) = nullptr;
+    void (*ReadPixels)(GLint, GLint, GLsizei, GLsizei, GLenum, GLenum, void*) = nullptr;
+    void (*TexImage2D)(GLenum, GLint, GLint, GLsizei, GLsizei, GLint, GLenum, GLenum, const void*) = nullptr;
+    void (*TexParameteri)(GLenum, GLenum, GLint) = nullptr;
+    void (*Viewport)(GLint, GLint, GLsizei, GLsizei) = nullptr;
+
+    void load() {
+        BindTexture = reinterpret_cast<decltype(BindTexture)>(glfwGetProcAddress("glBindTexture"));
+        Clear = reinterpret_cast<decltype(Clear)>(glfwGetProcAddress("glClear"));
+        ClearColor = reinterpret_cast<decltype(ClearColor)>(glfwGetProcAddress("glClearColor"));
+        DeleteTextures = reinterpret_cast<decltype(DeleteTextures)>(glfwGetProcAddress("glDeleteTextures"));
+        Finish = reinterpret_cast<decltype(Finish)>(glfwGetProcAddress("glFinish"));
+        GenTextures = reinterpret_cast<decltype(GenTextures)>(glfwGetProcAddress("glGenTextures"));
+        PixelStorei = reinterpret_cast<decltype(PixelStorei)>(glfwGetProcAddress("glPixelStorei"));
+        ReadBuffer = reinterpret_cast<decltype(ReadBuffer)>(glfwGetProcAddress("glReadBuffer"));
+        ReadPixels = reinterpret_cast<decltype(ReadPixels)>(glfwGetProcAddress("glReadPixels"));
+        TexImage2D = reinterpret_cast<decltype(TexImage2D)>(glfwGetProcAddress("glTexImage2D"));
+        TexParameteri = reinterpret_cast<decltype(TexParameteri)>(glfwGetProcAddress("glTexParameteri"));
+        Viewport = reinterpret_cast<decltype(Viewport)>(glfwGetProcAddress("glViewport"));
+        const void* all[] = {reinterpret_cast<const void*>(BindTexture), reinterpret_cast<const void*>(Clear), reinterpret_cast<const void*>(ClearColor), reinterpret_cast<const void*>(DeleteTextures), reinterpret_cast<const void*>(Finish), reinterpret_cast<const void*>(GenTextures), reinterpret_cast<const void*>(PixelStorei), reinterpret_cast<const void*>(ReadBuffer), reinterpret_cast<const void*>(ReadPixels), reinterpret_cast<const void*>(TexImage2D), reinterpret_cast<const void*>(TexParameteri), reinterpret_cast<const void*>(Viewport)};
+        for (const void* fn : all)
+            if (!fn) throw InputError("display", 0, 0, "", "the OpenGL context lacks a GL 1.1 function");
+    }
+};
+Gl gl;
 
 // GLFW + ImGui lifetime.
 class Window {
@@ -101,6 +197,7 @@ public:
         }
         glfwMakeContextCurrent(m_window);
         glfwSwapInterval(1);
+        gl.load();
         GLFWmonitor* reference = monitor ? monitor : glfwGetPrimaryMonitor();
         if (reference) m_refresh_hz = glfwGetVideoMode(reference)->refreshRate;
         if (m_refresh_hz <= 0) m_refresh_hz = 60.0;
@@ -118,13 +215,13 @@ public:
         ImGui::StyleColorsDark();
         ImGui_ImplGlfw_InitForOpenGL(m_window, true);
         ImGui_ImplOpenGL3_Init("#version 130");
-        glGenTextures(1, &m_texture);
-        glBindTexture(GL_TEXTURE_2D, m_texture);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        gl.GenTextures(1, &m_texture);
+        gl.BindTexture(GL_TEXTURE_2D, m_texture);
+        gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     }
     ~Window() {
-        glDeleteTextures(1, &m_texture);
+        gl.DeleteTextures(1, &m_texture);
         ImGui_ImplOpenGL3_Shutdown();
         ImGui_ImplGlfw_Shutdown();
         ImGui::DestroyContext();
@@ -135,9 +232,9 @@ public:
     double refresh_hz() const { return m_refresh_hz; }
     GLuint texture() const { return m_texture; }
     void upload(const VideoFrame& f) {
-        glBindTexture(GL_TEXTURE_2D, m_texture);
-        glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA, f.width, f.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, f.rgba.data());
+        gl.BindTexture(GL_TEXTURE_2D, m_texture);
+        gl.PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+        gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA, f.width, f.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, f.rgba.data());
         m_texture_width = f.width;
         m_texture_height = f.height;
     }
@@ -149,9 +246,9 @@ public:
         int w = 0, h = 0;
         glfwGetFramebufferSize(m_window, &w, &h);
         std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 3);
-        glPixelStorei(GL_PACK_ALIGNMENT, 1);
-        glReadBuffer(GL_BACK);
-        glReadPixels(0, 0, w, h, GL_RGB, GL_UNSIGNED_BYTE, pixels.data());
+        gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
+        gl.ReadBuffer(GL_BACK);
+        gl.ReadPixels(0, 0, w, h, GL_RGB, GL_UNSIGNED_BYTE, pixels.data());
         fs::create_directories(path.parent_path());
         auto out = OIIO::ImageOutput::create(path.string());
         if (!out) throw InputError(path, "cannot write a PNG here");
@@ -239,6 +336,14 @@ RunResult run_session(const RunSettings& settings) {
                                                       "(one line per trial in plan order)",
                                                       script.size(), settings.subject, plan.size()));
 
+    if (!settings.test_pattern) {
+        DiagnosticList missing;
+        for (const auto& t : plan)
+            if (!fs::is_regular_file(settings.stimuli_dir / t.stimulus))
+                missing.add((settings.stimuli_dir / t.stimulus).string(), 0, 0, "",
+                            fmt::format("missing stimulus for trial {} (build it with `avsi stimuli`)", t.position));
+        missing.throw_if_any();
+    }
     const std::vector<int> answered = store.answered_positions(settings.subject);
     RunResult result;
     result.answered_before = static_cast<int>(answered.size());
@@ -268,8 +373,9 @@ RunResult run_session(const RunSettings& settings) {
     }
     const int session = store.begin_session(
         settings.subject, first_position,
-        fmt::format("audio={}; refresh_hz={:.3f}; scripted={}; fullscreen={}", audio->name(), refresh_hz, scripted,
-                    fullscreen));
+        fmt::format("audio={}; refresh_hz={:.3f}; scripted={}; fullscreen={}; response_mode={}", audio->name(),
+                    refresh_hz, scripted, fullscreen,
+                    protocol.session.response_mode == ResponseMode::Experimenter ? "experimenter" : "subject"));
     result.session = session;
     store.add_event(session, settings.subject, result.answered_before > 0 ? "resume" : "start",
                     fmt::format("first trial {}, {} of {} answered before", first_position, result.answered_before,
@@ -498,9 +604,9 @@ RunResult run_session(const RunSettings& settings) {
         ImGui::Render();
         int fb_w = 0, fb_h = 0;
         glfwGetFramebufferSize(window.handle(), &fb_w, &fb_h);
-        glViewport(0, 0, fb_w, fb_h);
-        glClearColor(0.25f, 0.25f, 0.25f, 1.0f);
-        glClear(GL_COLOR_BUFFER_BIT);
+        gl.Viewport(0, 0, fb_w, fb_h);
+        gl.ClearColor(0.25f, 0.25f, 0.25f, 1.0f);
+        gl.Clear(GL_COLOR_BUFFER_BIT);
         ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 
         // One PNG per new screen (the trial screen once its first frame is up).
@@ -516,7 +622,7 @@ RunResult run_session(const RunSettings& settings) {
         }
 
         glfwSwapBuffers(window.handle());
-        if (settings.audio != "null") glFinish();
+        if (settings.audio != "null") gl.Finish();
         audio->after_flip(period_s);
         const double flip_s = audio->now_s();
         last_flip_s = flip_s;

@@ -57,6 +57,16 @@ RunResult run_session(const RunSettings& settings);
 // empty line is an empty answer; lines starting with '#' are comments.
 std::vector<std::string> read_script(const std::filesystem::path& path);
 
+// Stimuli from a folder built by `avsi stimuli`, decoded by the stimuli module.
+class StimulusFolderOpener : public StimulusOpener {
+public:
+    explicit StimulusFolderOpener(std::filesystem::path dir) : m_dir(std::move(dir)) {}
+    std::unique_ptr<FrameSource> open(const std::string& stimulus) override;
+
+private:
+    std::filesystem::path m_dir;
+};
+
 // The stimulus opener for a stimulus folder (the stimuli module's decoder),
 // or the test pattern.
 std::unique_ptr<StimulusOpener> make_stimulus_opener(const RunSettings& settings, double fps);
