@@ -1,0 +1,36 @@
+// `avsi render`: a trajectory (CSV) or FAP stream → the talking head → MP4
+// (muxed with optional audio) or a folder of PNG frames.
+#include <memory>
+
+#include "avsi/stimuli/commands.h"
+#include "command.h"
+
+namespace avsi::cli {
+namespace {
+
+const bool registered = register_command({
+    "render",
+    "Render the talking head from a trajectory or FAP file to MP4 or PNG frames",
+    [](CLI::App& sub) -> std::function<int()> {
+        auto o = std::make_shared<stimuli::RenderJobSettings>();
+        sub.add_option("--traj", o->trajectory_path, "Trajectory CSV (time_s,<param>…)")->capture_default_str();
+        sub.add_option("--fap", o->fap_path, "MPEG-4 FAP v2.1 file (instead of --traj)")->capture_default_str();
+        sub.add_option("--audio", o->audio_path, "Audio (WAV/FLAC) muxed into the MP4")->capture_default_str();
+        sub.add_option("--out", o->out_path, "Output: x.mp4, or a folder for PNG frames")->required();
+        sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ with vertex colours)")->capture_default_str();
+        sub.add_option("--rig", o->head.rig, "Head rig (JSON)")->capture_default_str();
+        sub.add_option("--width", o->render.width, "Frame width in pixels")->capture_default_str();
+        sub.add_option("--height", o->render.height, "Frame height in pixels")->capture_default_str();
+        sub.add_option("--camera", o->camera, "Camera: front or three-quarter")->capture_default_str();
+        sub.add_option("--samples", o->render.samples, "MSAA samples per pixel")->capture_default_str();
+        sub.add_option("--crf", o->video.crf, "x264 constant rate factor")->capture_default_str();
+        sub.add_option("--blink-seed", o->blinks.seed, "Seed of the blink times")->capture_default_str();
+        sub.add_flag("!--no-blinks", o->blinks.enabled, "Do not blink");
+        return [o] {
+            stimuli::run_render(*o);
+            return 0;
+        };
+    }});
+
+}  // namespace
+}  // namespace avsi::cli

@@ -1,0 +1,41 @@
+// The stimulus-set builder (`avsi build-stimuli protocol.toml --out DIR`):
+// for each sentence × condition of a protocol, phones → trajectory (the
+// condition's control model) → frames → MP4 with the condition's audio
+// (vocoded or clean). The audio-only condition shows the still neutral face
+// (face = "still") or a blank screen (face = "none"). Stimuli are built in
+// parallel, one renderer per worker thread; a stimulus whose inputs and
+// settings are unchanged (same input hash in the manifest, same file hash on
+// disk) is skipped. Writes DIR/<sentence>/<condition>.mp4 and .wav and
+// DIR/manifest.json (path, duration, frame count, settings, seeds, SHA-256).
+//
+// Determinism: x264 runs single-threaded with bit-exact flags and the audio
+// is produced from seeds, so the same inputs give byte-identical files and
+// the manifest's SHA-256 of each MP4 is stable across builds.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+
+namespace avsi::stimuli {
+
+struct BuildSettings {
+    std::filesystem::path protocol_path;
+    std::filesystem::path out_dir;
+    int jobs = 0;            // worker threads; 0 = hardware concurrency
+    bool force = false;      // rebuild everything
+    std::size_t max_sentences = 0;  // 0 = all (for quick trials)
+};
+
+struct BuildReport {
+    std::size_t total = 0;
+    std::size_t rendered = 0;
+    std::size_t skipped = 0;
+    std::size_t frames_rendered = 0;
+    double elapsed_s = 0.0;
+};
+
+// Builds the stimulus set. Throws InputError for bad protocol, corpus, model
+// or audio inputs (all found in the protocol are reported at once).
+BuildReport build_stimuli(const BuildSettings& settings);
+
+}  // namespace avsi::stimuli

@@ -1,0 +1,309 @@
+// The stimulus-set builder (see builder.h).
+#include "avsi/stimuli/builder.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "avsi/core/audio.h"
+#include "avsi/core/corpus.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/core/labels.h"
+#include "avsi/core/log.h"
+#include "avsi/core/protocol.h"
+#include "avsi/core/rng.h"
+#include "avsi/core/tts.h"
+#include "avsi/stimuli/animation.h"
+#include "avsi/synth/control_model.h"
+#include "avsi/vocoder/vocoder.h"
+
+namespace avsi::stimuli {
+
+namespace {
+
+using nlohmann::json;
+
+// Bumped when the output of the builder changes for the same inputs.
+constexpr const char* builder_version = "avsi-stimuli-build-1";
+
+std::array<float, 3> parse_colour(const std::string& hex, const Protocol& protocol) {
+    unsigned r = 0, g = 0, b = 0;
+    if (hex.size() != 7 || hex[0] != '#' || std::sscanf(hex.c_str() + 1, "%02x%02x%02x", &r, &g, &b) != 3)
+        throw InputError(protocol.path, "render.background: expected a colour \"#rrggbb\", got \"" + hex + "\"");
+    return {float(r) / 255.0f, float(g) / 255.0f, float(b) / 255.0f};
+}
+
+// The vocoder settings of [vocoder]; keys the builder does not map are refused.
+vocoder::VocoderSettings vocoder_settings(const Protocol& protocol) {
+    vocoder::VocoderSettings v;
+    const ConfigSection& s = protocol.vocoder;
+    DiagnosticList problems;
+    v.bands = static_cast<int>(s.get_int("bands", v.bands, 1, 64, problems));
+    v.low_hz = s.get_number("low_hz", v.low_hz, 1.0, 1e5, problems);
+    v.high_hz = s.get_number("high_hz", v.high_hz, 1.0, 1e5, problems);
+    v.filter_order = static_cast<int>(s.get_int("filter_order", v.filter_order, 1, 16, problems));
+    v.envelope_cutoff_hz = s.get_number("envelope_cutoff_hz", v.envelope_cutoff_hz, 1.0, 1e4, problems);
+    v.zero_phase = s.get_bool("zero_phase", v.zero_phase, problems);
+    v.seed = static_cast<std::uint64_t>(s.get_int("seed", static_cast<long long>(protocol.seed), 0,
+                                                  std::numeric_limits<long long>::max(), problems));
+    for (const auto& key : s.keys())
+        if (key != "bands" && key != "low_hz" && key != "high_hz" && key != "filter_order" &&
+            key != "envelope_cutoff_hz" && key != "zero_phase" && key != "seed")
+            s.report(key, "not implemented yet in build-stimuli: this vocoder key is not mapped", problems);
+    problems.throw_if_any();
+    return v;
+}
+
+json vocoder_json(const vocoder::VocoderSettings& v) {
+    return {{"bands", v.bands},           {"low_hz", v.low_hz},
+            {"high_hz", v.high_hz},       {"filter_order", v.filter_order},
+            {"envelope_cutoff_hz", v.envelope_cutoff_hz}, {"zero_phase", v.zero_phase},
+            {"seed", v.seed}};
+}
+
+struct Job {
+    const Sentence* sentence = nullptr;
+    const ProtocolCondition* condition = nullptr;
+    std::filesystem::path video;  // relative to out_dir
+    std::filesystem::path wav;
+    std::string input_hash;
+    std::uint64_t vocoder_seed = 0;
+    std::uint64_t blink_seed = 0;
+    json entry;  // the manifest entry once built (or reused)
+};
+
+}  // namespace
+
+BuildReport build_stimuli(const BuildSettings& settings) {
+    const auto start = std::chrono::steady_clock::now();
+    const Protocol protocol = load_protocol(settings.protocol_path);
+    const Corpus corpus = read_corpus(protocol.corpus.sentences);
+    const auto& pr = protocol.render;
+    RenderSettings render;
+    render.width = pr.width;
+    render.height = pr.height;
+    render.camera = camera_view_from_name(pr.camera);
+    render.background = parse_colour(pr.background, protocol);
+    const double fps = pr.fps;
+    const vocoder::VocoderSettings vocoder_base = vocoder_settings(protocol);
+    const Head head = load_default_head();
+
+    // Models, loaded once per condition (synthesis is const).
+    std::map<std::string, std::unique_ptr<synth::ControlModel>> models;
+    std::map<std::string, std::string> model_hash;
+    for (const auto& c : protocol.conditions)
+        if (c.face == FaceMode::Model) {
+            if (c.model.empty())
+                throw InputError(protocol.path.string(), c.line, 0, "condition." + c.name + ".model",
+                                 "expected a model file for face = \"model\"");
+            models[c.name] = synth::load_model(c.model);
+            model_hash[c.name] = sha256_file(c.model);
+        }
+
+    const json settings_json = {
+        {"builder", builder_version},
+        {"render", {{"fps", fps}, {"width", pr.width}, {"height", pr.height}, {"camera", pr.camera},
+                    {"background", pr.background}, {"samples", render.samples}}},
+        {"video", {{"codec", "h264 (libx264)"}, {"pixel_format", "yuv420p"}, {"crf", VideoSettings{}.crf},
+                   {"preset", VideoSettings{}.preset}, {"audio", "aac"}}},
+        {"vocoder", vocoder_json(vocoder_base)},
+        {"head", {{"mesh_sha256", sha256_file(head.obj_path)}, {"rig_sha256", sha256_file(head.rig_path)}}},
+        {"tts", {{"voice", protocol.corpus.voice}}}};
+
+    // The previous manifest, for skipping unchanged stimuli.
+    std::map<std::string, json> previous;
+    const auto manifest_path = settings.out_dir / "manifest.json";
+    if (!settings.force && std::filesystem::exists(manifest_path)) {
+        try {
+            for (const auto& e : json::parse(read_text_file(manifest_path)).at("stimuli"))
+                previous[e.at("path").get<std::string>()] = e;
+        } catch (const std::exception&) {
+            log_warning("{}: unreadable manifest, rebuilding everything", manifest_path.string());
+        }
+    }
+
+    // Every stimulus and the hash of everything it depends on.
+    std::vector<Job> jobs;
+    const std::size_t n_sentences = settings.max_sentences ? std::min(settings.max_sentences, corpus.sentences.size())
+                                                           : corpus.sentences.size();
+    for (std::size_t si = 0; si < n_sentences; ++si) {
+        const Sentence& s = corpus.sentences[si];
+        const std::string audio_key = protocol.corpus.audio == CorpusAudio::Tts
+                                          ? "tts:" + protocol.corpus.voice + ":" + s.text
+                                          : "rec:" + sha256_file(s.audio) + ":" + sha256_file(s.labels);
+        for (const auto& c : protocol.conditions) {
+            Job job;
+            job.sentence = &s;
+            job.condition = &c;
+            job.video = std::filesystem::path(s.id) / (c.name + ".mp4");
+            job.wav = std::filesystem::path(s.id) / (c.name + ".wav");
+            job.vocoder_seed = derive_seed(vocoder_base.seed, "vocoder/" + s.id);
+            job.blink_seed = derive_seed(protocol.seed, "blinks/" + s.id + "/" + c.name);
+            const json key = {{"settings", settings_json},
+                              {"audio", audio_key},
+                              {"condition", {{"face", to_string(c.face)}, {"audio", to_string(c.audio)},
+                                             {"model_sha256", model_hash.count(c.name) ? model_hash[c.name] : ""}}},
+                              {"seeds", {{"vocoder", job.vocoder_seed}, {"blinks", job.blink_seed}}}};
+            job.input_hash = sha256_hex(key.dump());
+            jobs.push_back(std::move(job));
+        }
+    }
+
+    // Which need building.
+    BuildReport report;
+    report.total = jobs.size();
+    std::vector<std::size_t> todo;
+    for (std::size_t i = 0; i < jobs.size(); ++i) {
+        auto& job = jobs[i];
+        const auto it = previous.find(job.video.generic_string());
+        const auto video = settings.out_dir / job.video;
+        if (it != previous.end() && it->second.value("input_sha256", "") == job.input_hash &&
+            std::filesystem::exists(video) && sha256_file(video) == it->second.value("sha256", "")) {
+            job.entry = it->second;
+            ++report.skipped;
+        } else {
+            todo.push_back(i);
+        }
+    }
+
+    // Speech per sentence, made serially (espeak-ng is not thread-safe).
+    struct Speech {
+        Audio audio;
+        PhoneSequence phones;
+    };
+    std::map<std::string, Speech> speech;
+    for (const auto i : todo) {
+        const Sentence& s = *jobs[i].sentence;
+        if (speech.count(s.id)) continue;
+        Speech sp;
+        if (protocol.corpus.audio == CorpusAudio::Tts) {
+            TtsSettings tts;
+            tts.voice = protocol.corpus.voice;
+            auto r = synthesize_speech(s.text, tts);
+            sp.audio = std::move(r.audio);
+            sp.phones = std::move(r.phones);
+        } else {
+            sp.audio = read_audio(s.audio);
+            sp.phones = read_phones(s.labels);
+        }
+        speech.emplace(s.id, std::move(sp));
+    }
+
+    const int workers = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
+                                                                     : static_cast<int>(std::thread::hardware_concurrency()),
+                                                  static_cast<int>(todo.size())));
+    log_info("build-stimuli: {} stimuli, {} to build, {} unchanged; {} worker(s)", report.total, todo.size(),
+             report.skipped, workers);
+    Progress progress("build-stimuli", todo.size());
+    std::atomic<std::size_t> next{0};
+    std::atomic<std::size_t> frames_total{0};
+    std::mutex error_mutex;
+    std::exception_ptr error;
+    auto worker = [&] {
+        try {
+            OffscreenRenderer renderer(head, render);
+            while (true) {
+                const std::size_t t = next.fetch_add(1);
+                if (t >= todo.size()) break;
+                {
+                    std::lock_guard lock(error_mutex);
+                    if (error) break;
+                }
+                Job& job = jobs[todo[t]];
+                const auto& c = *job.condition;
+                const Speech& sp = speech.at(job.sentence->id);
+                Audio audio = sp.audio;
+                if (c.audio == ConditionAudio::Vocoded) {
+                    vocoder::VocoderSettings v = vocoder_base;
+                    v.seed = job.vocoder_seed;
+                    audio = vocoder::vocode(sp.audio, v).audio;
+                }
+                synth::Trajectory trajectory;
+                if (c.face == FaceMode::Model) {
+                    trajectory = models.at(c.name)->synthesize(sp.phones, fps);
+                } else {
+                    trajectory.fps = fps;
+                    trajectory.frames.assign(synth::frame_count(audio.duration_s(), fps), synth::Frame{});
+                }
+                const auto video_path = settings.out_dir / job.video;
+                write_audio(settings.out_dir / job.wav, audio);
+                BlinkSettings blinks;
+                blinks.seed = job.blink_seed;
+                blinks.enabled = c.face == FaceMode::Model;
+                VideoSettings video;
+                video.fps = fps;
+                if (c.face == FaceMode::Model) {
+                    render_video(renderer, trajectory, &audio, video_path, blinks, video);
+                } else {
+                    // A still face (or a blank screen) is one frame repeated.
+                    Image frame;
+                    if (c.face == FaceMode::Still) {
+                        renderer.render(Pose{}, frame);
+                    } else {
+                        frame.width = render.width;
+                        frame.height = render.height;
+                        frame.rgb.resize(static_cast<std::size_t>(frame.width) * static_cast<std::size_t>(frame.height) * 3);
+                        for (std::size_t p = 0; p < frame.rgb.size(); ++p)
+                            frame.rgb[p] = static_cast<std::uint8_t>(std::lround(render.background[p % 3] * 255.0f));
+                    }
+                    VideoWriter writer(video_path, render.width, render.height, trajectory.size(), &audio, video);
+                    for (std::size_t k = 0; k < trajectory.size(); ++k) writer.write(frame);
+                    writer.finish();
+                }
+                frames_total += trajectory.size();
+                job.entry = {{"sentence", job.sentence->id},
+                             {"condition", c.name},
+                             {"path", job.video.generic_string()},
+                             {"wav", job.wav.generic_string()},
+                             {"duration_s", trajectory.duration_s()},
+                             {"audio_duration_s", audio.duration_s()},
+                             {"frames", trajectory.size()},
+                             {"fps", fps},
+                             {"face", to_string(c.face)},
+                             {"audio", to_string(c.audio)},
+                             {"model", c.model.empty() ? "" : c.model.filename().string()},
+                             {"seeds", {{"vocoder", c.audio == ConditionAudio::Vocoded ? json(job.vocoder_seed) : json()},
+                                        {"blinks", blinks.enabled ? json(job.blink_seed) : json()}}},
+                             {"input_sha256", job.input_hash},
+                             {"sha256", sha256_file(video_path)},
+                             {"wav_sha256", sha256_file(settings.out_dir / job.wav)}};
+                progress.advance();
+            }
+        } catch (...) {
+            std::lock_guard lock(error_mutex);
+            if (!error) error = std::current_exception();
+        }
+    };
+    std::vector<std::thread> threads;
+    for (int w = 0; w < workers; ++w) threads.emplace_back(worker);
+    for (auto& t : threads) t.join();
+    progress.finish();
+    if (error) std::rethrow_exception(error);
+
+    json manifest = {{"format", "avsi-stimuli-manifest"},
+                     {"version", 1},
+                     {"protocol", protocol.path.filename().string()},
+                     {"experiment", protocol.name},
+                     {"seed", protocol.seed},
+                     {"settings", settings_json},
+                     {"stimuli", json::array()}};
+    for (const auto& job : jobs) manifest["stimuli"].push_back(job.entry);
+    write_text_file(manifest_path, manifest.dump(2) + "\n");
+
+    report.rendered = todo.size();
+    report.frames_rendered = frames_total;
+    report.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    log_info("build-stimuli: built {} stimuli ({} frames) in {:.1f} s, {} unchanged", report.rendered,
+             report.frames_rendered, report.elapsed_s, report.skipped);
+    return report;
+}
+
+}  // namespace avsi::stimuli
