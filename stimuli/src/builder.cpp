@@ -123,8 +123,8 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     const auto manifest_path = settings.out_dir / "manifest.json";
     if (!settings.force && std::filesystem::exists(manifest_path)) {
         try {
-            for (const auto& e : json::parse(read_text_file(manifest_path)).at("stimuli"))
-                previous[e.at("path").get<std::string>()] = e;
+            const json old = json::parse(read_text_file(manifest_path));
+            for (const auto& e : old.at("stimuli")) previous[e.at("path").get<std::string>()] = e;
         } catch (const std::exception&) {
             log_warning("{}: unreadable manifest, rebuilding everything", manifest_path.string());
         }
