@@ -1,0 +1,42 @@
+// `avsi evaluate`: scores control models against a corpus' measured
+// trajectories in the layout of Table 2 of the reference study, and plots one
+// utterance like its Fig. 5 (synth/evaluation.h).
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "avsi/synth/evaluation.h"
+#include "command.h"
+
+namespace avsi::cli {
+namespace {
+
+const bool registered = register_command({
+    "evaluate",
+    "Score models against an articulatory corpus: RMSE % of range and Pearson rho (Table 2), plus a plot",
+    [](CLI::App& sub) -> std::function<int()> {
+        auto s = std::make_shared<synth::EvaluationSettings>();
+        auto seed = std::make_shared<std::uint64_t>(0);
+        auto fraction = std::make_shared<double>(0.0);
+        sub.add_option("--corpus", s->corpus, "Corpus folder (corpus.json or corpus.csv)")->required();
+        sub.add_option("--models", s->models, "Model files (.json), one or more")->required();
+        sub.add_option("--out", s->out, "Output prefix: writes <out>.csv, <out>.md and <out>.svg")->required();
+        sub.add_option("--subset", s->subset, "Utterances to score: test, train or all")->capture_default_str();
+        auto* seed_opt = sub.add_option("--split-seed", *seed, "Split seed (default: the corpus manifest's)");
+        auto* fraction_opt =
+            sub.add_option("--test-fraction", *fraction, "Test fraction (default: the corpus manifest's)");
+        sub.add_option("--plot-utterance", s->plot_utterance, "Utterance id to plot (default: the first scored)");
+        sub.add_option("--plot-param", s->plot_param, "Parameter to plot")->capture_default_str();
+        return [s, seed, fraction, seed_opt, fraction_opt] {
+            if (seed_opt->count()) s->split_seed = *seed;
+            if (fraction_opt->count()) s->test_fraction = *fraction;
+            const synth::EvaluationResult r = synth::run_evaluation(*s);
+            fmt::print("{}\n", r.markdown);
+            return 0;
+        };
+    },
+});
+
+}  // namespace
+}  // namespace avsi::cli
