@@ -1,0 +1,50 @@
+// `avsi analyze`: repeated-measures ANOVA, sphericity, pairwise comparisons
+// and the report folder from scores.csv.
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "avsi/analysis/report.h"
+#include "command.h"
+
+namespace avsi::cli {
+namespace {
+
+struct AnalyzeOptions {
+    std::string input, out = "report", keywords, title = "Keyword intelligibility by condition";
+    double confidence = 0.95;
+};
+
+const bool registered = register_command({
+    "analyze",
+    "Repeated-measures ANOVA, sphericity, pairwise LSD and an HTML/Markdown report from scores.csv",
+    [](CLI::App& sub) -> std::function<int()> {
+        auto o = std::make_shared<AnalyzeOptions>();
+        sub.add_option("input", o->input,
+                       "scores.csv from `avsi score` (a session database must go through `avsi export` and "
+                       "`avsi score` first)")
+            ->required()
+            ->check(CLI::ExistingFile);
+        sub.add_option("--out", o->out, "Report folder")->capture_default_str();
+        sub.add_option("--keywords", o->keywords,
+                       "keywords.csv for the glmer.R script (default: keywords.csv beside the input)");
+        sub.add_option("--confidence", o->confidence, "Confidence level of the intervals")
+            ->capture_default_str()
+            ->check(CLI::Range(0.5, 0.999));
+        sub.add_option("--title", o->title, "Report title")->capture_default_str();
+        return [o] {
+            analysis::AnalyzeSettings s;
+            s.input = o->input;
+            s.out_dir = o->out;
+            s.keywords_csv = o->keywords;
+            s.confidence = o->confidence;
+            s.title = o->title;
+            const auto result = analysis::analyze_file(s);
+            fmt::print("{}\n", analysis::apa_anova(result.anova));
+            return 0;
+        };
+    }});
+
+}  // namespace
+}  // namespace avsi::cli
