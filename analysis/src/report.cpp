@@ -84,7 +84,7 @@ std::string sphericity_sentence(const AnovaResult& a) {
                         apa_p(*a.mauchly.p_value));
     }
     if (a.k > 2 && a.greenhouse_geisser.epsilon && a.greenhouse_geisser.p_value)
-        s += fmt::format(" Greenhouse-Geisser ε = {}, F({}, {}) {}; Huynh-Feldt ε = {}{}, {}.",
+        s += fmt::format(" Greenhouse-Geisser ε = {}, F({}, {}), {}; Huynh-Feldt ε = {}{}, {}.",
                          no_leading_zero(fmt::format("{:.3f}", *a.greenhouse_geisser.epsilon)),
                          df_text(a.greenhouse_geisser.df_conditions), df_text(a.greenhouse_geisser.df_error),
                          apa_p(*a.greenhouse_geisser.p_value), fmt::format("{:.3f}", *a.huynh_feldt.epsilon),
