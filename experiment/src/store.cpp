@@ -169,13 +169,22 @@ Store::Store(const std::filesystem::path& path) : m_path(path) {
         exec("PRAGMA synchronous=FULL");
         exec("PRAGMA foreign_keys=ON");
         if (version == 0) {
-            Statement count(m_db, "SELECT count(*) FROM sqlite_master WHERE type='table'");
-            count.step();
-            if (count.integer(0) != 0)
-                throw InputError(path, "not an avsi session database (it has tables but no avsi schema version)");
+            // Create the schema under a write lock, checking again inside it:
+            // another process may have created it meanwhile.
             Transaction tx(m_db);
-            exec(schema_v1);
-            exec(fmt::format("PRAGMA user_version={}", store_schema_version));
+            int current = 0, tables = 0;
+            {
+                Statement again(m_db, "PRAGMA user_version");
+                if (again.step()) current = again.integer(0);
+                Statement count(m_db, "SELECT count(*) FROM sqlite_master WHERE type='table'");
+                if (count.step()) tables = count.integer(0);
+            }
+            if (current == 0) {
+                if (tables != 0)
+                    throw InputError(path, "not an avsi session database (it has tables but no avsi schema version)");
+                exec(schema_v1);
+                exec(fmt::format("PRAGMA user_version={}", store_schema_version));
+            }
             tx.commit();
         }
     } catch (const InputError&) {

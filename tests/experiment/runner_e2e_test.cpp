@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <chrono>
 #include <map>
@@ -98,6 +99,23 @@ protected:
         return path;
     }
 
+    // Responses committed so far, read without writing (0 before the database exists).
+    static int committed(const fs::path& db) {
+        if (!fs::exists(db)) return 0;
+        sqlite3* handle = nullptr;
+        int n = 0;
+        if (sqlite3_open_v2(db.c_str(), &handle, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
+            sqlite3_busy_timeout(handle, 2000);
+            sqlite3_stmt* st = nullptr;
+            if (sqlite3_prepare_v2(handle, "SELECT count(*) FROM responses", -1, &st, nullptr) == SQLITE_OK &&
+                sqlite3_step(st) == SQLITE_ROW)
+                n = sqlite3_column_int(st, 0);
+            sqlite3_finalize(st);
+        }
+        sqlite3_close(handle);
+        return n;
+    }
+
     static inline pid_t s_xvfb = -1;
 };
 
@@ -149,12 +167,21 @@ TEST_F(RunnerE2E, SigkillAtRandomPointsThenResumeLosesAndRepeatsNothing) {
     int kills = 0;
     bool done = false;
     for (int attempt = 0; attempt < 80 && !done; ++attempt) {
+        // Kill at a random point: after 0–2 more committed responses, then
+        // 0–300 ms into the next trial (fixation, stimulus or answer box).
+        const int target = static_cast<int>(answered_before.size() + rng.uniform_int(3));
+        const auto extra = std::chrono::milliseconds(rng.uniform_int(300));
         const pid_t pid = spawn(args, dir / "log.txt");
-        const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(150 + rng.uniform_int(900));
         int status = 0;
         pid_t finished = 0;
-        while (std::chrono::steady_clock::now() < deadline && (finished = ::waitpid(pid, &status, WNOHANG)) == 0)
-            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        auto deadline = std::chrono::steady_clock::time_point::max();
+        const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+        while ((finished = ::waitpid(pid, &status, WNOHANG)) == 0 && std::chrono::steady_clock::now() < deadline &&
+               std::chrono::steady_clock::now() < give_up) {
+            if (deadline == std::chrono::steady_clock::time_point::max() && committed(db) >= target)
+                deadline = std::chrono::steady_clock::now() + extra;
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
         if (finished == pid) {
             ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_text_file(dir / "log.txt");
             done = true;
@@ -177,6 +204,7 @@ TEST_F(RunnerE2E, SigkillAtRandomPointsThenResumeLosesAndRepeatsNothing) {
     }
     ASSERT_TRUE(done) << "the session never completed";
     EXPECT_GE(kills, 5);
+    EXPECT_GE(trials, 20);
     ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
     const CsvTable responses = read_csv(dir / "export" / "responses.csv");
     ASSERT_EQ(responses.rows.size(), static_cast<std::size_t>(trials));
@@ -208,7 +236,7 @@ TEST_F(RunnerE2E, ScreenshotsOfEveryScreenKind) {
     std::set<std::string> kinds;
     for (const auto& entry : fs::directory_iterator(dir / "png")) {
         const std::string name = entry.path().filename().string();
-        kinds.insert(name.substr(5, name.find("_trial") - 5));
+        kinds.insert(name.substr(5, name.rfind("_trial") - 5));
         EXPECT_GT(fs::file_size(entry.path()), 200u);
     }
     for (const char* kind : {"instructions", "fixation", "trial", "response", "confirm-empty", "feedback", "break", "end"})
