@@ -536,7 +536,7 @@ RunResult run_session(const RunSettings& settings) {
         const bool new_screen = screen_key != last_screen_key;
         const std::string progress =
             protocol.session.show_progress && trial
-                ? fmt::format("Sentence {} of {}", machine.answered_count() + (shown == Screen::End ? 0 : 1), machine.total_trials())
+                ? fmt::format("Sentence {} of {}", trial->position, machine.total_trials())
                 : std::string();
         switch (shown) {
             case Screen::Instructions:
