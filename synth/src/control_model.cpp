@@ -28,7 +28,7 @@ Trajectory ControlModel::synthesize(const PhoneSequence& phones, double fps) con
 }
 
 const std::vector<std::string>& model_kinds() {
-    static const std::vector<std::string> kinds{"rule", "cohen-massaro", "mpeg4-cohen-massaro", "ohman"};
+    static const std::vector<std::string> kinds{"rule", "cohen-massaro", "mpeg4-cohen-massaro", "ohman", "ann"};
     return kinds;
 }
 
@@ -58,6 +58,8 @@ std::unique_ptr<ControlModel> load_model(const std::filesystem::path& path) {
         model = load_ohman(root, path, reader);
     else if (*kind == "rule")
         model = load_rule(root, path, reader);
+    else if (*kind == "ann")
+        model = load_ann(root, path, reader);
     else {
         std::string message = fmt::format("expected one of {}, got \"{}\"", fmt::join(model_kinds(), ", "), *kind);
         const std::string guess = closest_match(*kind, model_kinds());

@@ -75,6 +75,8 @@ std::unique_ptr<ControlModel> load_ohman(const json& root, const std::filesystem
                                          JsonReader& reader);
 std::unique_ptr<ControlModel> load_rule(const json& root, const std::filesystem::path& path,
                                         JsonReader& reader);
+// Returns nullptr after reporting problems (ann.cpp).
+std::unique_ptr<ControlModel> load_ann(const json& root, const std::filesystem::path& path, JsonReader& reader);
 
 // Parses JSON text; a syntax error throws InputError with file:line:column.
 json parse_json_file(const std::filesystem::path& path);
