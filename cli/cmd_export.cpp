@@ -27,7 +27,7 @@ int run_export(const ExportOptions& o) {
 
 const bool registered = register_command({
     "export",
-    "Export a session database to tidy CSV (responses.csv, timing.csv, frames.csv, sessions.csv, events.csv)",
+    "Export a session database to tidy CSV (responses, timing per trial and per session, frames, sessions, events)",
     [](CLI::App& sub) -> std::function<int()> {
         auto o = std::make_shared<ExportOptions>();
         sub.add_option("database", o->database, "Session database (SQLite) written by `avsi run`")->required();

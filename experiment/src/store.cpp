@@ -3,7 +3,9 @@
 
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <chrono>
+#include <map>
 #include <ctime>
 
 #include <fmt/format.h>
@@ -466,6 +468,34 @@ std::vector<std::filesystem::path> export_store(const Store& store, const std::f
             frames_csv += csv_line({std::to_string(t.subject), std::to_string(t.position), std::to_string(f.frame),
                                     num(f.pts_s), num(f.flip_s), ms(f.offset_ms)});
     }
+    // One summary row per session: what a methods section reports.
+    struct Summary {
+        int subject = 0, presentations = 0, frames = 0, dropped = 0, repeated = 0;
+        double sum_offset_ms = 0.0, max_abs_offset_ms = 0.0;
+        int offsets = 0;
+    };
+    std::map<int, Summary> summaries;
+    for (const auto& t : timing) {
+        Summary& s = summaries[t.session];
+        s.subject = t.subject;
+        ++s.presentations;
+        s.frames += t.presentation.frames_total;
+        s.dropped += t.presentation.dropped_frames;
+        s.repeated += t.presentation.repeated_frames;
+        s.max_abs_offset_ms = std::max(s.max_abs_offset_ms, t.presentation.max_abs_offset_ms);
+        for (const auto& f : t.presentation.flips) {
+            s.sum_offset_ms += f.offset_ms;
+            ++s.offsets;
+        }
+    }
+    std::string summary_csv = csv_line({"subject", "session", "presentations", "frames", "dropped_frames",
+                                        "repeated_frames", "mean_av_offset_ms", "max_abs_av_offset_ms"});
+    for (const auto& [session, s] : summaries)
+        summary_csv += csv_line({std::to_string(s.subject), std::to_string(session), std::to_string(s.presentations),
+                                 std::to_string(s.frames), std::to_string(s.dropped), std::to_string(s.repeated),
+                                 ms(s.offsets ? s.sum_offset_ms / s.offsets : 0.0), ms(s.max_abs_offset_ms)});
+    written.push_back(out_dir / "timing_summary.csv");
+    write_text_file(written.back(), summary_csv);
     written.push_back(out_dir / "timing.csv");
     write_text_file(written.back(), timing_csv);
     written.push_back(out_dir / "frames.csv");

@@ -72,6 +72,10 @@ TEST(Store, StoresPlansSessionsResponsesAndTiming) {
     EXPECT_EQ(responses.rows[0].fields[7], "hello, \"world\"");
     EXPECT_EQ(responses.rows[1].fields[2], "3");
     EXPECT_EQ(read_csv(out / "frames.csv").rows.size(), 4u);
+    const CsvTable summary = read_csv(out / "timing_summary.csv");
+    ASSERT_EQ(summary.rows.size(), 1u);
+    EXPECT_EQ(summary.rows[0].fields[2], "2");  // presentations
+    EXPECT_EQ(summary.rows[0].fields[3], "4");  // frames
     EXPECT_EQ(read_csv(out / "sessions.csv").rows.at(0).fields.at(4), "interrupted");
 }
 
