@@ -1,6 +1,12 @@
 // ANN input encoding, window alignment, streaming and causality (Beskow §4.4–4.5).
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
 #include "ann_test_util.h"
 #include "avsi/core/error.h"
 #include "avsi/synth/ann.h"
@@ -197,6 +203,49 @@ TEST(AnnModelFile, EvaluateAtFrameTimesMatchesRunFramesAndInterpolatesBetween) {
     const double time = 10.5 / 60.0;
     model.evaluate(phones, std::span<const double>(&time, 1), mid);
     EXPECT_NEAR(mid[0][0], 0.5 * (f[10][0] + f[11][0]), 1e-12);
+}
+
+}  // namespace
+}  // namespace avsi::synth
+
+namespace avsi::synth {
+namespace {
+
+// `avsi stream`: frames on stdout equal the batch frames of the same phones.
+TEST(AnnStreamCli, StdinPhonesGiveTheBatchFrames) {
+    if (!std::filesystem::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
+    const auto dir = test::temp_dir("ann_stream_cli");
+    const AnnModel model = test::random_ann(ann2_config(), 5, 21);
+    save_model(model, dir / "m.json");
+    const PhoneSequence phones = make_phones({{"sil", 0.1}, {"M", 0.07}, {"AA", 0.2}, {"P", 0.08}, {"sil", 0.1}});
+    std::string in;
+    for (const auto& p : phones) in += fmt::format("{:.6f} {:.6f} {}\n", p.start_s, p.end_s, p.symbol == "AA" ? "AA1" : p.symbol);
+    test::write_file(dir / "in.txt", in);
+    const std::string cmd = fmt::format("{} stream --model {} < {} > {} 2>/dev/null", AVSI_CLI_PATH,
+                                        (dir / "m.json").string(), (dir / "in.txt").string(),
+                                        (dir / "out.csv").string());
+    ASSERT_EQ(std::system(cmd.c_str()), 0);
+    std::ifstream out(dir / "out.csv");
+    std::string line;
+    std::getline(out, line);
+    EXPECT_EQ(line.rfind("time_s,jaw_rotation,", 0), 0u);
+    PhoneSequence stressed = phones;
+    stressed[2].stressed = true;
+    const auto batch = model.run_frames(stressed, frame_count(phones.back().end_s, 60.0));
+    std::size_t k = 0;
+    while (std::getline(out, line)) {
+        ASSERT_LT(k, batch.size());
+        std::stringstream ss(line);
+        std::string cell;
+        std::getline(ss, cell, ',');
+        EXPECT_NEAR(std::stod(cell), k / 60.0, 1e-6);
+        for (std::size_t p = 0; p < param_count; ++p) {
+            std::getline(ss, cell, ',');
+            EXPECT_NEAR(std::stod(cell), batch[k][p], 1e-6) << k << " " << p;
+        }
+        ++k;
+    }
+    EXPECT_EQ(k, batch.size());
 }
 
 }  // namespace
