@@ -7,6 +7,8 @@
 #include <filesystem>
 
 #include <fmt/format.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "avsi/core/csv.h"
@@ -37,7 +39,7 @@ class Cli : public ::testing::Test {
 protected:
     void SetUp() override {
         if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
-        dir = fs::temp_directory_path() / "avsi_analysis_cli_test";
+        dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analysis_cli_test");
         fs::remove_all(dir);
         fs::create_directories(dir);
     }

@@ -2,6 +2,8 @@
 // the null, increasing with subjects, labelled as simulation.
 #include <filesystem>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "avsi/analysis/power.h"
@@ -73,7 +75,7 @@ TEST(Power, ParsesOptions) {
 
 TEST(Power, EveryOutputSaysSimulation) {
     const auto r = simulate_power(small({50, 70}, 20));
-    const auto dir = std::filesystem::temp_directory_path() / "avsi_power_test";
+    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_power_test");
     std::filesystem::remove_all(dir);
     write_power_files(dir, r);
     for (const char* f : {"power.csv", "power.json", "power.txt"}) {

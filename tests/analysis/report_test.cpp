@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cctype>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -21,7 +23,7 @@ namespace fs = std::filesystem;
 class Report : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
-        dir = fs::temp_directory_path() / "avsi_report_test";
+        dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_report_test");
         fs::remove_all(dir);
         AnalyzeSettings s;
         s.input = AVSI_TEST_DATA_DIR "/analysis/balanced.csv";
@@ -158,11 +160,11 @@ TEST(Apa, FormatsLikeThePaper) {
 }
 
 TEST(AnalyzeFile, RefusesSessionDatabaseWithAdvice) {
-    const fs::path db = fs::temp_directory_path() / "avsi_analyze_refuse.sqlite";
+    const fs::path db = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_refuse.sqlite");
     write_text_file(db, std::string("SQLite format 3\0rest-of-header-bytes", 36));
     AnalyzeSettings s;
     s.input = db;
-    s.out_dir = fs::temp_directory_path() / "avsi_analyze_refuse_out";
+    s.out_dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_refuse_out");
     try {
         analyze_file(s);
         FAIL() << "expected InputError";

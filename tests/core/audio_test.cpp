@@ -1,5 +1,7 @@
 #include "avsi/core/audio.h"
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -74,7 +76,7 @@ TEST(Audio, MonoAveragesChannels) {
 }
 
 TEST(Audio, UnreadableFilesAreInputErrorsNamingTheFile) {
-    const fs::path bogus = fs::temp_directory_path() / "avsi_not_audio.wav";
+    const fs::path bogus = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_not_audio.wav");
     write_text_file(bogus, "this is not a wav file");
     try {
         read_audio(bogus);
@@ -83,7 +85,7 @@ TEST(Audio, UnreadableFilesAreInputErrorsNamingTheFile) {
         EXPECT_EQ(e.first().path, bogus.string());
     }
     EXPECT_THROW(read_audio("/nonexistent/x.wav"), InputError);
-    EXPECT_THROW(write_audio(fs::temp_directory_path() / "x.mp3", Audio{8000, 1, {0.0f}}), InputError);
+    EXPECT_THROW(write_audio(fs::temp_directory_path() / (std::to_string(::getpid()) + "_x.mp3"), Audio{8000, 1, {0.0f}}), InputError);
     fs::remove(bogus);
 }
 

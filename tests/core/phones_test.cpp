@@ -2,6 +2,8 @@
 // §4.4), label parsing, and the espeak-ng / MFA IPA mappings (phone_map.tsv).
 #include "avsi/core/phones.h"
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -212,7 +214,7 @@ TEST(PhoneMap, UnknownIpaNamesTheLabel) {
 }
 
 TEST(PhoneInventoryLoad, MalformedTablesReportFileAndLine) {
-    const fs::path dir = fs::temp_directory_path() / "avsi_phones_test";
+    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_phones_test");
     fs::create_directories(dir);
     const std::string header =
         "symbol\tclass\tipa\texample\tvowel\tbilabial\tlabiodental\tdental\tretroflex\talveolar\tvelar\t"

@@ -1,6 +1,8 @@
 // The stimulus-set builder on a minimal protocol: every stimulus decodes to
 // its manifest frame count, a rebuild renders nothing and gives the same
 // manifest hashes, and a fresh build elsewhere gives identical hashes.
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -13,7 +15,7 @@ namespace avsi::stimuli {
 namespace {
 
 struct BuilderFixture : ::testing::Test {
-    std::filesystem::path dir = std::filesystem::temp_directory_path() / "avsi_builder_test";
+    std::filesystem::path dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_builder_test");
     void SetUp() override { std::filesystem::remove_all(dir); }
     void TearDown() override { std::filesystem::remove_all(dir); }
     BuildSettings settings(const std::string& name) {

@@ -1,5 +1,7 @@
 // The built-in head: mesh size and regions, reproducible generation, the
 // FAPUs, rig loading errors, and what the rig transforms do.
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -40,7 +42,7 @@ TEST(Head, DefaultMeshHasTheFaceRegionsAndEnoughTriangles) {
 }
 
 TEST(Head, GeneratorReproducesTheCommittedFiles) {
-    const auto dir = std::filesystem::temp_directory_path() / "avsi_head_gen_test";
+    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_head_gen_test");
     generate_head(dir / "head.obj", dir / "head.rig.json");
     EXPECT_EQ(sha256_file(dir / "head.obj"), sha256_file(default_head_obj()))
         << "protocols/head/head.obj is out of date: run scripts/make-head";
@@ -99,7 +101,7 @@ TEST(Head, RoundingNarrowsTheMouthAndSpreadingWidensIt) {
 }
 
 TEST(Head, RigWithUnknownChannelNamesTheFieldAndSuggests) {
-    const auto dir = std::filesystem::temp_directory_path() / "avsi_rig_test";
+    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_rig_test");
     write_text_file(dir / "bad.rig.json",
                     R"({"format": "avsi-rig", "landmarks": {}, "transforms": [
                         {"channel": "jaw_rotaton", "translate": [0, 1, 0]}]})");

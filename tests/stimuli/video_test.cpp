@@ -1,6 +1,8 @@
 // MP4 output: decodes with the same libraries to the trajectory's frame
 // count at its exact frame rate, audio as long as the video within one
 // frame, both starting at 0, and byte-identical when written twice.
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -35,7 +37,7 @@ Audio tone(double duration_s, int rate) {
 }
 
 struct VideoFixture : ::testing::Test {
-    std::filesystem::path dir = std::filesystem::temp_directory_path() / "avsi_video_test";
+    std::filesystem::path dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_video_test");
     void TearDown() override { std::filesystem::remove_all(dir); }
 };
 

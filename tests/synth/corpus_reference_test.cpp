@@ -1,6 +1,8 @@
 // The synthetic reference speaker: critically damped dynamics with
 // anticipatory onset (undershoot on short segments, early rounding), seeded
 // and reproducible corpus generation.
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -72,7 +74,7 @@ TEST(ReferenceSpeaker, NoiseIsSeeded) {
 }
 
 TEST(ReferenceCorpus, WritesALoadableCorpus) {
-    const fs::path a = fs::temp_directory_path() / "avsi_refcorpus_a";
+    const fs::path a = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_refcorpus_a");
     fs::remove_all(a);
     ReferenceSpeakerSettings s;
     s.max_utterances = 4;
@@ -91,7 +93,7 @@ TEST(ReferenceCorpus, WritesALoadableCorpus) {
 // process synthesised before, so reproducibility is a property of a fresh
 // `avsi corpus reference` run: two runs give byte-identical corpora.
 TEST(ReferenceCorpus, CliRunsAreByteIdentical) {
-    const fs::path base = fs::temp_directory_path() / "avsi_refcorpus_cli";
+    const fs::path base = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_refcorpus_cli");
     fs::remove_all(base);
     auto run = [&](const std::string& name, const std::string& seed) {
         const std::string cmd = std::string(AVSI_CLI_PATH) + " corpus reference --count 3 --seed " + seed +

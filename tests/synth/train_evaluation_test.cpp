@@ -1,5 +1,7 @@
 // Objective evaluation (Table 2 measures): RMSE as % of range and Pearson ρ,
 // per subset (non-silence, vowels, consonants), missing values left out.
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -94,7 +96,7 @@ TEST(Evaluation, TablesHaveEverySubsetAndModel) {
 }
 
 TEST(Evaluation, PlotIsAnSvgWithEveryCurve) {
-    const auto dir = std::filesystem::temp_directory_path() / "avsi_eval_plot";
+    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_eval_plot");
     std::filesystem::remove_all(dir);
     const CorpusUtterance u = utterance();
     write_trajectory_plot_svg(dir / "p.svg", u, Param::JawRotation,
