@@ -41,7 +41,10 @@ const bool registered = register_command({
             s.confidence = o->confidence;
             s.title = o->title;
             const auto result = analysis::analyze_file(s);
-            fmt::print("{}\n", analysis::apa_anova(result.anova));
+            if (result)
+                fmt::print("{}\n", analysis::apa_anova(result->anova));
+            else
+                fmt::print("pilot report (too few subjects for an ANOVA): {}\n", (s.out_dir / "report.md").string());
             return 0;
         };
     }});

@@ -2,7 +2,10 @@
 // from the same JSON values, so every number shown equals the one stored.
 #include "avsi/analysis/report.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <set>
 #include <cstdio>
 #include <fstream>
 
@@ -487,7 +490,63 @@ void write_report(const AnalysisResult& result, const ReportSettings& settings) 
     log_info("report written to {}: {}", settings.out_dir.string(), apa_anova(result.anova));
 }
 
-AnalysisResult analyze_file(const AnalyzeSettings& s) {
+void write_pilot_report(const Scores& scores, const ReportSettings& settings, std::size_t complete_subjects) {
+    struct Row {
+        std::string condition;
+        std::set<std::string> subjects;
+        long keywords = 0, correct = 0;
+        bool counts = true;          // every cell had keyword counts
+        double percent_sum = 0.0;    // for cells with only a percent
+    };
+    std::vector<Row> rows;
+    std::set<std::string> subjects;
+    for (const auto& c : scores.cells) {
+        if (!c.percent) continue;
+        auto it = std::find_if(rows.begin(), rows.end(), [&](const Row& r) { return r.condition == c.condition; });
+        if (it == rows.end()) it = rows.insert(rows.end(), Row{c.condition, {}, 0, 0, true, 0.0});
+        it->subjects.insert(c.subject);
+        subjects.insert(c.subject);
+        it->keywords += c.keywords;
+        it->correct += c.correct;
+        if (c.keywords == 0) it->counts = false;
+        it->percent_sum += *c.percent;
+    }
+    const auto percent = [](const Row& r) {
+        return r.counts ? 100.0 * static_cast<double>(r.correct) / static_cast<double>(r.keywords)
+                        : r.percent_sum / static_cast<double>(r.subjects.size());
+    };
+    const std::string why = fmt::format(
+        "No repeated-measures ANOVA: it needs at least 2 subjects with a score in every condition, and {} has {} "
+        "({} subject{} in all). This is a dry run or pilot; the table describes it.",
+        settings.source.filename().string(), complete_subjects, subjects.size(), subjects.size() == 1 ? "" : "s");
+
+    std::string csv = csv_line({"condition", "subjects", "keywords", "correct", "percent"});
+    std::string md = fmt::format("# {}\n\nSource: `{}`\n\n{}\n\n| condition | subjects | keywords | correct | "
+                                 "percent correct |\n| --- | ---: | ---: | ---: | ---: |\n",
+                                 settings.title, settings.source.string(), why);
+    std::string table;
+    for (const auto& r : rows) {
+        const std::string kw = r.counts ? std::to_string(r.keywords) : "NA";
+        const std::string ok = r.counts ? std::to_string(r.correct) : "NA";
+        csv += csv_line({r.condition, std::to_string(r.subjects.size()), kw, ok, fmt::format("{}", percent(r))});
+        md += fmt::format("| {} | {} | {} | {} | {:.1f} |\n", r.condition, r.subjects.size(), kw, ok, percent(r));
+        table += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1f}</td></tr>\n",
+                             html_escape(r.condition), r.subjects.size(), kw, ok, percent(r));
+    }
+    const std::string html = fmt::format(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{0}</title><style>{1}</style>"
+        "</head><body>\n<h1>{0}</h1>\n<p>Source: <code>{2}</code></p>\n<p>{3}</p>\n<table>\n<tr><th>condition</th>"
+        "<th>subjects</th><th>keywords</th><th>correct</th><th>percent correct</th></tr>\n{4}</table>\n</body></html>\n",
+        html_escape(settings.title), kCss, html_escape(settings.source.string()), html_escape(why), table);
+
+    std::filesystem::create_directories(settings.out_dir);
+    write_text_file(settings.out_dir / "descriptives.csv", csv);
+    write_text_file(settings.out_dir / "report.md", md);
+    write_text_file(settings.out_dir / "index.html", html);
+    log_info("pilot report written to {}", settings.out_dir.string());
+}
+
+std::optional<AnalysisResult> analyze_file(const AnalyzeSettings& s) {
     std::ifstream in(s.input, std::ios::binary);
     if (!in) throw InputError(s.input, "cannot open the scores file");
     char magic[16] = {};
@@ -498,14 +557,33 @@ AnalysisResult analyze_file(const AnalyzeSettings& s) {
                          "<db> --out DIR` to get responses.csv, then `avsi score --corpus sentences.csv --responses "
                          "DIR/responses.csv --out DIR`, then `avsi analyze DIR/scores.csv --out report/`");
     in.close();
-    const WithinData data = make_within_data(read_scores(s.input), s.input.string());
-    AnalysisResult result = analyze(data, s.confidence);
+    const Scores scores = read_scores(s.input);
     ReportSettings rs;
     rs.out_dir = s.out_dir;
     rs.source = s.input;
     rs.keywords_csv = s.keywords_csv;
     rs.confidence = s.confidence;
     rs.title = s.title;
+
+    std::vector<std::string> conditions;
+    std::map<std::string, std::size_t> scored_cells;  // subject → conditions with a percent
+    for (const auto& c : scores.cells) {
+        if (std::find(conditions.begin(), conditions.end(), c.condition) == conditions.end())
+            conditions.push_back(c.condition);
+        if (c.percent) ++scored_cells[c.subject];
+    }
+    std::size_t complete = 0;
+    for (const auto& [subject, n] : scored_cells)
+        if (n == conditions.size()) ++complete;
+    if (conditions.size() >= 2 && complete < 2 && !scored_cells.empty()) {
+        log_warning("{}: {} subject{} with a score in every condition: no ANOVA (it needs at least 2); "
+                    "writing the descriptive pilot report",
+                    s.input.string(), complete, complete == 1 ? "" : "s");
+        write_pilot_report(scores, rs, complete);
+        return std::nullopt;
+    }
+    const WithinData data = make_within_data(scores, s.input.string());
+    AnalysisResult result = analyze(data, s.confidence);
     write_report(result, rs);
     return result;
 }

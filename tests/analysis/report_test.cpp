@@ -28,7 +28,7 @@ protected:
         AnalyzeSettings s;
         s.input = AVSI_TEST_DATA_DIR "/analysis/balanced.csv";
         s.out_dir = dir / "report";
-        result = analyze_file(s);
+        result = *analyze_file(s);
         html = read_text_file(dir / "report" / "index.html");
         doc = nlohmann::json::parse(read_text_file(dir / "report" / "anova.json"));
     }
@@ -174,6 +174,43 @@ TEST(AnalyzeFile, RefusesSessionDatabaseWithAdvice) {
     }
     EXPECT_FALSE(fs::exists(s.out_dir));
     fs::remove(db);
+}
+
+
+TEST(AnalyzeFile, OneSubjectDryRunGivesPilotReportWithPooledPercent) {
+    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_pilot");
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    write_text_file(dir / "scores.csv",
+                    "subject,condition,keywords,correct,percent\n"
+                    "s01,audio,45,9,20\n"
+                    "s01,face,45,18,40\n"
+                    "s02,audio,45,27,60\n");  // s02 has no face score: not complete
+    AnalyzeSettings s;
+    s.input = dir / "scores.csv";
+    s.out_dir = dir / "report";
+    EXPECT_FALSE(analyze_file(s).has_value());
+    const std::string csv = read_text_file(dir / "report" / "descriptives.csv");
+    // audio pools s01 and s02: 36 of 90 keywords = 40 %; face: s01 only.
+    EXPECT_NE(csv.find("audio,2,90,36,40\n"), std::string::npos) << csv;
+    EXPECT_NE(csv.find("face,1,45,18,40\n"), std::string::npos) << csv;
+    const std::string md = read_text_file(dir / "report" / "report.md");
+    EXPECT_NE(md.find("No repeated-measures ANOVA"), std::string::npos);
+    EXPECT_NE(md.find("has 1 (2 subjects in all)"), std::string::npos) << md;
+    EXPECT_TRUE(fs::exists(dir / "report" / "index.html"));
+    EXPECT_FALSE(fs::exists(dir / "report" / "anova.json"));
+    fs::remove_all(dir);
+}
+
+TEST(AnalyzeFile, OneConditionIsStillAnError) {
+    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_onecond");
+    fs::create_directories(dir);
+    write_text_file(dir / "scores.csv", "subject,condition,keywords,correct,percent\ns01,audio,45,9,20\n");
+    AnalyzeSettings s;
+    s.input = dir / "scores.csv";
+    s.out_dir = dir / "report";
+    EXPECT_THROW(analyze_file(s), InputError);
+    fs::remove_all(dir);
 }
 
 }  // namespace

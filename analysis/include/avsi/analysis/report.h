@@ -11,6 +11,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,7 +61,16 @@ struct AnalyzeSettings {
     std::string title = "Keyword intelligibility by condition";
 };
 
+// The descriptive report of a dry run or pilot too small to test: fewer than
+// 2 subjects with a score in every condition leave the ANOVA without an error
+// term. Writes report.md, index.html and descriptives.csv (per condition:
+// subjects, keywords scored, keywords correct, pooled percent correct) and
+// says in each why there are no inferential statistics.
+void write_pilot_report(const Scores& scores, const ReportSettings& settings, std::size_t complete_subjects);
+
 // `avsi analyze`: reads the scores, analyses them and writes the report.
-AnalysisResult analyze_file(const AnalyzeSettings& settings);
+// With at least 2 conditions but fewer than 2 complete subjects (a one-subject
+// dry run) it writes the pilot report instead, warns, and returns nullopt.
+std::optional<AnalysisResult> analyze_file(const AnalyzeSettings& settings);
 
 }  // namespace avsi::analysis
