@@ -8,6 +8,8 @@
 #include <limits>
 #include <numeric>
 
+#include <Eigen/Core>
+
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
@@ -39,15 +41,269 @@ inline double log_dom(const Seg& s, double t) {
     return d > 0.0 ? s.log_alpha - decay(d, s.theta, s.c) : s.log_alpha - decay(-d, s.phi, s.c);
 }
 
-// The r >= 0 with rate · r^c = x (x >= 0).
-inline double reach(double x, double rate, double c) {
-    const double y = x / rate;
-    return c == 1.0 ? y : c == 2.0 ? std::sqrt(y) : std::pow(y, 1.0 / c);
-}
-
 Seg prepare(const CmSegment& s) {
     AVSI_ASSERT(s.alpha > 0.0 && s.theta_per_s > 0.0 && s.phi_per_s > 0.0 && s.c > 0.0);
     return {s.tau_s, s.target, std::log(s.alpha), s.theta_per_s, s.phi_per_s, s.c};
+}
+
+
+// |d|^c, with the common exponents exact and fast (pow as exp(c·ln|d|):
+// relative error ~1e-15, far below what the tolerance needs).
+inline double power(double a, double c) {
+    if (c == 1.0) return a;
+    if (c == 2.0) return a * a;
+    return a > 0.0 ? std::exp(c * std::log(a)) : 0.0;
+}
+
+// Below this ln δ the absolute dominances could underflow; such a
+// (cell, parameter) is summed in the log domain instead.
+constexpr double min_log_delta = -680.0;
+
+// One side (before or after the centre) of a segment: its distinct rates
+// (θ before, φ after) and which of them each parameter uses, so that
+// exp(−rate·|τ − t|^c) is computed once per distinct rate.
+template <int P>
+struct RateGroups {
+    int count = 0;
+    std::array<double, P> rate{};
+    std::array<int, P> of_param{};
+};
+
+// The bounded sum of eq. 8 (derivation in cohen_massaro.h) for P parameters
+// whose segments share centre and exponent: source(p, i) is parameter p's
+// segment i (any order); sink(frame, p, z) receives each value.
+// Pass 1, per cell: the thresholds δ_j and, per candidate segment, the frames
+// within its cut-off distances r = (max_p (ln α_p − ln δ_p)/θ_p)^(1/c) before
+// the centre (φ after); each segment keeps the hull of its frames over all
+// cells (a superset: extra terms only bring the sum nearer the full one).
+// Pass 2, per segment over its hull: |τ − t|^c once per frame, then
+// exp(−rate·|τ − t|^c) once per distinct rate of the segment, shared by the
+// parameters with that rate (D_p = α_p·exp(−rate_p·|τ − t|^c)), vectorised
+// over the frames (Eigen); for c = 1 on uniformly spaced frames by the exact
+// recurrence E(t ± h) = E(t)·exp(−rate·h) outwards from the centre.
+template <int P, class Source, class Sink>
+void bounded_sum(std::size_t n, const Source& source, std::span<const double> times, double tolerance,
+                 const Sink& sink) {
+    using Col = Eigen::Array<double, P, 1>;
+    using Mat = Eigen::Array<double, P, Eigen::Dynamic>;
+    using Index = Eigen::Index;
+    // Step 1: segments sorted by centre; per parameter the target spread and
+    // the extremes for the reach bound.
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return source(0, a).tau_s < source(0, b).tau_s; });
+    std::vector<double> tau(n), cexp(n);
+    Mat target(P, n), log_alpha(P, n), theta(P, n), phi(P, n);
+    for (std::size_t i = 0; i < n; ++i) {
+        tau[i] = source(0, order[i]).tau_s;
+        cexp[i] = source(0, order[i]).c;
+        for (int p = 0; p < P; ++p) {
+            const CmSegment& s = source(static_cast<std::size_t>(p), order[i]);
+            AVSI_ASSERT(s.alpha > 0.0 && s.theta_per_s > 0.0 && s.phi_per_s > 0.0 && s.c > 0.0);
+            const auto col = static_cast<Index>(i);
+            target(p, col) = s.target;
+            log_alpha(p, col) = std::log(s.alpha);
+            theta(p, col) = s.theta_per_s;
+            phi(p, col) = s.phi_per_s;
+        }
+    }
+    const Mat alpha = log_alpha.exp(), target_alpha = target * alpha;
+    const Mat inv_theta = theta.inverse(), inv_phi = phi.inverse();
+    const Col t_min = target.rowwise().minCoeff(), spread = target.rowwise().maxCoeff() - t_min;
+    const Col max_log_alpha = log_alpha.rowwise().maxCoeff();
+    const Col min_rate = theta.rowwise().minCoeff().min(phi.rowwise().minCoeff());
+    const double c_min = *std::min_element(cexp.begin(), cexp.end());
+    const double c_max = *std::max_element(cexp.begin(), cexp.end());
+    // δ_j = ε·L_j/(ΔT·N): ln δ_j = ln L_j + ln_factor (never above ln L_j).
+    Col ln_factor;
+    for (int p = 0; p < P; ++p)
+        ln_factor[p] = spread[p] > 0.0
+                           ? std::min(0.0, std::log(tolerance) - std::log(spread[p]) - std::log(static_cast<double>(n)))
+                           : 0.0;
+    auto log_dom_col = [&](std::size_t i, double t) -> Col {
+        const double d = tau[i] - t;
+        const double u = power(std::abs(d), cexp[i]);
+        const auto col = static_cast<Index>(i);
+        if (d > 0.0) return log_alpha.col(col) - theta.col(col) * u;
+        return log_alpha.col(col) - phi.col(col) * u;
+    };
+    // The distance r >= 0 at which rate·r^c = y (y >= 0).
+    auto reach_of = [](double y, double c) {
+        return c == 1.0 ? y : c == 2.0 ? std::sqrt(y) : y > 0.0 ? std::exp(std::log(y) / c) : 0.0;
+    };
+
+    // Pass 1: per cell the thresholds, per segment the hull of its kept frames.
+    const std::size_t frames = times.size();
+    constexpr std::size_t none = std::numeric_limits<std::size_t>::max();
+    std::vector<std::size_t> hull_lo(n, none), hull_hi(n, 0);
+    struct LogCell {  // a cell with some ln δ_p below min_log_delta
+        std::size_t k0, k, lo, hi;
+        Col ln_delta;
+    };
+    std::vector<LogCell> log_cells;
+    std::size_t k = 0;
+    for (std::size_t j = 0; j < n && k < frames; ++j) {
+        // Step 2: the frames of cell j (nearer τ_j than the next centre).
+        const double upper = j + 1 < n ? 0.5 * (tau[j] + tau[j + 1]) : std::numeric_limits<double>::infinity();
+        const std::size_t k0 = k;
+        while (k < frames && times[k] < upper) ++k;
+        if (k == k0) continue;
+        const double ta = times[k0], tb = times[k - 1];
+        // Step 3: L_j, the owner's smallest dominance over the cell's frames
+        // (D_j is unimodal, so at an end), and the thresholds δ_j.
+        const Col ln_delta = log_dom_col(j, ta).min(log_dom_col(j, tb)) + ln_factor;
+        // Step 4: the segments that may reach δ_j somewhere in [ta, tb]: x^(1/c)
+        // is monotone in c for fixed x, so the extremes of c bound every reach.
+        const double x = ((max_log_alpha - ln_delta) / min_rate).maxCoeff();
+        const double r = x > 0.0 ? std::max(std::pow(x, 1.0 / c_min), std::pow(x, 1.0 / c_max)) : 0.0;
+        const auto lo = static_cast<std::size_t>(std::lower_bound(tau.begin(), tau.end(), ta - r) - tau.begin());
+        const auto hi = static_cast<std::size_t>(std::upper_bound(tau.begin(), tau.end(), tb + r) - tau.begin());
+        if ((ln_delta <= min_log_delta && spread > 0.0).any()) log_cells.push_back({k0, k, lo, hi, ln_delta});
+        for (std::size_t i = lo; i < hi; ++i) {
+            const double ti = tau[i], ci = cexp[i];
+            // A segment already kept in an earlier cell: this whole cell lies
+            // between that cell and its centre, so is taken into the hull.
+            if (ti > tb && hull_lo[i] != none) {
+                hull_hi[i] = std::max(hull_hi[i], k);
+                continue;
+            }
+            const auto col = static_cast<Index>(i);
+            const Col excess = log_alpha.col(col) - ln_delta;  // ln α_p − ln δ_p
+            const double y_before = (excess * inv_theta.col(col)).maxCoeff();
+            if (y_before < 0.0) continue;  // below every δ_p everywhere (the sign is the same after τ)
+            const double r_before = ti > ta ? reach_of(y_before, ci) : 0.0;
+            const double r_after = ti <= tb ? reach_of((excess * inv_phi.col(col)).maxCoeff(), ci) : 0.0;
+            // The kept frames [fa, fb): ti − r_before <= t <= ti + r_after.
+            std::size_t fa = k0;
+            while (fa < k && ti - times[fa] > r_before) ++fa;
+            std::size_t fb = fa;
+            while (fb < k && times[fb] - ti <= r_after) ++fb;
+            if (fa == fb) continue;
+            hull_lo[i] = std::min(hull_lo[i], fa);
+            hull_hi[i] = std::max(hull_hi[i], fb);
+        }
+    }
+
+    // Pass 2: each segment's dominances over its hull, summed per frame as
+    // absolute values (every kept one is >= δ_j > e^−680, none overflows),
+    // in blocks of frames so the sums stay small and in cache.
+    constexpr std::size_t block = 256;
+    const std::size_t blocks = (frames + block - 1) / block;
+    // The segments overlapping each block (compressed rows).
+    std::vector<std::size_t> block_start(blocks + 1, 0), block_segments;
+    for (std::size_t i = 0; i < n; ++i)
+        if (hull_lo[i] != none)
+            for (std::size_t b = hull_lo[i] / block; b <= (hull_hi[i] - 1) / block; ++b) ++block_start[b + 1];
+    for (std::size_t b = 0; b < blocks; ++b) block_start[b + 1] += block_start[b];
+    block_segments.resize(block_start[blocks]);
+    {
+        std::vector<std::size_t> fill(block_start.begin(), block_start.end() - 1);
+        for (std::size_t i = 0; i < n; ++i)
+            if (hull_lo[i] != none)
+                for (std::size_t b = hull_lo[i] / block; b <= (hull_hi[i] - 1) / block; ++b) block_segments[fill[b]++] = i;
+    }
+    // Uniformly spaced times allow the c = 1 recurrence.
+    bool uniform = frames >= 2;
+    const double step = uniform ? (times[frames - 1] - times[0]) / static_cast<double>(frames - 1) : 0.0;
+    for (std::size_t f = 0; uniform && f < frames; ++f)
+        uniform = std::abs(times[f] - (times[0] + step * static_cast<double>(f))) <= 1e-12 * (1.0 + std::abs(times[f]));
+    const Eigen::Map<const Eigen::ArrayXd> t_all(times.data(), static_cast<Index>(frames));
+    using Frames = Eigen::Array<double, Eigen::Dynamic, P>;  // frames × parameters
+    Frames num(static_cast<Index>(block), P), den(static_cast<Index>(block), P);
+    Eigen::ArrayXd u, e;
+    RateGroups<P> groups;
+    for (std::size_t b = 0; b < blocks; ++b) {
+        const std::size_t b0 = b * block, b1 = std::min(frames, b0 + block);
+        num.setZero();
+        den.setZero();
+        for (std::size_t q_seg = block_start[b]; q_seg < block_start[b + 1]; ++q_seg) {
+            const std::size_t i = block_segments[q_seg];
+            const auto col = static_cast<Index>(i);
+            const double ti = tau[i], ci = cexp[i];
+            const std::size_t h0 = std::max(hull_lo[i], b0), h1 = std::min(hull_hi[i], b1);
+            const auto split = static_cast<std::size_t>(
+                std::lower_bound(times.begin() + static_cast<std::ptrdiff_t>(h0),
+                                 times.begin() + static_cast<std::ptrdiff_t>(h1), ti) -
+                times.begin());
+            for (int side = 0; side < 2; ++side) {
+                // Before the centre [h0, split) with θ, after it [split, h1) with φ.
+                const bool before = side == 0;
+                const std::size_t s0 = before ? h0 : split, s1 = before ? split : h1;
+                if (s0 >= s1) continue;
+                const auto len = static_cast<Index>(s1 - s0);
+                const auto t_side = t_all.segment(static_cast<Index>(s0), len);
+                groups.count = 0;
+                for (int p = 0; p < P; ++p) {
+                    const double rate = before ? theta(p, col) : phi(p, col);
+                    int q = 0;
+                    while (q < groups.count && groups.rate[static_cast<std::size_t>(q)] != rate) ++q;
+                    if (q == groups.count) groups.rate[static_cast<std::size_t>(groups.count++)] = rate;
+                    groups.of_param[static_cast<std::size_t>(p)] = q;
+                }
+                const bool recurrence = uniform && ci == 1.0;
+                if (!recurrence) {
+                    if (before)
+                        u = ti - t_side;
+                    else
+                        u = t_side - ti;
+                    if (ci == 2.0)
+                        u = u.square();
+                    else if (ci != 1.0)
+                        u = (ci * u.log()).exp();  // log 0 = −∞ gives 0
+                }
+                e.resize(len);
+                for (int q = 0; q < groups.count; ++q) {
+                    const double rate = groups.rate[static_cast<std::size_t>(q)];
+                    if (recurrence) {
+                        // Outwards from the frame nearest the centre, each step
+                        // multiplying by exp(−rate·h) <= 1 (no overflow; values
+                        // that fall below the range of doubles are negligible).
+                        const double fall = std::exp(-rate * step);
+                        if (before) {
+                            e[len - 1] = std::exp(-rate * (ti - times[s1 - 1]));
+                            for (Index f = len - 1; f > 0; --f) e[f - 1] = e[f] * fall;
+                        } else {
+                            e[0] = std::exp(-rate * (times[s0] - ti));
+                            for (Index f = 1; f < len; ++f) e[f] = e[f - 1] * fall;
+                        }
+                    } else {
+                        e = (-rate * u).exp();
+                    }
+                    const auto row = static_cast<Index>(s0 - b0);
+                    for (int p = 0; p < P; ++p) {
+                        if (groups.of_param[static_cast<std::size_t>(p)] != q) continue;
+                        num.col(p).segment(row, len) += target_alpha(p, col) * e;
+                        den.col(p).segment(row, len) += alpha(p, col) * e;
+                    }
+                }
+            }
+        }
+        for (std::size_t f = b0; f < b1; ++f) {
+            const auto row = static_cast<Index>(f - b0);
+            for (int p = 0; p < P; ++p)
+                sink(f, static_cast<std::size_t>(p), spread[p] == 0.0 ? t_min[p] : num(row, p) / den(row, p));
+        }
+    }
+    // Cells with extreme dominance ranges: per frame in the log domain,
+    // shifted by the largest dominance.
+    for (const LogCell& cell : log_cells)
+        for (int p = 0; p < P; ++p) {
+            if (!(cell.ln_delta[p] <= min_log_delta && spread[p] > 0.0)) continue;
+            for (std::size_t f = cell.k0; f < cell.k; ++f) {
+                double top = -std::numeric_limits<double>::infinity();
+                for (std::size_t i = cell.lo; i < cell.hi; ++i) top = std::max(top, log_dom_col(i, times[f])[p]);
+                double num_f = 0.0, den_f = 0.0;
+                for (std::size_t i = cell.lo; i < cell.hi; ++i) {
+                    const double l = log_dom_col(i, times[f])[p];
+                    if (l < cell.ln_delta[p]) continue;
+                    const double w = std::exp(l - top);
+                    num_f += target(p, static_cast<Index>(i)) * w;
+                    den_f += w;
+                }
+                sink(f, static_cast<std::size_t>(p), num_f / den_f);
+            }
+        }
 }
 
 }  // namespace
@@ -88,138 +344,32 @@ void cohen_massaro_bounded(std::span<const CmSegment> segments, std::span<const 
         cohen_massaro_full(segments, times_s, out);
         return;
     }
-    // Step 1: segments sorted by centre; global extremes for the reach bound.
-    std::vector<Seg> segs;
-    segs.reserve(segments.size());
-    for (const auto& s : segments) segs.push_back(prepare(s));
-    std::stable_sort(segs.begin(), segs.end(), [](const Seg& a, const Seg& b) { return a.tau < b.tau; });
-    const std::size_t n = segs.size();
-    double t_min = segs[0].target, t_max = segs[0].target;
-    double max_log_alpha = segs[0].log_alpha, min_rate = std::min(segs[0].theta, segs[0].phi);
-    double c_min = segs[0].c, c_max = segs[0].c;
-    for (const auto& s : segs) {
-        t_min = std::min(t_min, s.target);
-        t_max = std::max(t_max, s.target);
-        max_log_alpha = std::max(max_log_alpha, s.log_alpha);
-        min_rate = std::min({min_rate, s.theta, s.phi});
-        c_min = std::min(c_min, s.c);
-        c_max = std::max(c_max, s.c);
+    bounded_sum<1>(
+        segments.size(), [&](std::size_t, std::size_t i) -> const CmSegment& { return segments[i]; }, times_s,
+        tolerance, [&](std::size_t f, std::size_t, double value) { out[f] = value; });
+}
+
+void cohen_massaro_bounded_all(const std::array<std::vector<CmSegment>, param_count>& segments,
+                               std::span<const double> times_s, std::vector<Frame>& out, double tolerance) {
+    AVSI_ASSERT(std::is_sorted(times_s.begin(), times_s.end()));
+    out.assign(times_s.size(), Frame{});
+    const std::size_t n = segments[0].size();
+    bool shared = n > 0 && tolerance > 0.0;
+    for (std::size_t p = 1; shared && p < param_count; ++p) {
+        shared = segments[p].size() == n;
+        for (std::size_t i = 0; shared && i < n; ++i)
+            shared = segments[p][i].tau_s == segments[0][i].tau_s && segments[p][i].c == segments[0][i].c;
     }
-    const double spread = t_max - t_min;
-    if (spread == 0.0) {
-        std::fill(out.begin(), out.end(), t_min);
+    if (shared) {
+        bounded_sum<static_cast<int>(param_count)>(
+            n, [&](std::size_t p, std::size_t i) -> const CmSegment& { return segments[p][i]; }, times_s, tolerance,
+            [&](std::size_t f, std::size_t p, double value) { out[f][p] = value; });
         return;
     }
-    // δ_j = ε·L_j/(ΔT·N): ln δ_j = ln L_j + ln_factor (never above ln L_j).
-    const double ln_factor = std::min(0.0, std::log(tolerance / (spread * static_cast<double>(n))));
-    // The largest reach of any segment down to ln δ: x^(1/c) is monotone in
-    // c for fixed x, so the extremes of c bound it.
-    auto reach_bound = [&](double ln_delta) {
-        const double x = (max_log_alpha - ln_delta) / min_rate;
-        if (x <= 0.0) return 0.0;
-        return std::max(std::pow(x, 1.0 / c_min), std::pow(x, 1.0 / c_max));
-    };
-    std::vector<double> taus(n);
-    for (std::size_t i = 0; i < n; ++i) taus[i] = segs[i].tau;
-
-    std::vector<std::size_t> candidates;
-    std::vector<double> logs, num, den;
-    std::size_t k = 0;
-    const std::size_t frames = times_s.size();
-    // Uniformly spaced times allow the c = 1 recurrence (see step 5).
-    bool uniform = frames >= 2;
-    const double step = uniform ? (times_s[frames - 1] - times_s[0]) / static_cast<double>(frames - 1) : 0.0;
-    for (std::size_t f = 0; uniform && f < frames; ++f)
-        uniform = std::abs(times_s[f] - (times_s[0] + step * static_cast<double>(f))) <= 1e-12 * (1.0 + std::abs(times_s[f]));
-    std::vector<double> rise_factor(n), fall_factor(n), last_weight(n, 0.0);
-    std::vector<std::size_t> last_frame(n, static_cast<std::size_t>(-2));
-    if (uniform)
-        for (std::size_t i = 0; i < n; ++i) {
-            rise_factor[i] = std::exp(segs[i].theta * step);
-            fall_factor[i] = std::exp(-segs[i].phi * step);
-        }
-    for (std::size_t j = 0; j < n && k < frames; ++j) {
-        // Step 2: the frames of cell j (nearer τ_j than the next centre).
-        const double upper = j + 1 < n ? 0.5 * (taus[j] + taus[j + 1]) : std::numeric_limits<double>::infinity();
-        const std::size_t k0 = k;
-        while (k < frames && times_s[k] < upper) ++k;
-        if (k == k0) continue;
-        const double ta = times_s[k0], tb = times_s[k - 1];
-        // Step 3: L_j, the owner's smallest dominance over the cell's frames
-        // (D_j is unimodal, so at an end), and the threshold δ_j.
-        const double ln_l = std::min(log_dom(segs[j], ta), log_dom(segs[j], tb));
-        const double ln_delta = ln_l + ln_factor;
-        // Step 4: candidates: segments whose dominance reaches δ_j somewhere in [ta, tb].
-        const double r = reach_bound(ln_delta);
-        const auto lo = static_cast<std::size_t>(std::lower_bound(taus.begin(), taus.end(), ta - r) - taus.begin());
-        const auto hi = static_cast<std::size_t>(std::upper_bound(taus.begin(), taus.end(), tb + r) - taus.begin());
-        candidates.clear();
-        for (std::size_t i = lo; i < hi; ++i) {
-            const Seg& s = segs[i];
-            const double x = s.log_alpha - ln_delta;
-            if (x < 0.0) continue;
-            if (s.tau - reach(x, s.theta, s.c) > tb || s.tau + reach(x, s.phi, s.c) < ta) continue;
-            candidates.push_back(i);
-        }
-        // Step 5: the weighted mean over the candidates.
-        if (uniform && ln_delta > -680.0) {
-            // Absolute dominances (every kept one is >= δ_j > e^−680, none
-            // overflows), for c = 1 by the recurrence D(t + h) = D(t)·e^{±rate·h}
-            // along the frames, continued from the previous cell.
-            num.assign(k - k0, 0.0);
-            den.assign(k - k0, 0.0);
-            for (std::size_t i : candidates) {
-                const Seg& sg = segs[i];
-                if (sg.c != 1.0) {
-                    for (std::size_t f = k0; f < k; ++f) {
-                        const double w = std::exp(log_dom(sg, times_s[f]));
-                        num[f - k0] += sg.target * w;
-                        den[f - k0] += w;
-                    }
-                    continue;
-                }
-                const double rise = rise_factor[i], fall = fall_factor[i];
-                double w;
-                if (last_frame[i] + 1 == k0 && k0 > 0 && (times_s[k0 - 1] < sg.tau) == (times_s[k0] < sg.tau))
-                    w = last_weight[i] * (times_s[k0] < sg.tau ? rise : fall);
-                else
-                    w = std::exp(log_dom(sg, times_s[k0]));
-                num[0] += sg.target * w;
-                den[0] += w;
-                for (std::size_t f = k0 + 1; f < k; ++f) {
-                    const bool before = times_s[f] < sg.tau;
-                    if (before == (times_s[f - 1] < sg.tau))
-                        w *= before ? rise : fall;
-                    else
-                        w = std::exp(log_dom(sg, times_s[f]));  // crossed the peak
-                    num[f - k0] += sg.target * w;
-                    den[f - k0] += w;
-                }
-                last_frame[i] = k - 1;
-                last_weight[i] = w;
-            }
-            for (std::size_t f = k0; f < k; ++f) out[f] = num[f - k0] / den[f - k0];
-            continue;
-        }
-        // General times or extreme dominance ranges: per frame in the log
-        // domain, shifted by the largest dominance.
-        logs.resize(candidates.size());
-        for (std::size_t f = k0; f < k; ++f) {
-            const double t = times_s[f];
-            double top = -std::numeric_limits<double>::infinity();
-            for (std::size_t q = 0; q < candidates.size(); ++q) {
-                logs[q] = log_dom(segs[candidates[q]], t);
-                top = std::max(top, logs[q]);
-            }
-            double num_f = 0.0, den_f = 0.0;
-            for (std::size_t q = 0; q < candidates.size(); ++q) {
-                if (logs[q] < ln_delta) continue;
-                const double w = std::exp(logs[q] - top);
-                num_f += segs[candidates[q]].target * w;
-                den_f += w;
-            }
-            out[f] = num_f / den_f;
-        }
+    std::vector<double> values(times_s.size());
+    for (std::size_t p = 0; p < param_count; ++p) {
+        cohen_massaro_bounded(segments[p], times_s, values, tolerance);
+        for (std::size_t k = 0; k < values.size(); ++k) out[k][p] = values[k];
     }
 }
 
@@ -230,13 +380,7 @@ std::vector<CmSegment> DominanceModel::segments(const PhoneSequence& phones, Par
 void DominanceModel::evaluate(const PhoneSequence& phones, std::span<const double> times_s,
                               std::vector<Frame>& out) const {
     check_phones_for_synthesis(phones);
-    const auto all = segments_all(phones);
-    out.assign(times_s.size(), Frame{});
-    std::vector<double> values(times_s.size());
-    for (std::size_t p = 0; p < param_count; ++p) {
-        cohen_massaro_bounded(all[p], times_s, values, tolerance);
-        for (std::size_t k = 0; k < values.size(); ++k) out[k][p] = values[k];
-    }
+    cohen_massaro_bounded_all(segments_all(phones), times_s, out, tolerance);
 }
 
 std::array<std::vector<CmSegment>, param_count> CohenMassaroModel::segments_all(const PhoneSequence& phones) const {

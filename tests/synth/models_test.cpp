@@ -4,6 +4,7 @@
 // files and their errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -90,6 +91,78 @@ TEST(CohenMassaro, BoundedSumSkipsFarSegments) {
     EXPECT_GT(full[0], 0.0);
     EXPECT_EQ(bounded[0], 0.0);
     EXPECT_LE(full[0], cm_default_tolerance);
+}
+
+// An utterance's segments for every parameter: per segment one centre and one
+// c (as the models make them, unless `shared` is false), per parameter random
+// T, α, θ, φ. Returns the utterance end.
+double random_segments_all(Rng& rng, std::size_t n, bool shared, bool unit_c,
+                           std::array<std::vector<CmSegment>, param_count>& all) {
+    double t = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double d = rng.uniform(0.02, 0.3);
+        const double c = unit_c ? 1.0 : rng.uniform(0.5, 2.5);
+        for (std::size_t p = 0; p < param_count; ++p) {
+            const double tau = t + d / 2 + (shared ? 0.0 : rng.uniform(-0.01, 0.01));
+            all[p].push_back({tau, rng.uniform(-1.0, 1.0), rng.uniform(0.02, 3.0), rng.uniform(3.0, 120.0),
+                              rng.uniform(3.0, 120.0), shared ? c : rng.uniform(0.5, 2.5)});
+        }
+        t += d;
+    }
+    return t;
+}
+
+// Worst |bounded_all − full| over every frame and parameter.
+double worst_all_vs_full(const std::array<std::vector<CmSegment>, param_count>& all, std::span<const double> times) {
+    std::vector<Frame> bounded;
+    cohen_massaro_bounded_all(all, times, bounded);
+    EXPECT_EQ(bounded.size(), times.size());
+    double worst = 0.0;
+    std::vector<double> full(times.size());
+    for (std::size_t p = 0; p < param_count; ++p) {
+        cohen_massaro_full(all[p], times, full);
+        for (std::size_t k = 0; k < times.size(); ++k) worst = std::max(worst, std::abs(full[k] - bounded[k][p]));
+    }
+    return worst;
+}
+
+TEST(CohenMassaro, BoundedSumOfAllParametersWithin1e9OfFullSum) {
+    for (std::uint64_t seed = 1; seed <= 16; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        Rng rng(seed);
+        std::array<std::vector<CmSegment>, param_count> all;
+        // seed % 4 == 0: centres and c differ between parameters (the
+        // parameter-by-parameter path); seed % 3 == 0: c = 1 throughout.
+        const double end_s = random_segments_all(rng, 1 + rng.uniform_int(200), seed % 4 != 0, seed % 3 == 0, all);
+        std::vector<double> times(frame_count(end_s, 60.0));
+        for (std::size_t k = 0; k < times.size(); ++k) times[k] = double(k) / 60.0;
+        if (seed % 2 == 0) {  // irregular times
+            for (auto& t : times) t = rng.uniform(0.0, end_s);
+            std::sort(times.begin(), times.end());
+        }
+        EXPECT_LE(worst_all_vs_full(all, times), 1e-9);
+    }
+}
+
+TEST(CohenMassaro, BoundedSumWithExtremeRatesStaysWithin1e9) {
+    // θ, φ ~ 1e5/s: the owner's dominance at its cell edge is ~e^−5000, below
+    // the range of doubles, so these cells are summed in the log domain.
+    Rng rng(7);
+    std::array<std::vector<CmSegment>, param_count> all;
+    random_segments_all(rng, 30, true, true, all);
+    for (auto& segs : all)
+        for (std::size_t i = 0; i < segs.size(); ++i)
+            if (i % 2 == 0) segs[i].theta_per_s = segs[i].phi_per_s = rng.uniform(5e4, 1e5);
+    std::vector<double> times(500);
+    for (std::size_t k = 0; k < times.size(); ++k) times[k] = all[0].back().tau_s * double(k) / 499.0;
+    EXPECT_LE(worst_all_vs_full(all, times), 1e-9);
+    std::vector<double> full(times.size()), bounded(times.size());
+    cohen_massaro_full(all[3], times, full);
+    cohen_massaro_bounded(all[3], times, bounded);
+    for (std::size_t k = 0; k < times.size(); ++k) {
+        ASSERT_TRUE(std::isfinite(bounded[k])) << k;
+        EXPECT_NEAR(bounded[k], full[k], 1e-9) << k;
+    }
 }
 
 TEST(Ohman, HandComputedPointsOfThreeSegments) {

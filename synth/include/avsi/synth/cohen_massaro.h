@@ -18,11 +18,13 @@
 // spread of the targets, N the number of segments). The skipped segments
 // change z by at most ΔT·Σ_skipped D / Σ_kept D < N·δ_j·ΔT / L_j = ε, so the
 // result stays within ε of the full sum. Each segment's reach follows from
-// solving α·exp(−θ r^c) = δ for r. On uniformly spaced frames the kept
-// dominances are summed as absolute values (all >= δ_j, so no underflow),
-// for c = 1 by the exact recurrence D(t + h) = D(t)·exp(±rate·h); otherwise
-// (or when δ_j < e^−680) per frame in the log domain, shifted by the largest
-// dominance.
+// solving α·exp(−θ r^c) = δ for r. Only at the frames within a kept
+// segment's reach are dominances evaluated, as absolute values (all >= δ_j,
+// so no underflow while δ_j >= e^−680; below that, per frame in the log
+// domain shifted by the largest dominance). All parameters of a segment
+// share τ and c, so |τ − t|^c is computed once per segment and frame
+// (as exp(c·ln|τ − t|); directly for c = 1, 2) and the ten dominances
+// α_p·exp(−θ_p·|τ − t|^c) are evaluated together (Eigen, vectorised).
 #pragma once
 
 #include <array>
@@ -77,6 +79,16 @@ void cohen_massaro_full(std::span<const CmSegment> segments, std::span<const dou
 // within `tolerance` of cohen_massaro_full. times must be ascending.
 void cohen_massaro_bounded(std::span<const CmSegment> segments, std::span<const double> times_s,
                            std::span<double> out, double tolerance = cm_default_tolerance);
+
+// z(t) of eq. 8 for all parameters at once (segments[p] = parameter p's
+// segments), each within `tolerance` of cohen_massaro_full. Where every
+// segment has the same centre and c for all parameters (as the models make
+// them), |τ − t|^c is computed once per segment and frame and the ten
+// dominances together; otherwise parameter by parameter. out is resized to
+// times.size(); times must be ascending; tolerance 0 means the full sum.
+void cohen_massaro_bounded_all(const std::array<std::vector<CmSegment>, param_count>& segments,
+                               std::span<const double> times_s, std::vector<Frame>& out,
+                               double tolerance = cm_default_tolerance);
 
 // A model whose trajectories are eq. 8 over per-segment dominance functions
 // (Cohen-Massaro and its MPEG-4 variant); evaluation by the bounded sum.
