@@ -1,8 +1,10 @@
 // Training benchmark (issue 4): Cohen-Massaro trained on 200 utterances of the
 // synthetic reference speaker, early-stopping on the rest, on 2 threads.
-// The corpus is generated once into a temporary folder (espeak-ng timing).
+// The corpus is generated once into a temporary folder (espeak-ng timing),
+// or read from AVSI_BENCH_CORPUS (a folder written by `avsi corpus reference`).
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
 #include <filesystem>
 
 #include "avsi/synth/articulatory_corpus.h"
@@ -17,9 +19,14 @@ struct Data {
 
 const Data& data() {
     static const Data d = [] {
-        const auto dir = std::filesystem::temp_directory_path() / "avsi_bench_training_corpus";
-        std::filesystem::remove_all(dir);
-        avsi::synth::write_reference_corpus(dir, {});
+        const char* given = std::getenv("AVSI_BENCH_CORPUS");
+        auto dir = std::filesystem::temp_directory_path() / "avsi_bench_training_corpus";
+        if (given && *given) {
+            dir = given;
+        } else {
+            std::filesystem::remove_all(dir);
+            avsi::synth::write_reference_corpus(dir, {});
+        }
         const auto corpus = avsi::synth::load_articulatory_corpus(dir);
         std::vector<std::string> ids;
         for (const auto& e : corpus.entries) ids.push_back(e.id);
@@ -44,7 +51,7 @@ void BM_TrainCohenMassaro200(benchmark::State& state) {
         benchmark::DoNotOptimize(report.model.get());
     }
 }
-BENCHMARK(BM_TrainCohenMassaro200)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_TrainCohenMassaro200)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 

@@ -32,47 +32,142 @@ namespace fs = std::filesystem;
 // ---------------------------------------------------------------------------
 // Analytic derivatives.
 
-void cohen_massaro_jacobian(std::span<const CmSegment> segments, std::span<const double> times_s,
-                            std::vector<double>& z, std::vector<std::array<double, 6>>& dz) {
-    const std::size_t n = segments.size();
-    AVSI_ASSERT(n > 0);
-    z.assign(times_s.size(), 0.0);
-    dz.assign(times_s.size() * n, {});
-    std::vector<double> log_d(n), x(n), xc(n);
-    std::vector<bool> before(n);
-    for (std::size_t k = 0; k < times_s.size(); ++k) {
-        const double t = times_s[k];
-        double m = -std::numeric_limits<double>::infinity();
-        for (std::size_t i = 0; i < n; ++i) {
-            const CmSegment& s = segments[i];
-            before[i] = t < s.tau_s;
-            x[i] = before[i] ? s.tau_s - t : t - s.tau_s;
-            xc[i] = x[i] > 0 ? std::pow(x[i], s.c) : 0.0;
-            log_d[i] = std::log(s.alpha) - (before[i] ? s.theta_per_s : s.phi_per_s) * xc[i];
-            m = std::max(m, log_d[i]);
+namespace {
+
+// A segment is left out at t when its dominance there is below e^−40 times
+// the largest dominance at t (see cohen_massaro_partials in training.h).
+constexpr double cm_skip_log_ratio = 40.0;
+
+// One contributing segment at one time.
+struct CmTerm {
+    std::uint32_t i;
+    bool before;     // t < τ_i: the anticipatory side (θ)
+    double x;        // |τ_i − t|
+    double log_x;    // ln x (when x > 0 and it was needed)
+    double xc;       // x^c_i
+    double log_d;    // ln D_i(t), then D_i(t) / max_j D_j(t)
+};
+
+// Eq. 7 for the segments that matter at t, over segments in ascending τ.
+// From the two segments bracketing t (the largest dominance so far, m), a
+// segment at distance x can only reach ln D ≥ m − 40 if
+//     ln α_max − rate_min · min(x^c_min, x^c_max) ≥ m − 40,
+// which bounds x; the walk outward on each side stops at that distance
+// (recomputed when a farther segment raises m), so far segments are never
+// evaluated. x^c is exp(c·ln x), the ln x being reused by ∂/∂c (eq. 14).
+class CmFrameSum {
+public:
+    explicit CmFrameSum(std::span<const CmSegment> s) : m_s(s), m_log_alpha(s.size()) {
+        AVSI_ASSERT(!s.empty());
+        for (std::size_t i = 0; i < s.size(); ++i) {
+            AVSI_ASSERT(s[i].alpha > 0 && s[i].theta_per_s > 0 && s[i].phi_per_s > 0 && s[i].c > 0);
+            AVSI_ASSERT(i == 0 || s[i].tau_s >= s[i - 1].tau_s);
+            m_log_alpha[i] = std::log(s[i].alpha);
+            m_max_log_alpha = std::max(m_max_log_alpha, m_log_alpha[i]);
+            m_min_theta = std::min(m_min_theta, s[i].theta_per_s);
+            m_min_phi = std::min(m_min_phi, s[i].phi_per_s);
+            m_min_c = std::min(m_min_c, s[i].c);
+            m_max_c = std::max(m_max_c, s[i].c);
         }
+    }
+
+    // Collects the contributing segments at t into terms(); returns max ln D.
+    double collect(double t, bool need_log_x) {
+        m_terms.clear();
+        const std::size_t n = m_s.size();
+        const auto first_after = static_cast<std::size_t>(
+            std::lower_bound(m_s.begin(), m_s.end(), t, [](const CmSegment& s, double v) { return s.tau_s < v; }) -
+            m_s.begin());
+        double m = -std::numeric_limits<double>::infinity();
+        auto add = [&](std::size_t i) {
+            const CmSegment& s = m_s[i];
+            CmTerm term{static_cast<std::uint32_t>(i), t < s.tau_s, std::abs(s.tau_s - t), 0.0, 0.0, 0.0};
+            if (term.x > 0 && (need_log_x || s.c != 1.0)) term.log_x = std::log(term.x);
+            term.xc = s.c == 1.0 ? term.x : (term.x > 0 ? std::exp(s.c * term.log_x) : 0.0);
+            term.log_d = m_log_alpha[i] - (term.before ? s.theta_per_s : s.phi_per_s) * term.xc;
+            m = std::max(m, term.log_d);
+            m_terms.push_back(term);
+        };
+        if (first_after > 0) add(first_after - 1);
+        if (first_after < n) add(first_after);
+        // Anticipatory side (later centres, θ), then carry-over side (earlier, φ).
+        double reach_m = m, reach = max_distance(m, m_min_theta);
+        for (std::size_t i = first_after + 1; i < n; ++i) {
+            if (m != reach_m) reach = max_distance(reach_m = m, m_min_theta);
+            if (m_s[i].tau_s - t > reach) break;
+            add(i);
+        }
+        reach_m = m;
+        reach = max_distance(m, m_min_phi);
+        for (std::size_t i = first_after >= 1 ? first_after - 1 : 0; i-- > 0;) {
+            if (m != reach_m) reach = max_distance(reach_m = m, m_min_phi);
+            if (t - m_s[i].tau_s > reach) break;
+            add(i);
+        }
+        return m;
+    }
+
+    std::vector<CmTerm>& terms() { return m_terms; }
+
+private:
+    // The largest x with ln α_max − rate · min(x^c_min, x^c_max) ≥ m − 40.
+    double max_distance(double m, double rate) const {
+        const double y = (m_max_log_alpha - m + cm_skip_log_ratio) / rate;
+        if (y <= 0) return 0.0;
+        const double c = y < 1.0 ? m_max_c : m_min_c;
+        return c == 1.0 ? y : std::pow(y, 1.0 / c);
+    }
+
+    std::span<const CmSegment> m_s;
+    std::vector<double> m_log_alpha;
+    double m_max_log_alpha = -std::numeric_limits<double>::infinity();
+    double m_min_theta = std::numeric_limits<double>::infinity();
+    double m_min_phi = std::numeric_limits<double>::infinity();
+    double m_min_c = std::numeric_limits<double>::infinity();
+    double m_max_c = 0.0;
+    std::vector<CmTerm> m_terms;
+};
+
+}  // namespace
+
+void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const double> times_s,
+                            std::vector<double>& z, CmPartials* partials) {
+    CmFrameSum frame_sum(segments);
+    z.assign(times_s.size(), 0.0);
+    if (partials) {
+        partials->row_start.assign(1, 0);
+        partials->segment.clear();
+        partials->d.clear();
+    }
+    for (std::size_t k = 0; k < times_s.size(); ++k) {
+        const double m = frame_sum.collect(times_s[k], partials != nullptr);
+        std::vector<CmTerm>& terms = frame_sum.terms();
         double sum = 0.0, num = 0.0;
-        for (std::size_t i = 0; i < n; ++i) {
-            log_d[i] = std::exp(log_d[i] - m);  // now D_i / max D
-            sum += log_d[i];
-            num += log_d[i] * segments[i].target;
+        for (CmTerm& term : terms) {
+            term.log_d = std::exp(term.log_d - m);  // now D_i / max D
+            sum += term.log_d;
+            num += term.log_d * segments[term.i].target;
         }
         const double zk = num / sum;
         z[k] = zk;
-        for (std::size_t i = 0; i < n; ++i) {
-            const CmSegment& s = segments[i];
-            const double w = log_d[i] / sum;             // D_i / ΣD
+        if (!partials) continue;
+        for (const CmTerm& term : terms) {
+            const CmSegment& s = segments[term.i];
+            const double w = term.log_d / sum;           // D_i / ΣD
             const double g = w * (s.target - zk);        // eq. 10 with ∂D/∂ψ = D·∂lnD/∂ψ
-            const double rate = before[i] ? s.theta_per_s : s.phi_per_s;
-            auto& d = dz[k * n + i];
+            const double rate = term.before ? s.theta_per_s : s.phi_per_s;
+            std::array<double, 6> d{};
             d[0] = w;                                    // eq. 9
             d[1] = g / s.alpha;                          // eq. 11
-            d[2] = before[i] ? -xc[i] * g : 0.0;         // eq. 12
-            d[3] = before[i] ? 0.0 : -xc[i] * g;         // eq. 13
-            d[4] = x[i] > 0 ? -rate * xc[i] * std::log(x[i]) * g : 0.0;  // eq. 14 (with its sign)
-            const double dxc = x[i] > 0 ? s.c * xc[i] / x[i] : 0.0;      // d(x^c)/dx
-            d[5] = (before[i] ? -rate * dxc : rate * dxc) * g;           // ∂/∂τ
+            d[2] = term.before ? -term.xc * g : 0.0;     // eq. 12
+            d[3] = term.before ? 0.0 : -term.xc * g;     // eq. 13
+            d[4] = term.x > 0 ? -rate * term.xc * term.log_x * g : 0.0;  // eq. 14 (with its sign)
+            const double dxc = term.x > 0 ? s.c * term.xc / term.x : 0.0;  // d(x^c)/dx
+            d[5] = (term.before ? -rate * dxc : rate * dxc) * g;          // ∂/∂τ
+            partials->segment.push_back(term.i);
+            partials->d.push_back(d);
         }
+        partials->row_start.push_back(partials->segment.size());
     }
 }
 
@@ -83,15 +178,18 @@ void cohen_massaro_keyed(const KeyedUtterance& u, std::span<const double> x, std
         const double* q = x.data() + 5 * static_cast<std::size_t>(u.key[i]);
         segs[i] = {u.centres_s[i], q[0], q[1], q[2], q[3], q[4]};
     }
-    std::vector<std::array<double, 6>> dz;
-    cohen_massaro_jacobian(segs, u.times_s, z, dz);
-    if (!jacobian) return;
-    const std::size_t cols = x.size(), n = segs.size();
+    if (!jacobian) {
+        cohen_massaro_partials(segs, u.times_s, z, nullptr);
+        return;
+    }
+    CmPartials dz;
+    cohen_massaro_partials(segs, u.times_s, z, &dz);
+    const std::size_t cols = x.size();
     jacobian->assign(u.times_s.size() * cols, 0.0);
     for (std::size_t k = 0; k < u.times_s.size(); ++k)
-        for (std::size_t i = 0; i < n; ++i) {
-            double* row = jacobian->data() + k * cols + 5 * static_cast<std::size_t>(u.key[i]);
-            for (int j = 0; j < 5; ++j) row[j] += dz[k * n + i][j];  // summed per phone class
+        for (std::size_t e = dz.row_start[k]; e < dz.row_start[k + 1]; ++e) {
+            double* row = jacobian->data() + k * cols + 5 * static_cast<std::size_t>(u.key[dz.segment[e]]);
+            for (int j = 0; j < 5; ++j) row[j] += dz.d[e][j];  // summed per phone class
         }
 }
 
@@ -609,8 +707,8 @@ public:
         for (std::size_t i = 0; i < n; ++i)
             segs[i] = {m_series.u.centres_s[i] + g[2], parameters[m_local[i]][0], m_alpha[i], g[0], g[1], 1.0};
         std::vector<double> z;
-        std::vector<std::array<double, 6>> dz;
-        cohen_massaro_jacobian(segs, m_series.u.times_s, z, dz);
+        CmPartials dz;
+        cohen_massaro_partials(segs, m_series.u.times_s, z, jacobians ? &dz : nullptr);
         const std::size_t rows = m_series.y.size();
         for (std::size_t k = 0; k < rows; ++k) residuals[k] = z[k] - m_series.y[k];
         if (!jacobians) return true;
@@ -619,9 +717,9 @@ public:
         double* jg = jacobians[m_visemes.size()];
         if (jg) std::fill(jg, jg + 3 * rows, 0.0);
         for (std::size_t k = 0; k < rows; ++k)
-            for (std::size_t i = 0; i < n; ++i) {
-                const auto& d = dz[k * n + i];
-                if (jacobians[m_local[i]]) jacobians[m_local[i]][k] += d[0];
+            for (std::size_t e = dz.row_start[k]; e < dz.row_start[k + 1]; ++e) {
+                const auto& d = dz.d[e];
+                if (double* jt = jacobians[m_local[dz.segment[e]]]) jt[k] += d[0];
                 if (jg) {
                     jg[3 * k + 0] += d[2];
                     jg[3 * k + 1] += d[3];
@@ -696,7 +794,6 @@ std::unique_ptr<ControlModel> train_mpeg4(std::unique_ptr<ControlModel> init, co
     auto test_error = [&] {
         double sse = 0.0;
         std::vector<double> z;
-        std::vector<std::array<double, 6>> dz;
         for (std::size_t q = 0; q < param_count; ++q)
             for (const auto& s : test_sets[q]) {
                 std::vector<CmSegment> segs(s.u.centres_s.size());
@@ -705,7 +802,7 @@ std::unique_ptr<ControlModel> train_mpeg4(std::unique_ptr<ControlModel> init, co
                     segs[i] = {s.u.centres_s[i] + global[2], targets[v * param_count + q], alphas[v], global[0],
                                global[1], 1.0};
                 }
-                cohen_massaro_jacobian(segs, s.u.times_s, z, dz);
+                cohen_massaro_partials(segs, s.u.times_s, z, nullptr);
                 for (std::size_t k = 0; k < z.size(); ++k) sse += (z[k] - s.y[k]) * (z[k] - s.y[k]);
             }
         return sse;

@@ -27,6 +27,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -76,10 +77,22 @@ TrainingReport run_training(const TrainCommandSettings& settings);
 
 // ---- The analytic derivatives, exposed for gradient checks ----
 
-// Eq. 8 at each time and, per segment i, ∂z/∂(T, α, θ, φ, c, τ) of that
-// segment: dz[k · N + i][0..5]. Log-domain, so it never divides by zero.
-void cohen_massaro_jacobian(std::span<const CmSegment> segments, std::span<const double> times_s,
-                            std::vector<double>& z, std::vector<std::array<double, 6>>& dz);
+// Per time k, the segments that contribute to z(t_k) and ∂z/∂(T, α, θ, φ,
+// c, τ) of each, in compressed rows: entries row_start[k] .. row_start[k+1].
+struct CmPartials {
+    std::vector<std::size_t> row_start;
+    std::vector<std::uint32_t> segment;
+    std::vector<std::array<double, 6>> d;
+};
+
+// Eq. 8 at each time and, if `partials` is non-null, the partials of eq.
+// 9–14 (and ∂/∂τ) of each contributing segment; log domain, so it never
+// divides by zero. Segments in ascending τ. A segment whose dominance at t
+// is below e^−40 of the largest there is left out (found by a bound, never
+// evaluated): all of them together move z by less than N·5e-18 of the target
+// spread, far below double precision of the sum.
+void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const double> times_s,
+                            std::vector<double>& z, CmPartials* partials);
 
 // One utterance of a phone-keyed model for one parameter: which key each
 // segment uses, and the segment centres.
