@@ -4,6 +4,8 @@
 #include <memory>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
 #include "avsi/core/protocol.h"
@@ -24,10 +26,22 @@ struct RunOptions {
     bool fullscreen = false;
     int monitor = -1;
     std::string size = "1024x768";
+    std::string audio_capture;
+    bool list_audio_devices = false;
 };
 
 int run_run(RunOptions& o) {
     experiment::RunSettings& s = o.settings;
+    if (o.list_audio_devices) {
+        const auto devices = experiment::list_audio_devices();
+        if (devices.empty()) fmt::print("no audio output devices (PortAudio finds none on this machine)\n");
+        for (const auto& line : devices) fmt::print("{}\n", line);
+        return 0;
+    }
+    if (o.protocol.empty()) throw UsageError("the protocol file is required");
+    if (s.subject == 0) throw UsageError("--subject is required");
+    if (!s.audio_device.empty() && s.audio != "portaudio")
+        throw UsageError("--audio-device picks a PortAudio device; it needs --audio portaudio");
     s.protocol = o.protocol;
     if (o.windowed && o.fullscreen) throw UsageError("give --windowed or --fullscreen, not both");
     if (o.windowed) s.fullscreen = false;
@@ -42,6 +56,7 @@ int run_run(RunOptions& o) {
     s.stimuli_dir = o.stimuli;
     s.script = o.script;
     s.screenshots = o.screenshots;
+    s.audio_capture = o.audio_capture;
     int w = 0, h = 0;
     char x = 0;
     if (std::sscanf(o.size.c_str(), "%d%c%d", &w, &x, &h) != 3 || x != 'x' || w < 160 || h < 120)
@@ -61,10 +76,12 @@ const bool registered = register_command({
     [](CLI::App& sub) -> std::function<int()> {
         auto o = std::make_shared<RunOptions>();
         auto& s = o->settings;
-        sub.add_option("protocol", o->protocol, "Protocol file (TOML)")->required()->check(CLI::ExistingFile);
-        sub.add_option("--subject", s.subject, "Subject number (1-based; picks the subject's lists)")->required();
+        sub.add_option("protocol", o->protocol, "Protocol file (TOML)")->check(CLI::ExistingFile);
+        sub.add_option("--subject", s.subject, "Subject number (1-based; picks the subject's lists); required");
         sub.add_option("--db", o->db, "Session database (default: data/<experiment name>.sqlite)")->capture_default_str();
-        sub.add_option("--stimuli", o->stimuli, "Stimulus folder built by `avsi stimuli` (<sentence>/<condition>.mp4)")
+        sub.add_option("--stimuli", o->stimuli,
+                       "Stimulus folder built by `avsi build-stimuli` (manifest.json + <sentence>/<condition>.mp4; "
+                       "each clip is checked against the manifest's SHA-256)")
             ->capture_default_str();
         sub.add_flag("--test-pattern", s.test_pattern,
                      "Present a generated test clip (frame counter + tone bursts) instead of stimuli: dry runs and "
@@ -77,6 +94,16 @@ const bool registered = register_command({
                                            "clock at --refresh-hz)")
             ->capture_default_str()
             ->check(CLI::IsMember({"portaudio", "null"}));
+        sub.add_option("--audio-device", s.audio_device,
+                       "PortAudio output device: an index or part of a name from --list-audio-devices (default: the "
+                       "system's default output)")
+            ->capture_default_str();
+        sub.add_flag("--list-audio-devices", o->list_audio_devices,
+                     "List the PortAudio output devices and exit (no protocol needed)");
+        sub.add_option("--audio-capture", o->audio_capture,
+                       "Write the samples sent to the audio device for each trial as trialNNN.wav in this folder "
+                       "(checks that the stimulus audio is what plays)")
+            ->capture_default_str();
         sub.add_option("--refresh-hz", s.null_refresh_hz, "Refresh rate of the simulated clock with --audio null")
             ->capture_default_str()
             ->check(CLI::Range(1.0, 1000.0));

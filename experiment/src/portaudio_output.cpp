@@ -4,9 +4,13 @@
 // (Pa_GetStreamTime), the same clock the runner stamps its buffer swaps with.
 #include <portaudio.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cmath>
 #include <mutex>
+#include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -18,19 +22,93 @@ namespace avsi::experiment {
 
 namespace {
 
+void initialise() {
+    if (const PaError e = Pa_Initialize(); e != paNoError)
+        throw InputError("portaudio", 0, 0, "", fmt::format("cannot initialise PortAudio: {}", Pa_GetErrorText(e)));
+}
+
+std::string lower(std::string s) {
+    for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+}
+
+std::string describe(PaDeviceIndex i) {
+    const PaDeviceInfo* d = Pa_GetDeviceInfo(i);
+    const PaHostApiInfo* host = Pa_GetHostApiInfo(d->hostApi);
+    return fmt::format("{}: {} ({}, {} output channels, {:.0f} Hz, low latency {:.1f} ms){}", i, d->name,
+                       host ? host->name : "?", d->maxOutputChannels, d->defaultSampleRate,
+                       d->defaultLowOutputLatency * 1000.0, i == Pa_GetDefaultOutputDevice() ? " [default]" : "");
+}
+
+std::vector<PaDeviceIndex> output_devices() {
+    std::vector<PaDeviceIndex> out;
+    for (PaDeviceIndex i = 0, n = Pa_GetDeviceCount(); i < n; ++i)
+        if (Pa_GetDeviceInfo(i)->maxOutputChannels > 0) out.push_back(i);
+    return out;
+}
+
+std::string device_list_text() {
+    const auto devices = output_devices();
+    if (devices.empty()) return "PortAudio finds no output device on this machine";
+    std::string text = "the output devices are:";
+    for (PaDeviceIndex i : devices) text += "\n  " + describe(i);
+    return text;
+}
+
+// The device named by an index or a case-insensitive part of its name; the
+// default output device for "". PortAudio must be initialised.
+PaDeviceIndex find_device(const std::string& wanted) {
+    if (wanted.empty()) {
+        const PaDeviceIndex device = Pa_GetDefaultOutputDevice();
+        if (device == paNoDevice)
+            throw InputError("portaudio", 0, 0, "audio-device",
+                             fmt::format("no default audio output device ({}); give --audio-device, or --audio null "
+                                         "for a dry run",
+                                         device_list_text()));
+        return device;
+    }
+    const auto devices = output_devices();
+    if (std::all_of(wanted.begin(), wanted.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+        const int index = std::stoi(wanted);
+        if (std::find(devices.begin(), devices.end(), index) != devices.end()) return index;
+        throw InputError("portaudio", 0, 0, "audio-device",
+                         fmt::format("expected an output device index, got {} ({})", wanted, device_list_text()));
+    }
+    std::vector<PaDeviceIndex> matches;
+    for (PaDeviceIndex i : devices) {
+        const std::string name = lower(Pa_GetDeviceInfo(i)->name);
+        if (name == lower(wanted)) return i;
+        if (name.find(lower(wanted)) != std::string::npos) matches.push_back(i);
+    }
+    if (matches.size() == 1) return matches.front();
+    throw InputError("portaudio", 0, 0, "audio-device",
+                     fmt::format("expected one output device named like \"{}\", found {} ({})", wanted,
+                                 matches.size(), device_list_text()));
+}
+
 class PortAudioOutput : public AudioOutput {
 public:
-    PortAudioOutput() {
-        if (const PaError e = Pa_Initialize(); e != paNoError)
-            throw InputError("portaudio", 0, 0, "", fmt::format("cannot initialise PortAudio: {}", Pa_GetErrorText(e)));
+    explicit PortAudioOutput(const std::string& device) {
+        initialise();
         m_initialised = true;
-        const PaDeviceIndex device = Pa_GetDefaultOutputDevice();
-        if (device == paNoDevice) {
+        try {
+            m_device_index = find_device(device);
+        } catch (...) {
             Pa_Terminate();
-            throw InputError("portaudio", 0, 0, "", "no audio output device; use --audio null for a dry run");
+            m_initialised = false;
+            throw;
         }
-        m_device = Pa_GetDeviceInfo(device);
-        m_device_index = device;
+        m_device = Pa_GetDeviceInfo(m_device_index);
+        // Open the stream now, so a device that cannot play fails before the
+        // window opens and the clock runs from the start (a clip at another
+        // rate reopens it).
+        try {
+            ensure_stream(48000);
+        } catch (...) {
+            Pa_Terminate();
+            m_initialised = false;
+            throw;
+        }
     }
     ~PortAudioOutput() override {
         close();
@@ -61,6 +139,14 @@ public:
         if (v < 0) return std::nullopt;
         return v;
     }
+    std::string onset_detail() override {
+        std::lock_guard lock(m_mutex);
+        const double onset = m_onset.load();
+        if (onset < 0) return "";
+        return fmt::format("onset {:.6f} s on the DAC clock, {:+.3f} ms from the requested {:.6f} s; the callback saw "
+                           "the DAC {:.3f} ms ahead",
+                           onset, (onset - m_at_s) * 1000.0, m_at_s, m_dac_lead_s * 1000.0);
+    }
     bool playing() override {
         std::lock_guard lock(m_mutex);
         return m_active;
@@ -83,9 +169,13 @@ private:
         PaError e = Pa_OpenStream(&m_stream, nullptr, &out, rate, paFramesPerBufferUnspecified, paClipOff,
                                   &PortAudioOutput::callback, this);
         if (e == paNoError) e = Pa_StartStream(m_stream);
-        if (e != paNoError)
-            throw InputError("portaudio", 0, 0, "",
-                             fmt::format("cannot open the audio output at {} Hz: {}", rate, Pa_GetErrorText(e)));
+        if (e != paNoError) {
+            if (m_stream) Pa_CloseStream(m_stream);
+            m_stream = nullptr;
+            throw InputError("portaudio", 0, 0, "audio-device",
+                             fmt::format("cannot open audio output device \"{}\" at {} Hz: {}", m_device->name, rate,
+                                         Pa_GetErrorText(e)));
+        }
         m_rate = rate;
         const PaStreamInfo* info = Pa_GetStreamInfo(m_stream);
         m_latency_s = info ? info->outputLatency : 0.0;
@@ -112,6 +202,7 @@ private:
             const double wait = (self->m_at_s - dac) * self->m_rate;
             if (wait >= static_cast<double>(frames)) return paContinue;
             first = wait > 0 ? static_cast<unsigned long>(std::ceil(wait)) : 0;
+            self->m_dac_lead_s = dac - time->currentTime;
             self->m_onset.store(dac + static_cast<double>(first) / self->m_rate);
             self->m_started = true;
         }
@@ -133,11 +224,22 @@ private:
     double m_at_s = 0.0;
     bool m_started = false;
     bool m_active = false;
+    double m_dac_lead_s = 0.0;  // outputBufferDacTime − currentTime at the onset buffer
     std::atomic<double> m_onset{-1.0};
 };
 
 }  // namespace
 
-std::unique_ptr<AudioOutput> make_portaudio_output() { return std::make_unique<PortAudioOutput>(); }
+std::unique_ptr<AudioOutput> make_portaudio_output(const std::string& device) {
+    return std::make_unique<PortAudioOutput>(device);
+}
+
+std::vector<std::string> list_audio_devices() {
+    initialise();
+    std::vector<std::string> lines;
+    for (PaDeviceIndex i : output_devices()) lines.push_back(describe(i));
+    Pa_Terminate();
+    return lines;
+}
 
 }  // namespace avsi::experiment

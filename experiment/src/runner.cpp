@@ -15,13 +15,17 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <set>
 #include <thread>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
+#include "avsi/core/audio.h"
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
@@ -58,9 +62,13 @@ namespace {
 // A decoded stimulus video (the stimuli module's decoder) as a FrameSource.
 class DecodedClip : public FrameSource {
 public:
-    explicit DecodedClip(const fs::path& path) : m_video(stimuli::decode_video(path, true)) {
+    DecodedClip(const fs::path& path, int expected_frames) : m_video(stimuli::decode_video(path, true)) {
         if (m_video.frames.empty() || m_video.fps <= 0)
             throw InputError(path, "the stimulus video has no frames");
+        if (expected_frames > 0 && static_cast<int>(m_video.frames.size()) != expected_frames)
+            throw InputError(path, 0, 0, "frames",
+                             fmt::format("expected {} frames (manifest.json), decoded {}", expected_frames,
+                                         m_video.frames.size()));
         if (m_video.has_audio) {
             m_rate = m_video.audio.sample_rate_hz;
             m_audio = m_video.audio.mono();
@@ -109,8 +117,69 @@ private:
 
 }  // namespace
 
+StimulusManifest read_stimulus_manifest(const fs::path& dir) {
+    const fs::path path = dir / "manifest.json";
+    if (!fs::is_regular_file(path))
+        throw InputError(path, "no stimulus manifest here; build the stimulus folder with `avsi build-stimuli "
+                               "protocol.toml --out DIR`");
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(read_text_file(path));
+    } catch (const nlohmann::json::exception& e) {
+        throw InputError(path, fmt::format("not valid JSON: {}", e.what()));
+    }
+    if (!j.is_object() || j.value("format", "") != "avsi-stimuli-manifest" || !j.contains("stimuli") ||
+        !j["stimuli"].is_array())
+        throw InputError(path, 0, 0, "format", "expected an avsi stimulus manifest (format \"avsi-stimuli-manifest\")");
+    StimulusManifest m;
+    m.experiment = j.value("experiment", "");
+    m.sha256 = sha256_file(path);
+    DiagnosticList problems;
+    std::size_t index = 0;
+    for (const auto& item : j["stimuli"]) {
+        const std::string field = fmt::format("stimuli[{}]", index++);
+        try {
+            ManifestEntry e;
+            e.path = item.at("path").get<std::string>();
+            e.frames = item.at("frames").get<int>();
+            e.fps = item.at("fps").get<double>();
+            e.sha256 = item.at("sha256").get<std::string>();
+            m.stimuli[e.path] = e;
+        } catch (const nlohmann::json::exception& e) {
+            problems.add(path.string(), 0, 0, field, fmt::format("expected path, frames, fps and sha256: {}", e.what()));
+        }
+    }
+    problems.throw_if_any();
+    return m;
+}
+
+StimulusFolderOpener::StimulusFolderOpener(fs::path dir) : m_dir(std::move(dir)), m_manifest(read_stimulus_manifest(m_dir)) {}
+
+void StimulusFolderOpener::verify(const std::vector<std::string>& stimuli) const {
+    DiagnosticList problems;
+    std::set<std::string> checked;
+    for (const auto& stimulus : stimuli) {
+        if (!checked.insert(stimulus).second) continue;
+        const fs::path file = m_dir / stimulus;
+        const auto entry = m_manifest.stimuli.find(stimulus);
+        if (entry == m_manifest.stimuli.end())
+            problems.add((m_dir / "manifest.json").string(), 0, 0, "stimuli",
+                         fmt::format("{} is not in the manifest (rebuild with `avsi build-stimuli`)", stimulus));
+        else if (!fs::is_regular_file(file))
+            problems.add(file.string(), 0, 0, "", "missing stimulus (rebuild with `avsi build-stimuli`)");
+        else if (const std::string sha = sha256_file(file); sha != entry->second.sha256)
+            problems.add(file.string(), 0, 0, "sha256",
+                         fmt::format("expected {} (manifest.json), got {}: the file changed after the build",
+                                     entry->second.sha256, sha));
+    }
+    problems.throw_if_any();
+}
+
 std::unique_ptr<FrameSource> StimulusFolderOpener::open(const std::string& stimulus) {
-    return std::make_unique<DecodedClip>(m_dir / stimulus);
+    const auto entry = m_manifest.stimuli.find(stimulus);
+    if (entry == m_manifest.stimuli.end())
+        throw InputError(m_dir / "manifest.json", 0, 0, "stimuli", fmt::format("{} is not in the manifest", stimulus));
+    return std::make_unique<DecodedClip>(m_dir / stimulus, entry->second.frames);
 }
 
 std::unique_ptr<StimulusOpener> make_stimulus_opener(const RunSettings& settings, double fps) {
@@ -120,7 +189,7 @@ std::unique_ptr<StimulusOpener> make_stimulus_opener(const RunSettings& settings
         return std::make_unique<TestPatternOpener>(t);
     }
     if (settings.stimuli_dir.empty())
-        throw UsageError("give the stimulus folder with --stimuli DIR (built by `avsi stimuli`), or "
+        throw UsageError("give the stimulus folder with --stimuli DIR (built by `avsi build-stimuli`), or "
                          "--test-pattern for a dry run with a generated clip");
     return std::make_unique<StimulusFolderOpener>(settings.stimuli_dir);
 }
@@ -290,6 +359,32 @@ void hint_text(const std::string& text) {
     ImGui::TextColored(ImVec4(0.75f, 0.75f, 0.75f, 1.0f), "%s", text.c_str());
 }
 
+// The buffer-swap period as measured on the audio clock: the median of the
+// last swaps' intervals (the nominal refresh until enough are seen). With
+// vsync it settles on the display's refresh; without vsync (a virtual
+// display) on the loop's own pace, so the next flip is still predicted right.
+class FlipPeriod {
+public:
+    explicit FlipPeriod(double nominal_s) : m_nominal_s(nominal_s) {}
+    void flipped(double interval_s) {
+        if (interval_s <= 0 || interval_s > 0.25) return;  // a stall (window creation, decoding) is not a refresh
+        m_recent[m_next++ % m_recent.size()] = interval_s;
+        m_count = std::min(m_count + 1, m_recent.size());
+    }
+    double seconds() const {
+        if (m_count < 8) return m_nominal_s;
+        std::array<double, 31> sorted = m_recent;
+        std::sort(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(m_count));
+        return sorted[m_count / 2];
+    }
+
+private:
+    double m_nominal_s;
+    std::array<double, 31> m_recent{};
+    std::size_t m_next = 0;
+    std::size_t m_count = 0;
+};
+
 // The current stimulus being presented.
 struct Playback {
     std::unique_ptr<FrameSource> source;
@@ -336,13 +431,18 @@ RunResult run_session(const RunSettings& settings) {
                                                       "(one line per trial in plan order)",
                                                       script.size(), settings.subject, plan.size()));
 
-    if (!settings.test_pattern) {
-        DiagnosticList missing;
-        for (const auto& t : plan)
-            if (!fs::is_regular_file(settings.stimuli_dir / t.stimulus))
-                missing.add((settings.stimuli_dir / t.stimulus).string(), 0, 0, "",
-                            fmt::format("missing stimulus for trial {} (build it with `avsi stimuli`)", t.position));
-        missing.throw_if_any();
+    // Every planned stimulus listed in the manifest, present and unchanged.
+    std::string stimuli_note = "test pattern";
+    if (auto* folder = dynamic_cast<StimulusFolderOpener*>(opener.get())) {
+        if (!folder->manifest().experiment.empty() && folder->manifest().experiment != protocol.name)
+            throw InputError(settings.stimuli_dir / "manifest.json", 0, 0, "experiment",
+                             fmt::format("expected stimuli built for experiment \"{}\", got \"{}\"", protocol.name,
+                                         folder->manifest().experiment));
+        std::vector<std::string> stimuli;
+        for (const auto& t : plan) stimuli.push_back(t.stimulus);
+        folder->verify(stimuli);
+        stimuli_note = fmt::format("{} (manifest.json sha256 {}, {} stimuli checked)", settings.stimuli_dir.string(),
+                                   folder->manifest().sha256, std::set<std::string>(stimuli.begin(), stimuli.end()).size());
     }
     const std::vector<int> answered = store.answered_positions(settings.subject);
     RunResult result;
@@ -355,7 +455,7 @@ RunResult run_session(const RunSettings& settings) {
     if (settings.audio == "null")
         audio = std::make_unique<NullAudioOutput>();
     else if (settings.audio == "portaudio")
-        audio = make_portaudio_output();
+        audio = make_portaudio_output(settings.audio_device);
     else
         throw UsageError(fmt::format("--audio: expected \"portaudio\" or \"null\", got \"{}\"", settings.audio));
     result.audio_device = audio->name();
@@ -365,6 +465,9 @@ RunResult run_session(const RunSettings& settings) {
     Window window(settings, fullscreen, monitor, fmt::format("avsi — {} — subject {}", protocol.name, settings.subject));
     const double refresh_hz = settings.audio == "null" ? settings.null_refresh_hz : window.refresh_hz();
     const double period_s = 1.0 / refresh_hz;
+    // The simulated clock moves exactly one nominal period per swap; a real one is measured.
+    FlipPeriod flip_period(period_s);
+    const bool simulated = settings.audio == "null";
 
     for (const auto& open : store.open_sessions(settings.subject)) {
         store.mark_interrupted(open.session);
@@ -380,6 +483,7 @@ RunResult run_session(const RunSettings& settings) {
     store.add_event(session, settings.subject, result.answered_before > 0 ? "resume" : "start",
                     fmt::format("first trial {}, {} of {} answered before", first_position, result.answered_before,
                                 result.total));
+    store.add_event(session, settings.subject, "stimuli", stimuli_note);
     log_info("subject {}: session {} {} at trial {} of {} ({} answered before), audio {}", settings.subject, session,
              result.answered_before > 0 ? "resumes" : "starts", first_position, result.total,
              result.answered_before, audio->name());
@@ -400,7 +504,7 @@ RunResult run_session(const RunSettings& settings) {
 
     while (running) {
         glfwPollEvents();
-        const double next_flip_s = last_flip_s + period_s;
+        const double next_flip_s = last_flip_s + (simulated ? period_s : flip_period.seconds());
         if (glfwWindowShouldClose(window.handle()) && !machine.finished()) {
             if (machine.screen() != Screen::Paused) machine.escape(next_flip_s);
             machine.quit();
@@ -455,8 +559,17 @@ RunResult run_session(const RunSettings& settings) {
                 case SessionAction::Kind::StartStimulus: {
                     playback = Playback{};
                     playback.source = opener->open(t->stimulus);
-                    playback.pacer = std::make_unique<FramePacer>(playback.source->fps(), playback.source->frame_count(), refresh_hz);
+                    playback.pacer = std::make_unique<FramePacer>(playback.source->fps(), playback.source->frame_count(),
+                                                                  simulated ? refresh_hz : 1.0 / flip_period.seconds());
                     audio->play(playback.source->audio(), playback.source->sample_rate(), next_flip_s + audio->lead_s());
+                    if (!settings.audio_capture.empty()) {
+                        Audio sent;
+                        sent.sample_rate_hz = playback.source->sample_rate();
+                        sent.samples = playback.source->audio();
+                        fs::create_directories(settings.audio_capture);
+                        write_audio(settings.audio_capture / fmt::format("trial{:03}.wav", t->position), sent,
+                                    SampleFormat::Float32);
+                    }
                     break;
                 }
                 case SessionAction::Kind::StopStimulus:
@@ -473,6 +586,11 @@ RunResult run_session(const RunSettings& settings) {
                     result.dropped_frames += p.dropped_frames;
                     result.repeated_frames += p.repeated_frames;
                     result.max_abs_av_offset_ms = std::max(result.max_abs_av_offset_ms, p.max_abs_offset_ms);
+                    if (!simulated)
+                        log_info("trial {}: {} of {} frames shown, {} dropped, {} repeated; A/V offset mean {:.3f} ms, "
+                                 "max |offset| {:.3f} ms (flip period {:.3f} ms)",
+                                 t->position, p.frames_shown, p.frames_total, p.dropped_frames, p.repeated_frames,
+                                 p.mean_offset_ms, p.max_abs_offset_ms, flip_period.seconds() * 1000.0);
                     for (const auto& f : p.flips) {
                         sum_offset += f.offset_ms;
                         ++offset_count;
@@ -505,6 +623,8 @@ RunResult run_session(const RunSettings& settings) {
                 if (const auto onset = audio->onset_s()) {
                     playback.pacer->start(*onset);
                     playback.started = true;
+                    if (const std::string detail = audio->onset_detail(); !detail.empty())
+                        log_info("trial {}: audio {}", machine.trial() ? machine.trial()->position : 0, detail);
                 }
             }
             if (playback.started) {
@@ -625,6 +745,7 @@ RunResult run_session(const RunSettings& settings) {
         if (settings.audio != "null") gl.Finish();
         audio->after_flip(period_s);
         const double flip_s = audio->now_s();
+        flip_period.flipped(flip_s - last_flip_s);
         last_flip_s = flip_s;
         if (frame_to_show >= 0) {
             playback.pacer->flipped(frame_to_show, playback.frame.pts_s, flip_s);

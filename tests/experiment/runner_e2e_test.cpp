@@ -11,14 +11,20 @@
 
 #include <chrono>
 #include <map>
+#include <regex>
 #include <set>
 #include <thread>
 #include <algorithm>
 #include <cmath>
 
+#include "avsi/core/audio.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/rng.h"
+#include "avsi/experiment/design.h"
+#include "avsi/experiment/runner.h"
 #include "avsi/experiment/store.h"
+#include "avsi/stimuli/image_io.h"
+#include "avsi/stimuli/video.h"
 #include "test_support.h"
 
 namespace avsi::experiment {
@@ -160,17 +166,23 @@ TEST_F(RunnerE2E, SigkillAtRandomPointsThenResumeLosesAndRepeatsNothing) {
     const fs::path db = dir / "kill.sqlite";
     const auto script = write_script(dir / "script.txt", trials, 1);
     const auto args = run_args(protocol, 1, db, script);
+    // The sequence the design gives subject 1, computed here independently of the runner.
+    const Protocol p = load_protocol(protocol);
+    const std::vector<PlannedTrial> designed = make_design(p, read_corpus(p.corpus.sentences), 1);
+    ASSERT_EQ(designed.size(), static_cast<std::size_t>(trials));
     Rng rng(20260);
     SCOPED_TRACE("seed 20260");
-    std::vector<PlannedTrial> first_plan;
     std::vector<int> answered_before;
     int kills = 0;
     bool done = false;
     for (int attempt = 0; attempt < 80 && !done; ++attempt) {
-        // Kill at a random point: after 0–2 more committed responses, then
-        // 0–300 ms into the next trial (fixation, stimulus or answer box).
-        const int target = static_cast<int>(answered_before.size() + rng.uniform_int(3));
-        const auto extra = std::chrono::milliseconds(rng.uniform_int(300));
+        // Kill at a random point: after one more committed response, then
+        // 0–250 ms on (a scripted trial on the simulated clock takes about
+        // that long: commit, fixation, stimulus or answer box). The last runs
+        // go to the end unkilled, so a kill never lands after the last commit.
+        const bool kill_this = answered_before.size() + 5 <= static_cast<std::size_t>(trials);
+        const int target = kill_this ? static_cast<int>(answered_before.size()) + 1 : trials + 1;
+        const auto extra = std::chrono::milliseconds(rng.uniform_int(250));
         const pid_t pid = spawn(args, dir / "log.txt");
         int status = 0;
         pid_t finished = 0;
@@ -188,41 +200,51 @@ TEST_F(RunnerE2E, SigkillAtRandomPointsThenResumeLosesAndRepeatsNothing) {
         } else {
             ::kill(pid, SIGKILL);
             ::waitpid(pid, &status, 0);
+            ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL);
             ++kills;
         }
-        if (!fs::exists(db)) continue;
         Store store(db);
-        const auto plan = store.planned_trials(1);
-        if (first_plan.empty()) first_plan = plan;
-        if (!plan.empty()) {
-            EXPECT_EQ(plan, first_plan) << "the trial sequence changed after a kill";
-        }
+        // The stored sequence is the designed one, after every kill.
+        EXPECT_EQ(store.planned_trials(1), designed) << "the trial sequence changed after kill " << kills;
         const auto answered = store.answered_positions(1);
-        // Nothing committed is lost: the answered set only grows.
+        // Nothing committed is lost, and trials are answered in plan order (1..n, no gaps).
         EXPECT_TRUE(std::includes(answered.begin(), answered.end(), answered_before.begin(), answered_before.end()));
+        for (std::size_t i = 0; i < answered.size(); ++i) EXPECT_EQ(answered[i], static_cast<int>(i) + 1);
         answered_before = answered;
     }
     ASSERT_TRUE(done) << "the session never completed";
-    EXPECT_GE(kills, 5);
-    EXPECT_GE(trials, 20);
+    EXPECT_GE(kills, 8);
     ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
     const CsvTable responses = read_csv(dir / "export" / "responses.csv");
     ASSERT_EQ(responses.rows.size(), static_cast<std::size_t>(trials));
     std::set<int> positions;
+    std::map<int, std::vector<int>> trials_of_session;
     for (const auto& row : responses.rows) {
         const int trial = static_cast<int>(*parse_int(row.fields[2]));
         EXPECT_TRUE(positions.insert(trial).second) << "trial " << trial << " answered twice";
         EXPECT_EQ(row.fields[7], trial % 5 == 0 ? "" : fmt::format("answer 1 {}", trial));
+        const PlannedTrial& planned = designed[static_cast<std::size_t>(trial - 1)];
+        EXPECT_EQ(row.fields[4], planned.condition);
+        EXPECT_EQ(row.fields[6], planned.sentence);
+        trials_of_session[static_cast<int>(*parse_int(row.fields[1]))].push_back(trial);
     }
-    ASSERT_EQ(first_plan.size(), static_cast<std::size_t>(trials));
-    // Each kill left an open session that the next run recorded as interrupted.
+    // One session per run: each killed one recorded as interrupted by the
+    // next run, which resumed at the first trial without a response.
     const CsvTable sessions = read_csv(dir / "export" / "sessions.csv");
-    int interrupted = 0;
-    for (const auto& row : sessions.rows) interrupted += row.fields[4] == "interrupted";
-    EXPECT_GE(interrupted, 1);
-    EXPECT_EQ(sessions.rows.back().fields[4], "completed");
-    std::cerr << "[ info ] " << kills << " kills, " << sessions.rows.size() << " sessions, " << interrupted
-              << " recorded as interrupted\n";
+    ASSERT_EQ(sessions.rows.size(), static_cast<std::size_t>(kills + 1));
+    int answered_so_far = 0;
+    for (std::size_t i = 0; i < sessions.rows.size(); ++i) {
+        const auto& f = sessions.rows[i].fields;
+        SCOPED_TRACE("session " + f[1]);
+        EXPECT_EQ(f[4], i + 1 < sessions.rows.size() ? "interrupted" : "completed");
+        EXPECT_EQ(f[5], std::to_string(answered_so_far + 1));
+        const auto& answered = trials_of_session[static_cast<int>(*parse_int(f[1]))];
+        for (std::size_t k = 0; k < answered.size(); ++k)
+            EXPECT_EQ(answered[k], answered_so_far + 1 + static_cast<int>(k));
+        answered_so_far += static_cast<int>(answered.size());
+    }
+    EXPECT_EQ(answered_so_far, trials);
+    std::cerr << "[ info ] " << kills << " kills, " << sessions.rows.size() << " sessions\n";
 }
 
 TEST_F(RunnerE2E, ScreenshotsOfEveryScreenKind) {
@@ -241,6 +263,224 @@ TEST_F(RunnerE2E, ScreenshotsOfEveryScreenKind) {
     }
     for (const char* kind : {"instructions", "fixation", "trial", "response", "confirm-empty", "feedback", "break", "end"})
         EXPECT_TRUE(kinds.count(kind)) << kind;
+}
+
+// The lag (in samples, |lag| ≤ max_lag) at which `b` best matches `a`, and
+// the normalised correlation there.
+std::pair<int, double> best_lag(const std::vector<float>& a, const std::vector<float>& b, int max_lag) {
+    int best = 0;
+    double best_r = -2.0;
+    for (int lag = -max_lag; lag <= max_lag; ++lag) {
+        double ab = 0, aa = 0, bb = 0;
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            const long j = static_cast<long>(i) + lag;
+            if (j < 0 || j >= static_cast<long>(b.size())) continue;
+            ab += static_cast<double>(a[i]) * b[static_cast<std::size_t>(j)];
+            aa += static_cast<double>(a[i]) * a[i];
+            bb += static_cast<double>(b[static_cast<std::size_t>(j)]) * b[static_cast<std::size_t>(j)];
+        }
+        const double r = aa > 0 && bb > 0 ? ab / std::sqrt(aa * bb) : 0.0;
+        if (r > best_r) {
+            best_r = r;
+            best = lag;
+        }
+    }
+    return {best, best_r};
+}
+
+// Real stimuli: `avsi build-stimuli` makes MP4s of 4 short sentences in two
+// conditions (audio-only with a still face, and a rule-model face), then a
+// scripted session plays them through the null audio device. Every frame of
+// every clip must reach the screen once, at its time on the simulated 60 Hz
+// audio clock; the audio sent to the device must be the stimulus' audio
+// (aligned to the video within 1 ms); the export must hold every response.
+TEST_F(RunnerE2E, BuiltStimulusSetPlaysEveryFrameOnTimeWithItsAudio) {
+    const fs::path dir = temp_dir("e2e_built");
+    const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "built" / "protocol.toml";
+    const fs::path stimuli = dir / "stimuli";
+    ASSERT_EQ(run({"build-stimuli", protocol.string(), "--out", stimuli.string(), "--jobs", "2"}, dir / "build.txt"), 0)
+        << read_text_file(dir / "build.txt");
+    const StimulusManifest manifest = read_stimulus_manifest(stimuli);
+    ASSERT_EQ(manifest.stimuli.size(), 8u);  // 4 sentences × 2 conditions
+
+    // 4 trials: warm-up, practice (feedback screen), two test blocks; one empty answer.
+    const std::vector<std::string> answers = {"sun warm", "she opened the door", "", "he bought bread"};
+    write_text_file(dir / "script.txt", "sun warm\nshe opened the door\n-\nhe bought bread\n");
+    const fs::path db = dir / "built.sqlite";
+    ASSERT_EQ(run({"run", protocol.string(), "--subject", "1", "--db", db.string(), "--stimuli", stimuli.string(),
+                   "--audio", "null", "--windowed", "--size", "640x480", "--script", (dir / "script.txt").string(),
+                   "--screenshots", (dir / "png").string(), "--audio-capture", (dir / "audio").string()},
+                  dir / "log.txt"),
+              0)
+        << read_text_file(dir / "log.txt");
+    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+
+    const CsvTable responses = read_csv(dir / "export" / "responses.csv");
+    ASSERT_EQ(responses.rows.size(), answers.size());
+    const auto response = responses.require_column("response");
+    const auto stimulus = responses.require_column("stimulus");
+    std::map<int, std::string> stimulus_of;
+    for (std::size_t i = 0; i < answers.size(); ++i) {
+        EXPECT_EQ(responses.rows[i].fields[2], std::to_string(i + 1));
+        EXPECT_EQ(responses.rows[i].fields[response], answers[i]);
+        stimulus_of[static_cast<int>(i + 1)] = responses.rows[i].fields[stimulus];
+    }
+    std::set<std::string> conditions;
+    for (const auto& [trial, path] : stimulus_of) conditions.insert(path.substr(path.find('/') + 1));
+    EXPECT_EQ(conditions, (std::set<std::string>{"audio-only.mp4", "rule.mp4"}));
+
+    // Every frame once, at its time on the audio clock (60 Hz simulated, 30 fps clips).
+    const CsvTable timing = read_csv(dir / "export" / "timing.csv");
+    ASSERT_EQ(timing.rows.size(), answers.size());
+    std::map<int, double> onset_of;
+    for (const auto& row : timing.rows) {
+        const int trial = static_cast<int>(*parse_int(row.fields[timing.require_column("trial")]));
+        const ManifestEntry& clip = manifest.stimuli.at(stimulus_of.at(trial));
+        SCOPED_TRACE(clip.path);
+        EXPECT_EQ(row.fields[timing.require_column("frames_total")], std::to_string(clip.frames));
+        EXPECT_EQ(row.fields[timing.require_column("frames_shown")], std::to_string(clip.frames));
+        EXPECT_EQ(row.fields[timing.require_column("dropped_frames")], "0");
+        EXPECT_EQ(row.fields[timing.require_column("repeated_frames")], "0");
+        EXPECT_LE(*parse_double(row.fields[timing.require_column("max_abs_av_offset_ms")]), 1.0);
+        onset_of[trial] = *parse_double(row.fields[timing.require_column("audio_onset_s")]);
+    }
+    const CsvTable frames = read_csv(dir / "export" / "frames.csv");
+    std::map<int, std::vector<std::pair<int, double>>> flips;  // trial → (frame, flip_s)
+    for (const auto& row : frames.rows)
+        flips[static_cast<int>(*parse_int(row.fields[1]))].push_back({static_cast<int>(*parse_int(row.fields[2])),
+                                                                      *parse_double(row.fields[4])});
+    ASSERT_EQ(flips.size(), answers.size());
+    for (const auto& [trial, list] : flips) {
+        const ManifestEntry& clip = manifest.stimuli.at(stimulus_of.at(trial));
+        SCOPED_TRACE(clip.path);
+        ASSERT_EQ(static_cast<int>(list.size()), clip.frames);
+        for (int k = 0; k < clip.frames; ++k) {
+            EXPECT_EQ(list[static_cast<std::size_t>(k)].first, k);
+            // Shown at onset + k/fps (the flip on which it is due), to 1 ms.
+            EXPECT_NEAR(list[static_cast<std::size_t>(k)].second - onset_of.at(trial), k / clip.fps, 1e-3) << k;
+        }
+    }
+
+    // The audio sent to the device is the stimulus' audio (AAC-decoded from
+    // the MP4, compared with the builder's WAV), its sample 0 at the first frame.
+    for (const auto& [trial, path] : stimulus_of) {
+        SCOPED_TRACE(path);
+        const Audio sent = read_audio(dir / "audio" / fmt::format("trial{:03}.wav", trial));
+        const Audio wav = read_audio(stimuli / (path.substr(0, path.size() - 4) + ".wav"));
+        ASSERT_EQ(sent.sample_rate_hz, wav.sample_rate_hz);
+        const std::vector<float> original = wav.mono();
+        const int ms = sent.sample_rate_hz / 1000;
+        // As long as the video (the silence after the speech pads to the last frame).
+        const ManifestEntry& clip = manifest.stimuli.at(path);
+        EXPECT_NEAR(static_cast<double>(sent.samples.size()) / sent.sample_rate_hz, clip.frames / clip.fps, 0.05);
+        const auto [lag, r] = best_lag(original, sent.samples, 20 * ms);
+        std::cerr << "[ info ] trial " << trial << " " << path << ": audio lag " << lag << " samples, r = " << r << "\n";
+        EXPECT_LE(std::abs(lag), ms) << "audio shifted against the video by " << lag << " samples";
+        EXPECT_GT(r, 0.9);
+    }
+
+    // Each trial screenshot (taken as frame 0 goes up) shows that clip's
+    // decoded frame 0, upright and in place: sampled on a grid of texel
+    // centres, the screen matches the frame to a few levels.
+    std::set<std::string> kinds;
+    int trial_shots = 0;
+    for (const auto& entry : fs::directory_iterator(dir / "png")) {
+        const std::string name = entry.path().filename().string();
+        const std::string kind = name.substr(5, name.rfind("_trial") - 5);
+        kinds.insert(kind);
+        if (kind != "trial") continue;
+        ++trial_shots;
+        const int trial = std::stoi(name.substr(name.rfind("_trial") + 6, 3));
+        SCOPED_TRACE(name);
+        const stimuli::Image shot = stimuli::read_image(entry.path());
+        const stimuli::DecodedVideo clip = stimuli::decode_video(stimuli / stimulus_of.at(trial), true);
+        const stimuli::Image& frame = clip.frames.front();
+        // The runner's layout: scaled to fit 90 % × 80 % of the window, centred.
+        const double scale = std::min(shot.width * 0.9 / frame.width, shot.height * 0.8 / frame.height);
+        const double x0 = (shot.width - frame.width * scale) / 2, y0 = (shot.height - frame.height * scale) / 2;
+        double diff = 0;
+        int samples = 0;
+        for (int gy = 1; gy < 10; ++gy)
+            for (int gx = 1; gx < 10; ++gx) {
+                const int fx = frame.width * gx / 10, fy = frame.height * gy / 10;
+                const int sx = static_cast<int>(x0 + (fx + 0.5) * scale), sy = static_cast<int>(y0 + (fy + 0.5) * scale);
+                for (int c = 0; c < 3; ++c) diff += std::abs(int(frame.pixel(fx, fy)[c]) - int(shot.pixel(sx, sy)[c]));
+                samples += 3;
+            }
+        EXPECT_LE(diff / samples, 6.0);
+    }
+    EXPECT_EQ(trial_shots, static_cast<int>(answers.size()));
+    for (const char* kind : {"instructions", "trial", "response", "confirm-empty", "feedback", "break", "end"})
+        EXPECT_TRUE(kinds.count(kind)) << kind;
+}
+
+// A real PortAudio stream: ALSA's null plugin as the default device (this
+// machine has no sound card). The runner must open it, schedule each onset on
+// the stream's DAC timestamps and log the measured A/V offset per trial and
+// in the summary. Skipped where PortAudio cannot see the null device.
+TEST_F(RunnerE2E, PortAudioStreamSchedulesOnsetsOnTheDacClockAndLogsTheOffset) {
+    const fs::path dir = temp_dir("e2e_portaudio");
+    const std::string conf = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "asound-null.conf";
+    ::setenv("ALSA_CONFIG_PATH", conf.c_str(), 1);
+    const int listed = run({"run", "--list-audio-devices"}, dir / "devices.txt");
+    const std::string devices = read_text_file(dir / "devices.txt");
+    if (listed != 0 || devices.find("0: default") == std::string::npos) {
+        ::unsetenv("ALSA_CONFIG_PATH");
+        GTEST_SKIP() << "PortAudio does not list ALSA's null device here:\n" << devices;
+    }
+    GeneratedStudy g;
+    g.conditions = 2;
+    g.per_list = 1;
+    g.warmup = 0;
+    g.practice = 0;
+    const fs::path protocol = write_study(dir, g);
+    const auto script = write_script(dir / "script.txt", 2, 1);
+    const int code = run({"run", protocol.string(), "--subject", "1", "--db", (dir / "pa.sqlite").string(),
+                          "--test-pattern", "--audio", "portaudio", "--audio-device", "default", "--windowed", "--size",
+                          "320x240", "--script", script.string()},
+                         dir / "log.txt");
+    ::unsetenv("ALSA_CONFIG_PATH");
+    const std::string log = read_text_file(dir / "log.txt");
+    ASSERT_EQ(code, 0) << log;
+    EXPECT_NE(log.find("audio: portaudio: default"), std::string::npos) << log;
+    for (int trial : {1, 2}) {
+        EXPECT_NE(log.find(fmt::format("trial {}: audio onset", trial)), std::string::npos) << log;
+        // Real time on a loaded machine may drop frames: the log must state what happened.
+        const std::regex line(fmt::format("trial {}: [0-9]+ of 30 frames shown, [0-9]+ dropped, [0-9]+ repeated; A/V "
+                                          "offset mean -?[0-9.]+ ms, max \\|offset\\| [0-9.]+ ms",
+                                          trial));
+        EXPECT_TRUE(std::regex_search(log, line)) << log;
+    }
+    EXPECT_NE(log.find("timing: 2 presentations"), std::string::npos) << log;
+    ASSERT_EQ(run({"export", (dir / "pa.sqlite").string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    const CsvTable timing = read_csv(dir / "export" / "timing.csv");
+    ASSERT_EQ(timing.rows.size(), 2u);
+    for (const auto& row : timing.rows) {
+        // On the stream clock (seconds since some epoch, not the simulated 0-based clock).
+        EXPECT_GT(*parse_double(row.fields[timing.require_column("audio_onset_s")]), 0.0);
+        EXPECT_GT(*parse_int(row.fields[timing.require_column("frames_shown")]), 0);
+        std::cerr << "[ info ] PortAudio on ALSA null, Xvfb: trial " << row.fields[2] << " dropped "
+                  << row.fields[timing.require_column("dropped_frames")] << ", max |A/V offset| "
+                  << row.fields[timing.require_column("max_abs_av_offset_ms")] << " ms\n";
+    }
+}
+
+// A stimulus changed after the build is refused before the session starts.
+TEST_F(RunnerE2E, AStimulusChangedAfterTheBuildIsRefused) {
+    const fs::path dir = temp_dir("e2e_changed");
+    const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "built" / "protocol.toml";
+    const fs::path stimuli = dir / "stimuli";
+    ASSERT_EQ(run({"build-stimuli", protocol.string(), "--out", stimuli.string(), "--jobs", "2"}, dir / "build.txt"), 0)
+        << read_text_file(dir / "build.txt");
+    write_text_file(stimuli / "t02" / "rule.mp4", read_text_file(stimuli / "t02" / "rule.mp4") + "x");
+    write_text_file(dir / "script.txt", "a\nb\nc\nd\n");
+    EXPECT_EQ(run({"run", protocol.string(), "--subject", "1", "--db", (dir / "db.sqlite").string(), "--stimuli",
+                   stimuli.string(), "--audio", "null", "--windowed", "--script", (dir / "script.txt").string()},
+                  dir / "log.txt"),
+              1);
+    const std::string log = read_text_file(dir / "log.txt");
+    EXPECT_NE(log.find("t02/rule.mp4"), std::string::npos) << log;
+    EXPECT_NE(log.find("changed after the build"), std::string::npos) << log;
 }
 
 }  // namespace

@@ -92,6 +92,9 @@ public:
     virtual void after_flip(double refresh_period_s) { (void)refresh_period_s; }
     // The extra time to schedule audio ahead of the next flip (output latency).
     virtual double lead_s() const { return 0.0; }
+    // How the last onset was scheduled (requested time, DAC time, latency),
+    // for the log; "" when there is nothing to measure (simulated clock).
+    virtual std::string onset_detail() { return ""; }
 };
 
 // No sound; a simulated clock that moves one refresh per flip.
@@ -111,9 +114,16 @@ private:
     double m_duration_s = 0.0;
 };
 
-// PortAudio on the default output device, scheduling onsets with the
-// stream's output DAC timestamps. Throws InputError if no device can be opened.
-std::unique_ptr<AudioOutput> make_portaudio_output();
+// PortAudio on an output device, scheduling onsets with the stream's output
+// DAC timestamps. `device` is a device index or a case-insensitive part of a
+// device name (see list_audio_devices); "" is the default output device.
+// Throws InputError naming the device if it cannot be found or opened.
+std::unique_ptr<AudioOutput> make_portaudio_output(const std::string& device = "");
+
+// The PortAudio output devices, one line each: "index: name (host API,
+// channels, default rate, low latency)", the default marked. Throws
+// InputError if PortAudio cannot start.
+std::vector<std::string> list_audio_devices();
 
 // Chooses frames from the audio clock and measures what was shown.
 class FramePacer {

@@ -8,9 +8,11 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "avsi/experiment/media.h"
 
@@ -20,14 +22,16 @@ struct RunSettings {
     std::filesystem::path protocol;
     int subject = 0;
     std::filesystem::path database;     // the experiment's session database
-    std::filesystem::path stimuli_dir;  // <dir>/<sentence>/<condition>.mp4
+    std::filesystem::path stimuli_dir;  // built by `avsi build-stimuli`: manifest.json + <sentence>/<condition>.mp4
     bool test_pattern = false;          // present a generated test clip instead of stimuli
     std::optional<bool> fullscreen;     // overrides session.fullscreen
     std::optional<int> monitor;         // overrides session.monitor
     std::string audio = "portaudio";    // "portaudio" or "null"
+    std::string audio_device;           // PortAudio output device (index or name part); "" = the default
     double null_refresh_hz = 60.0;      // refresh of the simulated clock (null audio)
     std::filesystem::path script;       // one response per planned trial, in plan order
     std::filesystem::path screenshots;  // save each new screen as PNG here
+    std::filesystem::path audio_capture;  // write the samples sent to the audio device per trial (WAV) here
     int window_width = 1024;
     int window_height = 768;
 };
@@ -57,15 +61,42 @@ RunResult run_session(const RunSettings& settings);
 // empty line is an empty answer; lines starting with '#' are comments.
 std::vector<std::string> read_script(const std::filesystem::path& path);
 
-// Stimuli from a folder built by `avsi stimuli`, decoded by the stimuli module.
+// One stimulus as listed in a stimulus folder's manifest.json.
+struct ManifestEntry {
+    std::string path;      // relative to the folder: <sentence>/<condition>.mp4
+    int frames = 0;        // video frames
+    double fps = 0.0;
+    std::string sha256;    // of the MP4
+};
+
+// A stimulus folder's manifest.json (written by `avsi build-stimuli`).
+struct StimulusManifest {
+    std::string experiment;
+    std::string sha256;    // of manifest.json itself
+    std::map<std::string, ManifestEntry> stimuli;  // by path
+};
+
+// Reads DIR/manifest.json. Throws InputError if it is missing or not an avsi
+// stimulus manifest.
+StimulusManifest read_stimulus_manifest(const std::filesystem::path& dir);
+
+// Stimuli from a folder built by `avsi build-stimuli`, decoded by the stimuli
+// module. Checks each clip against its manifest entry (listed, SHA-256 and
+// frame count), so a stale or damaged stimulus is refused before it is shown.
 class StimulusFolderOpener : public StimulusOpener {
 public:
-    explicit StimulusFolderOpener(std::filesystem::path dir) : m_dir(std::move(dir)) {}
+    explicit StimulusFolderOpener(std::filesystem::path dir);
     std::unique_ptr<FrameSource> open(const std::string& stimulus) override;
+    const StimulusManifest& manifest() const { return m_manifest; }
+    // Checks that every stimulus is listed, present and unchanged (SHA-256);
+    // all problems are reported at once as an InputError.
+    void verify(const std::vector<std::string>& stimuli) const;
 
 private:
     std::filesystem::path m_dir;
+    StimulusManifest m_manifest;
 };
+
 
 // The stimulus opener for a stimulus folder (the stimuli module's decoder),
 // or the test pattern.
