@@ -48,6 +48,12 @@ std::size_t render_video(OffscreenRenderer& renderer, const synth::Trajectory& t
     VideoWriter writer(path, rs.width, rs.height, trajectory.size(), audio, video);
     Image frame;
     for (std::size_t k = 0; k < trajectory.size(); ++k) {
+        // A frame whose pose equals the previous one (held rest at the ends,
+        // sustained targets) is the same picture: repeat it without rendering.
+        if (k > 0 && trajectory.frames[k] == trajectory.frames[k - 1] && blink[k] == blink[k - 1]) {
+            writer.repeat_last();
+            continue;
+        }
         renderer.render(pose_at(trajectory, k, blink[k]), frame);
         writer.write(frame);
     }

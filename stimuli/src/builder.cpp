@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -31,8 +32,19 @@ namespace {
 
 using nlohmann::json;
 
+// The [vocoder] keys: the fields of vocoder::VocoderSettings.
+const std::vector<std::string>& vocoder_keys() {
+    static const std::vector<std::string> keys{
+        "bands",           "low_hz",          "high_hz",          "spacing",
+        "edges_hz",        "filter_order",    "zero_phase",       "envelope",
+        "envelope_cutoff_hz", "envelope_filter_order", "carrier", "prefilter_carrier",
+        "refilter_carrier", "low_noise_iterations", "match_band_rms", "match_output_rms",
+        "seed"};
+    return keys;
+}
+
 // Bumped when the output of the builder changes for the same inputs.
-constexpr const char* builder_version = "avsi-stimuli-build-1";
+constexpr const char* builder_version = "avsi-stimuli-build-2";
 
 std::array<float, 3> parse_colour(const std::string& hex, const Protocol& protocol) {
     unsigned r = 0, g = 0, b = 0;
@@ -41,31 +53,105 @@ std::array<float, 3> parse_colour(const std::string& hex, const Protocol& protoc
     return {float(r) / 255.0f, float(g) / 255.0f, float(b) / 255.0f};
 }
 
-// The vocoder settings of [vocoder]; keys the builder does not map are refused.
+template <typename Enum>
+std::vector<std::string> enum_names(std::initializer_list<Enum> values) {
+    std::vector<std::string> names;
+    for (Enum v : values) names.push_back(vocoder::to_string(v));
+    return names;
+}
+
+// An enum key of [vocoder] by its name (vocoder::to_string), "did you mean" on a near miss.
+template <typename Enum>
+Enum get_enum(const ConfigSection& s, std::string_view key, Enum fallback, std::initializer_list<Enum> values,
+              DiagnosticList& problems) {
+    const std::string name = s.get_choice(key, enum_names(values), vocoder::to_string(fallback), problems);
+    for (Enum v : values)
+        if (vocoder::to_string(v) == name) return v;
+    return fallback;
+}
+
+// The vocoder settings of [vocoder]: every field of vocoder::VocoderSettings
+// under its own name. Unknown keys get "did you mean"; type, range and
+// consistency problems (vocoder::validate_settings) are reported at the key's
+// file:line:col, all at once.
 vocoder::VocoderSettings vocoder_settings(const Protocol& protocol) {
-    vocoder::VocoderSettings v;
+    using namespace vocoder;
+    VocoderSettings v;
     const ConfigSection& s = protocol.vocoder;
     DiagnosticList problems;
     v.bands = static_cast<int>(s.get_int("bands", v.bands, 1, 64, problems));
-    v.low_hz = s.get_number("low_hz", v.low_hz, 1.0, 1e5, problems);
-    v.high_hz = s.get_number("high_hz", v.high_hz, 1.0, 1e5, problems);
+    v.low_hz = s.get_number("low_hz", v.low_hz, 1e-3, 1e6, problems);
+    v.high_hz = s.get_number("high_hz", v.high_hz, 1e-3, 1e6, problems);
+    v.spacing = get_enum(s, "spacing", v.spacing,
+                         {BandSpacing::Greenwood, BandSpacing::Log, BandSpacing::Linear, BandSpacing::Explicit},
+                         problems);
+    if (const ConfigValue* edges = s.find("edges_hz")) {
+        if (edges->type != ConfigValue::Type::Array) {
+            s.report("edges_hz", "expected an array of frequencies in Hz, got " + edges->describe(), problems);
+        } else {
+            for (const auto& item : edges->items) {
+                if (item.type == ConfigValue::Type::Integer) v.edges_hz.push_back(static_cast<double>(item.integer));
+                else if (item.type == ConfigValue::Type::Float) v.edges_hz.push_back(item.number);
+                else {
+                    problems.add(s.path(), item.line, item.column, s.field("edges_hz"),
+                                 "expected a frequency in Hz, got " + item.describe());
+                }
+            }
+        }
+    }
     v.filter_order = static_cast<int>(s.get_int("filter_order", v.filter_order, 1, 16, problems));
-    v.envelope_cutoff_hz = s.get_number("envelope_cutoff_hz", v.envelope_cutoff_hz, 1.0, 1e4, problems);
     v.zero_phase = s.get_bool("zero_phase", v.zero_phase, problems);
+    v.envelope = get_enum(s, "envelope", v.envelope,
+                          {EnvelopeMethod::HalfWaveRectify, EnvelopeMethod::FullWaveRectify, EnvelopeMethod::Hilbert},
+                          problems);
+    v.envelope_cutoff_hz = s.get_number("envelope_cutoff_hz", v.envelope_cutoff_hz, 1e-3, 1e6, problems);
+    v.envelope_filter_order =
+        static_cast<int>(s.get_int("envelope_filter_order", v.envelope_filter_order, 1, 16, problems));
+    v.carrier = get_enum(s, "carrier", v.carrier, {CarrierType::Noise, CarrierType::Sine, CarrierType::LowNoise},
+                         problems);
+    v.prefilter_carrier = s.get_bool("prefilter_carrier", v.prefilter_carrier, problems);
+    v.refilter_carrier = s.get_bool("refilter_carrier", v.refilter_carrier, problems);
+    v.low_noise_iterations =
+        static_cast<int>(s.get_int("low_noise_iterations", v.low_noise_iterations, 0, 100, problems));
+    v.match_band_rms = s.get_bool("match_band_rms", v.match_band_rms, problems);
+    v.match_output_rms = s.get_bool("match_output_rms", v.match_output_rms, problems);
     v.seed = static_cast<std::uint64_t>(s.get_int("seed", static_cast<long long>(protocol.seed), 0,
                                                   std::numeric_limits<long long>::max(), problems));
-    for (const auto& key : s.keys())
-        if (key != "bands" && key != "low_hz" && key != "high_hz" && key != "filter_order" &&
-            key != "envelope_cutoff_hz" && key != "zero_phase" && key != "seed")
-            s.report(key, "not implemented yet in build-stimuli: this vocoder key is not mapped", problems);
+    s.check_unknown_keys(vocoder_keys(), problems);
     problems.throw_if_any();
+    // Consistency (edges against bands and range, …): the vocoder's own
+    // check, its diagnostics moved to the offending key in the protocol.
+    try {
+        validate_settings(v, 0.0, protocol.path.string());
+    } catch (const InputError& e) {
+        for (const auto& d : e.diagnostics()) {
+            std::string key = d.field.rfind("vocoder.", 0) == 0 ? d.field.substr(8) : d.field;
+            key = key.substr(0, key.find('['));
+            s.report(key, d.message, problems);
+        }
+        problems.throw_if_any();
+        throw;
+    }
     return v;
 }
 
 json vocoder_json(const vocoder::VocoderSettings& v) {
-    return {{"bands", v.bands},           {"low_hz", v.low_hz},
-            {"high_hz", v.high_hz},       {"filter_order", v.filter_order},
-            {"envelope_cutoff_hz", v.envelope_cutoff_hz}, {"zero_phase", v.zero_phase},
+    return {{"bands", v.bands},
+            {"low_hz", v.low_hz},
+            {"high_hz", v.high_hz},
+            {"spacing", vocoder::to_string(v.spacing)},
+            {"edges_hz", v.edges_hz},
+            {"filter_order", v.filter_order},
+            {"zero_phase", v.zero_phase},
+            {"envelope", vocoder::to_string(v.envelope)},
+            {"envelope_cutoff_hz", v.envelope_cutoff_hz},
+            {"envelope_filter_order", v.envelope_filter_order},
+            {"carrier", vocoder::to_string(v.carrier)},
+            {"prefilter_carrier", v.prefilter_carrier},
+            {"refilter_carrier", v.refilter_carrier},
+            {"low_noise_iterations", v.low_noise_iterations},
+            {"match_band_rms", v.match_band_rms},
+            {"match_output_rms", v.match_output_rms},
             {"seed", v.seed}};
 }
 
@@ -111,7 +197,8 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     const json settings_json = {
         {"builder", builder_version},
         {"render", {{"fps", fps}, {"width", pr.width}, {"height", pr.height}, {"camera", pr.camera},
-                    {"background", pr.background}, {"samples", render.samples}}},
+                    {"background", pr.background}, {"samples", render.samples}, {"fxaa", render.fxaa},
+                    {"lighting", render.per_pixel_lighting ? "per-pixel" : "per-vertex"}}},
         {"video", {{"codec", "h264 (libx264)"}, {"pixel_format", "yuv420p"}, {"crf", VideoSettings{}.crf},
                    {"preset", VideoSettings{}.preset}, {"audio", "aac"}}},
         {"vocoder", vocoder_json(vocoder_base)},
@@ -175,15 +262,27 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     }
 
     // Speech per sentence, made serially (espeak-ng is not thread-safe).
+    // The vocoded audio depends only on the sentence (its seed is derived
+    // from the sentence id), so it is made once and shared by the conditions.
     struct Speech {
         Audio audio;
         PhoneSequence phones;
+        std::once_flag vocoded_once;
+        Audio vocoded_audio;
+        const Audio& vocoded(const vocoder::VocoderSettings& base, std::uint64_t seed) {
+            std::call_once(vocoded_once, [&] {
+                vocoder::VocoderSettings v = base;
+                v.seed = seed;
+                vocoded_audio = vocoder::vocode(audio, v).audio;
+            });
+            return vocoded_audio;
+        }
     };
     std::map<std::string, Speech> speech;
     for (const auto i : todo) {
         const Sentence& s = *jobs[i].sentence;
         if (speech.count(s.id)) continue;
-        Speech sp;
+        Speech& sp = speech[s.id];
         if (protocol.corpus.audio == CorpusAudio::Tts) {
             TtsSettings tts;
             tts.voice = protocol.corpus.voice;
@@ -194,12 +293,16 @@ BuildReport build_stimuli(const BuildSettings& settings) {
             sp.audio = read_audio(s.audio);
             sp.phones = read_phones(s.labels);
         }
-        speech.emplace(s.id, std::move(sp));
     }
 
     const int workers = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
                                                                      : static_cast<int>(std::thread::hardware_concurrency()),
                                                   static_cast<int>(todo.size())));
+    // llvmpipe starts its own rasteriser threads per context (one per core,
+    // LP_NUM_THREADS). With one worker per core they would only compete with
+    // the workers, so each worker rasterises on its own thread instead —
+    // unless the user set LP_NUM_THREADS. Read once, at the first context.
+    if (workers > 1 && std::getenv("LP_NUM_THREADS") == nullptr) setenv("LP_NUM_THREADS", "0", 0);
     log_info("build-stimuli: {} stimuli, {} to build, {} unchanged; {} worker(s)", report.total, todo.size(),
              report.skipped, workers);
     Progress progress("build-stimuli", todo.size());
@@ -219,13 +322,9 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                 }
                 Job& job = jobs[todo[t]];
                 const auto& c = *job.condition;
-                const Speech& sp = speech.at(job.sentence->id);
-                Audio audio = sp.audio;
-                if (c.audio == ConditionAudio::Vocoded) {
-                    vocoder::VocoderSettings v = vocoder_base;
-                    v.seed = job.vocoder_seed;
-                    audio = vocoder::vocode(sp.audio, v).audio;
-                }
+                Speech& sp = speech.at(job.sentence->id);
+                const Audio& audio = c.audio == ConditionAudio::Vocoded ? sp.vocoded(vocoder_base, job.vocoder_seed)
+                                                                        : sp.audio;
                 synth::Trajectory trajectory;
                 if (c.face == FaceMode::Model) {
                     trajectory = models.at(c.name)->synthesize(sp.phones, fps);
@@ -255,7 +354,8 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                             frame.rgb[p] = static_cast<std::uint8_t>(std::lround(render.background[p % 3] * 255.0f));
                     }
                     VideoWriter writer(video_path, render.width, render.height, trajectory.size(), &audio, video);
-                    for (std::size_t k = 0; k < trajectory.size(); ++k) writer.write(frame);
+                    writer.write(frame);
+                    for (std::size_t k = 1; k < trajectory.size(); ++k) writer.repeat_last();
                     writer.finish();
                 }
                 frames_total += trajectory.size();

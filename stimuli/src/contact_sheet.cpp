@@ -6,6 +6,7 @@
 
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
+#include "avsi/core/log.h"
 
 namespace avsi::stimuli {
 
@@ -60,9 +61,13 @@ std::vector<SheetEntry> read_sheet_targets(const std::filesystem::path& path) {
 
 namespace {
 // DejaVu Sans has the IPA glyphs (θ ʃ ɑ); fall back to OIIO's default font.
+// (Debian: fonts-dejavu-core, in scripts/install-deps).
 std::string label_font() {
-    const char* path = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
-    return std::filesystem::exists(path) ? path : "";
+    for (const char* path : {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+                             "/usr/share/fonts/TTF/DejaVuSans.ttf", "/usr/share/fonts/dejavu/DejaVuSans.ttf"})
+        if (std::filesystem::exists(path)) return path;
+    log_warning("contact sheet: DejaVu Sans not found (install fonts-dejavu-core); IPA labels may show as boxes");
+    return "";
 }
 }  // namespace
 
@@ -73,6 +78,10 @@ Image render_contact_sheet(const Head& head, const std::vector<SheetEntry>& entr
     rs.height = settings.tile_height;
     rs.framing_mm = settings.framing_mm;
     rs.camera = settings.camera;
+    // Centred a little above the mouth, on the head's vertical axis, so each
+    // tile shows the eyes, the whole chin and some neck.
+    const glm::vec3 head_center = head.landmarks.head_center;
+    rs.target = glm::vec3(head_center.x, head.landmarks.mouth_middle.y + 0.1f * settings.framing_mm, head_center.z);
     OffscreenRenderer renderer(head, rs);
     const int cols = std::max(1, std::min(settings.columns, static_cast<int>(entries.size())));
     const int rows = (static_cast<int>(entries.size()) + cols - 1) / cols;
@@ -81,6 +90,7 @@ Image render_contact_sheet(const Head& head, const std::vector<SheetEntry>& entr
     OIIO::ImageBuf sheet(OIIO::ImageSpec(cols * tw, rows * th, 3, OIIO::TypeDesc::UINT8));
     const float white[] = {1.0f, 1.0f, 1.0f};
     OIIO::ImageBufAlgo::fill(sheet, {0.12f, 0.12f, 0.14f});
+    const std::string font = label_font();
     Image tile;
     for (std::size_t i = 0; i < entries.size(); ++i) {
         renderer.render(entries[i].pose, tile);
@@ -88,7 +98,7 @@ Image render_contact_sheet(const Head& head, const std::vector<SheetEntry>& entr
         const int y0 = static_cast<int>(i / static_cast<std::size_t>(cols)) * th;
         OIIO::ImageBuf buf(OIIO::ImageSpec(tile.width, tile.height, 3, OIIO::TypeDesc::UINT8), tile.rgb.data());
         OIIO::ImageBufAlgo::paste(sheet, x0, y0 + label_h, 0, 0, buf);
-        OIIO::ImageBufAlgo::render_text(sheet, x0 + 10, y0 + 25, entries[i].label + "  " + entries[i].phone, 22, label_font(), white);
+        OIIO::ImageBufAlgo::render_text(sheet, x0 + 10, y0 + 25, entries[i].label + "  " + entries[i].phone, 22, font, white);
     }
     Image out;
     out.width = cols * tw;

@@ -111,21 +111,28 @@ constexpr float nose_tip_y = -28.0f, nose_base_y = -38.0f;
 constexpr float mouth_tilt = 0.64f;
 constexpr float mouth_half_width = 23.0f;  // at the lip contact  // angle of the mouth axis below the horizontal (rad)
 
-// Forward relief of the face: nose, brows, eye sockets, cheeks, chin.
-float face_relief(float x, float y, float mouth_y) {
+// Forward relief of the nose (mm): a ridge from the bridge to the tip, a
+// rounded tip, the underside up to the subnasale, the alae with their creases.
+float nose_relief(float x, float y) {
     const float ax = std::abs(x);
     float h = 0.0f;
-    h -= 7.0f * gauss2(ax - eye_x, 16.0f, y - eye_y, 11.0f);             // eye sockets
-    h += 4.0f * gauss2(ax - 27.0f, 22.0f, y - (eye_y + 16.0f), 7.0f);    // brow ridge
-    // Nose: a ridge from the bridge to the tip, then the underside.
     float ridge = 0.0f;
     if (y > nose_tip_y) ridge = 3.0f + 19.0f * std::pow(smoothstep(eye_y + 6.0f, nose_tip_y, y), 1.3f);
     else ridge = 22.0f * (1.0f - smoothstep(nose_tip_y, nose_base_y - 1.0f, y));
-    const float width = 6.5f + 5.0f * smoothstep(eye_y, nose_tip_y, y);
+    const float width = 6.0f + 4.0f * smoothstep(eye_y, nose_tip_y, y);
     h += ridge * std::exp(-std::pow(x / width, 2.0f));
-    h += 4.0f * gauss2(x, 6.0f, y - (nose_tip_y - 1.0f), 5.0f);           // tip
-    h += 8.0f * gauss2(ax - 12.5f, 5.5f, y - (nose_base_y + 5.0f), 5.5f); // alae
-    h -= 2.0f * gauss2(ax - 17.5f, 3.0f, y - (nose_base_y + 6.0f), 6.0f); // alar crease
+    h += 4.0f * gauss2(x, 6.0f, y - (nose_tip_y - 1.0f), 5.0f);            // tip
+    h += 8.0f * gauss2(ax - 12.5f, 5.0f, y - (nose_base_y + 5.0f), 5.0f);  // alae
+    h -= 2.5f * gauss2(ax - 17.0f, 2.5f, y - (nose_base_y + 6.0f), 6.0f);  // alar crease
+    return h;
+}
+
+// Forward relief of the face: nose, brows, eye sockets, cheeks, chin.
+float face_relief(float x, float y, float mouth_y) {
+    const float ax = std::abs(x);
+    float h = nose_relief(x, y);
+    h -= 7.0f * gauss2(ax - eye_x, 16.0f, y - eye_y, 11.0f);             // eye sockets
+    h += 4.0f * gauss2(ax - 27.0f, 22.0f, y - (eye_y + 16.0f), 7.0f);    // brow ridge
     h += 5.0f * gauss2(ax - 38.0f, 17.0f, y + 18.0f, 15.0f);             // cheeks
     h += 5.0f * gauss2(x, 17.0f, y - (mouth_y - 34.0f), 11.0f);          // chin
     h -= 2.5f * gauss2(x, 15.0f, y - (mouth_y - 17.0f), 5.0f);           // mentolabial sulcus
@@ -248,6 +255,9 @@ void build_skin(Generated& g, const HeadGeneratorSettings& settings) {
             glm::vec3 skull = skull_radius(d) * d;
             skull.z += face_relief(skull.x, skull.y, my) * smoothstep(0.05f, 0.45f, d.z);
             glm::vec3 p = mix3(lip_ext, skull, blend);
+            // Near the mouth the surface follows the lip profile more than the
+            // skull; the nose keeps its full height there all the same.
+            p.z += (1.0f - blend) * nose_relief(p.x, p.y) * smoothstep(nose_base_y - 8.0f, nose_base_y - 2.0f, p.y);
             // Colour: skin, hair above the hairline, eyebrows.
             glm::vec3 color = skin_color;
             const float hairline = -55.0f + 115.0f * smoothstep(-40.0f, 75.0f, p.z) -
@@ -660,7 +670,7 @@ void generate_head(const std::filesystem::path& obj_path, const std::filesystem:
     g.landmarks["right_eye"] = vec(g.right_eye);
     g.landmarks["nose_bottom"] = {0.0, nose_base_y, face_z(0.0f, nose_base_y, my)};
     g.landmarks["iris_diameter"] = 2.0 * eye_radius * std::sin(0.5);
-    g.landmarks["head_center"] = {0.0, -25.0, 0.0};
+    g.landmarks["head_center"] = {0.0, -35.0, 0.0};  // the default camera target: the face, chin and neck in view
     g.landmarks["head_height"] = 230.0;
 
     nlohmann::json rig;

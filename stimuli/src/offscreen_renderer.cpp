@@ -1,29 +1,36 @@
-// The offscreen renderer: an OSMesa context, a multisample framebuffer that
-// the head is drawn into, a single-sample framebuffer it is resolved into
-// (glBlitFramebuffer), and a read-back into an RGB image, top row first.
+// The offscreen renderer: an OSMesa context; the head is drawn into a scene
+// framebuffer (colour and depth renderbuffers, or multisample buffers
+// resolved into it with glBlitFramebuffer when samples > 1), read back, and
+// anti-aliased by FXAA on the CPU (fxaa.h) while it is turned into an RGB
+// image, top row first.
 #include <cstring>
 #include <stdexcept>
 
 #include "avsi/core/error.h"
 #include "avsi/stimuli/renderer.h"
 #include "gl_api.h"
+#include "fxaa.h"
 #include "osmesa_context.h"
 
 namespace avsi::stimuli {
+
+namespace {
+
+void* load_proc(const char* name) { return detail::OsmesaContext::proc_address(name); }
+
+}  // namespace
 
 struct OffscreenRenderer::Impl {
     detail::OsmesaContext context;
     detail::Gl gl;
     std::unique_ptr<HeadDrawer> drawer;
-    GLuint msaa_fbo = 0, msaa_color = 0, msaa_depth = 0;
-    GLuint resolve_fbo = 0, resolve_color = 0;
+    GLuint msaa_fbo = 0, msaa_color = 0, msaa_depth = 0;  // samples > 1 only
+    GLuint scene_fbo = 0, scene_color = 0, scene_depth = 0;
     std::vector<std::uint8_t> rgba;
+    std::vector<float> luma;  // FXAA scratch
     std::string renderer_name;
-};
 
-namespace {
-void* load_proc(const char* name) { return detail::OsmesaContext::proc_address(name); }
-}  // namespace
+};
 
 OffscreenRenderer::OffscreenRenderer(const Head& head, const RenderSettings& settings)
     : m_head(head), m_settings(settings), m_impl(std::make_unique<Impl>()) {
@@ -39,26 +46,35 @@ OffscreenRenderer::OffscreenRenderer(const Head& head, const RenderSettings& set
     gl.load(&load_proc);
     d.renderer_name = reinterpret_cast<const char*>(gl.glGetString(GL_RENDERER));
     const int w = settings.width, h = settings.height;
-    gl.glGenFramebuffers(1, &d.msaa_fbo);
-    gl.glBindFramebuffer(GL_FRAMEBUFFER, d.msaa_fbo);
-    gl.glGenRenderbuffers(1, &d.msaa_color);
-    gl.glBindRenderbuffer(GL_RENDERBUFFER, d.msaa_color);
-    gl.glRenderbufferStorageMultisample(GL_RENDERBUFFER, settings.samples, GL_RGBA8, w, h);
-    gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, d.msaa_color);
-    gl.glGenRenderbuffers(1, &d.msaa_depth);
-    gl.glBindRenderbuffer(GL_RENDERBUFFER, d.msaa_depth);
-    gl.glRenderbufferStorageMultisample(GL_RENDERBUFFER, settings.samples, GL_DEPTH_COMPONENT24, w, h);
-    gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, d.msaa_depth);
-    if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-        throw std::runtime_error("OpenGL: the multisample framebuffer is incomplete");
-    gl.glGenFramebuffers(1, &d.resolve_fbo);
-    gl.glBindFramebuffer(GL_FRAMEBUFFER, d.resolve_fbo);
-    gl.glGenRenderbuffers(1, &d.resolve_color);
-    gl.glBindRenderbuffer(GL_RENDERBUFFER, d.resolve_color);
+
+    if (settings.samples > 1) {
+        gl.glGenFramebuffers(1, &d.msaa_fbo);
+        gl.glBindFramebuffer(GL_FRAMEBUFFER, d.msaa_fbo);
+        gl.glGenRenderbuffers(1, &d.msaa_color);
+        gl.glBindRenderbuffer(GL_RENDERBUFFER, d.msaa_color);
+        gl.glRenderbufferStorageMultisample(GL_RENDERBUFFER, settings.samples, GL_RGBA8, w, h);
+        gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, d.msaa_color);
+        gl.glGenRenderbuffers(1, &d.msaa_depth);
+        gl.glBindRenderbuffer(GL_RENDERBUFFER, d.msaa_depth);
+        gl.glRenderbufferStorageMultisample(GL_RENDERBUFFER, settings.samples, GL_DEPTH_COMPONENT24, w, h);
+        gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, d.msaa_depth);
+        if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            throw std::runtime_error("OpenGL: the multisample framebuffer is incomplete");
+    }
+    // The scene: colour and depth.
+    gl.glGenFramebuffers(1, &d.scene_fbo);
+    gl.glBindFramebuffer(GL_FRAMEBUFFER, d.scene_fbo);
+    gl.glGenRenderbuffers(1, &d.scene_color);
+    gl.glBindRenderbuffer(GL_RENDERBUFFER, d.scene_color);
     gl.glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
-    gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, d.resolve_color);
+    gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, d.scene_color);
+    gl.glGenRenderbuffers(1, &d.scene_depth);
+    gl.glBindRenderbuffer(GL_RENDERBUFFER, d.scene_depth);
+    gl.glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+    gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, d.scene_depth);
     if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-        throw std::runtime_error("OpenGL: the resolve framebuffer is incomplete");
+        throw std::runtime_error("OpenGL: the scene framebuffer is incomplete");
+
     d.drawer = std::make_unique<HeadDrawer>(head, &load_proc);
     d.rgba.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 4);
 }
@@ -67,10 +83,11 @@ OffscreenRenderer::~OffscreenRenderer() {
     auto& d = *m_impl;
     d.context.make_current();
     d.drawer.reset();
-    GLuint fbos[] = {d.msaa_fbo, d.resolve_fbo};
-    d.gl.glDeleteFramebuffers(2, fbos);
-    GLuint rbs[] = {d.msaa_color, d.msaa_depth, d.resolve_color};
-    d.gl.glDeleteRenderbuffers(3, rbs);
+    auto& gl = d.gl;
+    GLuint fbos[] = {d.msaa_fbo, d.scene_fbo};
+    gl.glDeleteFramebuffers(2, fbos);
+    GLuint rbs[] = {d.msaa_color, d.msaa_depth, d.scene_color, d.scene_depth};
+    gl.glDeleteRenderbuffers(4, rbs);
 }
 
 std::string OffscreenRenderer::gl_renderer() const { return m_impl->renderer_name; }
@@ -81,29 +98,24 @@ void OffscreenRenderer::render(const Pose& pose, Image& out, RenderMode mode) {
     const int w = m_settings.width, h = m_settings.height;
     d.context.make_current();
     pose_head(m_head, pose, m_posed);
-    gl.glBindFramebuffer(GL_FRAMEBUFFER, d.msaa_fbo);
+    // Regions are exact group indices: never multisampled or filtered.
+    const bool msaa = d.msaa_fbo != 0 && mode == RenderMode::Shaded;
+    gl.glBindFramebuffer(GL_FRAMEBUFFER, msaa ? d.msaa_fbo : d.scene_fbo);
     d.drawer->draw(m_posed, m_settings, w, h, mode);
-    gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, d.msaa_fbo);
-    gl.glBindFramebuffer(GL_DRAW_FRAMEBUFFER, d.resolve_fbo);
-    gl.glBlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
-    gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, d.resolve_fbo);
+    if (msaa) {
+        gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, d.msaa_fbo);
+        gl.glBindFramebuffer(GL_DRAW_FRAMEBUFFER, d.scene_fbo);
+        gl.glBlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, d.scene_fbo);
     gl.glPixelStorei(GL_PACK_ALIGNMENT, 1);
     gl.glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, d.rgba.data());
     const GLenum error = gl.glGetError();
     if (error != GL_NO_ERROR) throw std::runtime_error("OpenGL error " + std::to_string(error) + " while rendering");
     out.width = w;
     out.height = h;
-    out.rgb.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3);
-    // GL rows are bottom-up; images are top-down.
-    for (int y = 0; y < h; ++y) {
-        const std::uint8_t* src = d.rgba.data() + static_cast<std::size_t>(h - 1 - y) * static_cast<std::size_t>(w) * 4;
-        std::uint8_t* dst = out.rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) * 3;
-        for (int x = 0; x < w; ++x) {
-            dst[3 * x] = src[4 * x];
-            dst[3 * x + 1] = src[4 * x + 1];
-            dst[3 * x + 2] = src[4 * x + 2];
-        }
-    }
+    // Regions are exact group indices: never filtered.
+    detail::fxaa_to_rgb(d.rgba.data(), w, h, m_settings.fxaa && mode == RenderMode::Shaded, d.luma, out.rgb);
 }
 
 Image OffscreenRenderer::render(const Pose& pose, RenderMode mode) {

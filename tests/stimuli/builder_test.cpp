@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/stimuli/builder.h"
 #include "avsi/stimuli/video.h"
@@ -56,6 +57,99 @@ TEST_F(BuilderFixture, BuildsEveryStimulusThenSkipsThemAndIsDeterministic) {
 
     build_stimuli(settings("b"));
     EXPECT_EQ(hashes(manifest), hashes(dir / "b" / "manifest.json"));
+}
+
+// A copy of the test protocol with its [vocoder] section replaced, written
+// to the fixture's folder with absolute corpus and model paths.
+std::filesystem::path protocol_with_vocoder(const std::filesystem::path& dir, const std::string& vocoder) {
+    const std::filesystem::path data = std::filesystem::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build";
+    std::string text = read_text_file(data / "protocol.toml");
+    const auto replace = [&](const std::string& from, const std::string& to) {
+        const auto at = text.find(from);
+        ASSERT_NE(at, std::string::npos) << from;
+        text.replace(at, from.size(), to);
+    };
+    replace("sentences = \"corpus.csv\"", "sentences = \"" + (data / "corpus.csv").generic_string() + "\"");
+    replace("model = \"../../../../protocols/models/rule.json\"",
+            "model = \"" + (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json").generic_string() + "\"");
+    replace("[vocoder]\nbands = 3\nlow_hz = 100\nhigh_hz = 5000\n", "[vocoder]\n" + vocoder);
+    std::filesystem::create_directories(dir);
+    const auto path = dir / "protocol.toml";
+    write_text_file(path, text);
+    return path;
+}
+
+std::string build_error(const std::filesystem::path& protocol, const std::filesystem::path& out) {
+    BuildSettings s;
+    s.protocol_path = protocol;
+    s.out_dir = out;
+    try {
+        build_stimuli(s);
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST_F(BuilderFixture, MapsEveryVocoderKeyOfTheProtocol) {
+    const auto protocol = protocol_with_vocoder(dir,
+                                                "bands = 4\nlow_hz = 150\nhigh_hz = 4000.0\nspacing = \"log\"\n"
+                                                "filter_order = 3\nzero_phase = true\nenvelope = \"hilbert\"\n"
+                                                "envelope_cutoff_hz = 50\nenvelope_filter_order = 2\n"
+                                                "carrier = \"sine\"\nprefilter_carrier = true\n"
+                                                "refilter_carrier = false\nlow_noise_iterations = 5\n"
+                                                "match_band_rms = false\nmatch_output_rms = false\nseed = 99\n");
+    BuildSettings s = settings("vocoder");
+    s.protocol_path = protocol;
+    s.max_sentences = 1;
+    const BuildReport report = build_stimuli(s);
+    EXPECT_EQ(report.rendered, 3u);
+    const auto v = nlohmann::json::parse(read_text_file(s.out_dir / "manifest.json"))["settings"]["vocoder"];
+    EXPECT_EQ(v["bands"], 4);
+    EXPECT_EQ(v["low_hz"], 150.0);
+    EXPECT_EQ(v["high_hz"], 4000.0);
+    EXPECT_EQ(v["spacing"], "log");
+    EXPECT_EQ(v["filter_order"], 3);
+    EXPECT_EQ(v["zero_phase"], true);
+    EXPECT_EQ(v["envelope"], "hilbert");
+    EXPECT_EQ(v["envelope_cutoff_hz"], 50.0);
+    EXPECT_EQ(v["envelope_filter_order"], 2);
+    EXPECT_EQ(v["carrier"], "sine");
+    EXPECT_EQ(v["prefilter_carrier"], true);
+    EXPECT_EQ(v["refilter_carrier"], false);
+    EXPECT_EQ(v["low_noise_iterations"], 5);
+    EXPECT_EQ(v["match_band_rms"], false);
+    EXPECT_EQ(v["match_output_rms"], false);
+    EXPECT_EQ(v["seed"], 99);
+
+    // Explicit band edges.
+    const auto explicit_edges = protocol_with_vocoder(
+        dir / "edges", "bands = 2\nlow_hz = 100\nhigh_hz = 4000\nspacing = \"explicit\"\nedges_hz = [100, 900, 4000]\n");
+    BuildSettings e = settings("edges-out");
+    e.protocol_path = explicit_edges;
+    e.max_sentences = 1;
+    build_stimuli(e);
+    const auto ve = nlohmann::json::parse(read_text_file(e.out_dir / "manifest.json"))["settings"]["vocoder"];
+    EXPECT_EQ(ve["edges_hz"], nlohmann::json({100.0, 900.0, 4000.0}));
+}
+
+TEST_F(BuilderFixture, RefusesUnknownAndInconsistentVocoderKeysWithTheirLocation) {
+    // The [vocoder] section is on line 29 of the test protocol; its keys follow.
+    const std::string typo = build_error(protocol_with_vocoder(dir / "typo", "bnads = 4\ncarrier = \"sin\"\n"), dir / "o1");
+    EXPECT_NE(typo.find("protocol.toml:30:"), std::string::npos) << typo;
+    EXPECT_NE(typo.find("did you mean \"bands\""), std::string::npos) << typo;
+    EXPECT_NE(typo.find("protocol.toml:31:"), std::string::npos) << typo;
+    EXPECT_NE(typo.find("did you mean \"sine\""), std::string::npos) << typo;
+
+    const std::string edges =
+        build_error(protocol_with_vocoder(dir / "edges", "bands = 3\nspacing = \"explicit\"\nedges_hz = [100, 900, 5000]\n"),
+                    dir / "o2");
+    EXPECT_NE(edges.find("protocol.toml:32:"), std::string::npos) << edges;
+    EXPECT_NE(edges.find("edges_hz"), std::string::npos) << edges;
+
+    const std::string type = build_error(protocol_with_vocoder(dir / "type", "zero_phase = \"yes\"\n"), dir / "o3");
+    EXPECT_NE(type.find("protocol.toml:30:"), std::string::npos) << type;
+    EXPECT_NE(type.find("zero_phase"), std::string::npos) << type;
 }
 
 }  // namespace

@@ -25,7 +25,7 @@ struct ContactSheetSettings {
     int tile_width = 320;
     int tile_height = 320;
     int columns = 5;
-    float framing_mm = 150.0f;  // world height shown in each tile
+    float framing_mm = 160.0f;  // world height shown in each tile: eyes to the neck below the chin
     CameraView camera = CameraView::Front;
 };
 

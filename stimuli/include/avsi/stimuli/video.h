@@ -38,6 +38,8 @@ public:
 
     // Appends one frame (same size as given to the constructor).
     void write(const Image& frame);
+    // Appends the previous frame again without converting it (still pictures).
+    void repeat_last();
     // Flushes the encoders and writes the trailer; the file is complete after this.
     void finish();
 
