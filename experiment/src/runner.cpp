@@ -708,7 +708,8 @@ RunResult run_session(const RunSettings& settings) {
             }
             case Screen::Break:
                 centered_text(machine.message());
-                hint_text("Press Space to continue");
+                // The default break text already names the key.
+                if (machine.message().find("Space") == std::string::npos) hint_text("Press Space to continue");
                 break;
             case Screen::Paused:
                 centered_text("Paused.");
