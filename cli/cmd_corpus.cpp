@@ -63,11 +63,12 @@ void add_reference(CLI::App& corpus, std::function<int()>& chosen) {
 
 const bool registered = register_command({
     "corpus",
-    "Make articulatory corpora for training and evaluating control models",
+    "Make articulatory corpora for training and evaluating control models; import and balance sentence corpora",
     [](CLI::App& sub) -> std::function<int()> {
         sub.require_subcommand(1);
         auto chosen = std::make_shared<std::function<int()>>();
         add_reference(sub, *chosen);
+        add_actions("corpus", sub, *chosen);  // import, balance: cmd_corpus_import.cpp
         return [chosen] { return *chosen ? (*chosen)() : static_cast<int>(ExitUsage); };
     },
 });
