@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -181,11 +182,15 @@ TEST(ShippedCorpus, HasTheStudysListsAndThreeContentKeywordsPerSentence) {
     std::map<std::string, int> count;
     const WordTable& words = WordTable::builtin();
     std::set<std::string> texts;
+    std::map<std::string, int> keyword_uses;
     for (const auto& s : c.sentences) {
         ++count[s.list];
         EXPECT_TRUE(texts.insert(s.text).second) << "repeated sentence " << s.id;
         ASSERT_EQ(s.keywords.size(), 3u) << s.id;
         for (const auto& k : s.keywords) {
+            std::string key = k.word;
+            std::transform(key.begin(), key.end(), key.begin(), [](unsigned char ch) { return std::tolower(ch); });
+            EXPECT_LE(++keyword_uses[key], 2) << "keyword '" << k.word << "' in more than two sentences";
             EXPECT_FALSE(words.is_function_word(k.word)) << s.id << ": " << k.word;
             for (const auto& alt : k.alternates) EXPECT_NE(alt, k.word) << s.id;
         }
