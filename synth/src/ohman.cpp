@@ -18,6 +18,28 @@ double smoothstep(double x) {
     return x * x * (3.0 - 2.0 * x);
 }
 
+VowelBlend ohman_vowel_blend(std::span<const double> anchor_centres, double t) {
+    const std::size_t m = anchor_centres.size();
+    if (m == 0) return {};
+    const long j = static_cast<long>(std::upper_bound(anchor_centres.begin(), anchor_centres.end(), t) -
+                                     anchor_centres.begin()) - 1;
+    if (j < 0) return {0, -1, 1.0, 0.0};
+    if (static_cast<std::size_t>(j) + 1 >= m) return {static_cast<long>(m) - 1, -1, 1.0, 0.0};
+    const double a = anchor_centres[static_cast<std::size_t>(j)], b = anchor_centres[static_cast<std::size_t>(j) + 1];
+    const double s = smoothstep((t - a) / (b - a));
+    return {j, j + 1, 1.0 - s, s};
+}
+
+double ohman_consonant_blend(std::span<const double> c, std::size_t i, double t) {
+    const double tau = c[i];
+    if (t <= tau) {
+        if (i == 0) return 1.0;
+        return smoothstep((t - c[i - 1]) / (tau - c[i - 1]));
+    }
+    if (i + 1 == c.size()) return 1.0;
+    return smoothstep((c[i + 1] - t) / (c[i + 1] - tau));
+}
+
 namespace {
 
 bool is_anchor(const Phone& phone) { return phone.symbol == "sil" || detail::is_vowel_symbol(phone.symbol); }
@@ -36,37 +58,20 @@ long bracket(const std::vector<double>& centres, double t) {
     return static_cast<long>(std::upper_bound(centres.begin(), centres.end(), t) - centres.begin()) - 1;
 }
 
-// Eq. 17 with cubic blends: between consecutive anchor centres the two
-// blends are 1 − s(x) and s(x) (they sum to 1); beyond the first/last centre
-// the track holds that anchor's target; with no anchor it is neutral.
+// Eq. 17 at t for all parameters (the blend from ohman_vowel_blend); with
+// no anchor the track is neutral.
 Frame vowel_track_at(const Resolved& r, double t) {
     Frame v{};
-    const std::size_t m = r.anchor_centres.size();
-    if (m == 0) {
+    const VowelBlend b = ohman_vowel_blend(r.anchor_centres, t);
+    if (b.left < 0) {
         for (const auto& info : params()) v[index(info.param)] = info.neutral;
         return v;
     }
-    const long j = bracket(r.anchor_centres, t);
-    if (j < 0) return *r.anchor_targets.front();
-    if (static_cast<std::size_t>(j) + 1 >= m) return *r.anchor_targets.back();
-    const double a = r.anchor_centres[j], b = r.anchor_centres[j + 1];
-    const double s = smoothstep((t - a) / (b - a));
-    const Frame& left = *r.anchor_targets[j];
-    const Frame& right = *r.anchor_targets[j + 1];
-    for (std::size_t p = 0; p < param_count; ++p) v[p] = left[p] * (1.0 - s) + right[p] * s;
+    const Frame& left = *r.anchor_targets[static_cast<std::size_t>(b.left)];
+    if (b.right < 0) return left;
+    const Frame& right = *r.anchor_targets[static_cast<std::size_t>(b.right)];
+    for (std::size_t p = 0; p < param_count; ++p) v[p] = left[p] * b.w_left + right[p] * b.w_right;
     return v;
-}
-
-// k_i(t) for the consonant at segment i (eq. 16's blend): 1 at τ_i, 0 with
-// zero slope at τ_{i−1} and τ_{i+1}; held at 1 toward an utterance edge.
-double consonant_blend(const std::vector<double>& c, std::size_t i, double t) {
-    const double tau = c[i];
-    if (t <= tau) {
-        if (i == 0) return 1.0;
-        return smoothstep((t - c[i - 1]) / (tau - c[i - 1]));
-    }
-    if (i + 1 == c.size()) return 1.0;
-    return smoothstep((c[i + 1] - t) / (c[i + 1] - tau));
 }
 
 }  // namespace
@@ -115,7 +120,7 @@ void OhmanModel::evaluate(const PhoneSequence& phones, std::span<const double> t
             if (i < 0 || static_cast<std::size_t>(i) >= phones.size()) continue;
             const OhmanConsonant* c = r.consonant[static_cast<std::size_t>(i)];
             if (!c) continue;
-            const double blend = consonant_blend(r.centres, static_cast<std::size_t>(i), t);
+            const double blend = ohman_consonant_blend(r.centres, static_cast<std::size_t>(i), t);
             if (blend == 0.0) continue;
             for (std::size_t p = 0; p < param_count; ++p)
                 z[p] += (*c)[p].coarticulation_factor * blend * ((*c)[p].target - v[p]);

@@ -199,17 +199,6 @@ long bracket(const std::vector<double>& centres, double t) {
     return static_cast<long>(std::upper_bound(centres.begin(), centres.end(), t) - centres.begin()) - 1;
 }
 
-// k_i(t) as in ohman.cpp: 1 at the centre, 0 with zero slope at the neighbours' centres.
-double consonant_blend(const std::vector<double>& c, std::size_t i, double t) {
-    const double tau = c[i];
-    if (t <= tau) {
-        if (i == 0) return 1.0;
-        return smoothstep((t - c[i - 1]) / (tau - c[i - 1]));
-    }
-    if (i + 1 == c.size()) return 1.0;
-    return smoothstep((c[i + 1] - t) / (c[i + 1] - tau));
-}
-
 }  // namespace
 
 void ohman_keyed(const KeyedUtterance& u, std::span<const double> x, std::vector<double>& z,
@@ -224,33 +213,22 @@ void ohman_keyed(const KeyedUtterance& u, std::span<const double> x, std::vector
     const std::size_t cols = x.size();
     z.assign(u.times_s.size(), 0.0);
     if (jacobian) jacobian->assign(u.times_s.size() * cols, 0.0);
-    const std::size_t m = anchor_centres.size();
     for (std::size_t k = 0; k < u.times_s.size(); ++k) {
         const double t = u.times_s[k];
-        // Vowel track (eq. 17) and its weights per anchor key.
+        // Vowel track (eq. 17, the model's blend) and its weights per anchor key.
         double v = 0.0;  // every parameter's neutral value is 0 (parameters.h)
-        std::array<std::pair<int, double>, 2> vw{{{-1, 0.0}, {-1, 0.0}}};
-        if (m > 0) {
-            const long j = bracket(anchor_centres, t);
-            if (j < 0) {
-                vw[0] = {anchor_keys.front(), 1.0};
-            } else if (static_cast<std::size_t>(j) + 1 >= m) {
-                vw[0] = {anchor_keys.back(), 1.0};
-            } else {
-                const double a = anchor_centres[j], b = anchor_centres[j + 1];
-                const double s = smoothstep((t - a) / (b - a));
-                vw[0] = {anchor_keys[j], 1.0 - s};
-                vw[1] = {anchor_keys[j + 1], s};
-            }
-            for (const auto& [key, w] : vw)
-                if (key >= 0) v += w * x[2 * static_cast<std::size_t>(key)];
-        }
+        const VowelBlend b = ohman_vowel_blend(anchor_centres, t);
+        const std::array<std::pair<int, double>, 2> vw{{
+            {b.left >= 0 ? anchor_keys[static_cast<std::size_t>(b.left)] : -1, b.w_left},
+            {b.right >= 0 ? anchor_keys[static_cast<std::size_t>(b.right)] : -1, b.w_right}}};
+        for (const auto& [key, w] : vw)
+            if (key >= 0) v += w * x[2 * static_cast<std::size_t>(key)];
         // Consonant pulls (eq. 16) and their derivatives (eq. 18–19).
         double zk = v, pull = 0.0;
         const long n = bracket(u.centres_s, t);
         for (long i : {n, n + 1}) {
             if (i < 0 || static_cast<std::size_t>(i) >= u.centres_s.size() || u.anchor[i]) continue;
-            const double blend = consonant_blend(u.centres_s, static_cast<std::size_t>(i), t);
+            const double blend = ohman_consonant_blend(u.centres_s, static_cast<std::size_t>(i), t);
             if (blend == 0.0) continue;
             const std::size_t q = 2 * static_cast<std::size_t>(u.key[i]);
             const double c = x[q], w = x[q + 1];
@@ -512,8 +490,13 @@ int fit_keyed(const Prepared& p, std::size_t q, KeyedFunction f, int stride, boo
     const bool has_test = !p.test[q].empty();
     if (has_test) options.callbacks.push_back(&stop);
     ceres::Solver::Summary summary;
+    const auto start = std::chrono::steady_clock::now();
     ceres::Solve(options, &problem, &summary);
     if (has_test) x = best;
+    log_info("  {}: {} iterations in {:.1f} s, train cost {:.4g} -> {:.4g}, held-out SSE {:.4g}", params()[q].name,
+             summary.iterations.size(),
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), summary.initial_cost,
+             summary.final_cost, has_test ? stop.best() : 0.0);
     return static_cast<int>(summary.iterations.size());
 }
 

@@ -34,6 +34,7 @@
 #pragma once
 
 #include <map>
+#include <span>
 #include <string>
 
 #include "avsi/synth/control_model.h"
@@ -49,6 +50,22 @@ using OhmanConsonant = std::array<OhmanConsonantParam, param_count>;
 
 // The cubic blend half: 0 with zero slope at x = 0, 1 with zero slope at x = 1.
 double smoothstep(double x);
+
+// The vowel track's blend at t (eq. 17, cubic blends), shared by the model
+// and its training: anchors `left` and `right` (indices into the anchor
+// centres, −1 when unused) with weights summing to 1; before the first or
+// after the last centre only that anchor, weight 1. No anchors: both −1.
+struct VowelBlend {
+    long left = -1;
+    long right = -1;
+    double w_left = 0.0;
+    double w_right = 0.0;
+};
+VowelBlend ohman_vowel_blend(std::span<const double> anchor_centres, double t);
+
+// k_i(t) of eq. 16 for the consonant at segment i (centres ascending): 1 at
+// τ_i, 0 with zero slope at τ_{i−1} and τ_{i+1}, held at 1 toward an edge.
+double ohman_consonant_blend(std::span<const double> centres, std::size_t i, double t);
 
 class OhmanModel : public ControlModel {
 public:
