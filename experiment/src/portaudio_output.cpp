@@ -2,7 +2,12 @@
 // writes the pending clip starting at the sample whose DAC time is the
 // requested onset, so the onset is known to the sample on the stream clock
 // (Pa_GetStreamTime), the same clock the runner stamps its buffer swaps with.
+#include <alsa/asoundlib.h>
+#include <jack/jack.h>
 #include <portaudio.h>
+
+#include <cstdarg>
+#include <cstdio>
 
 #include <algorithm>
 #include <atomic>
@@ -22,7 +27,24 @@ namespace avsi::experiment {
 
 namespace {
 
+// ALSA and JACK print to stderr while PortAudio probes them (PCMs of cards
+// that are absent, no JACK server); their messages go to the debug log.
+void alsa_message(const char* file, int line, const char* function, int err, const char* format, ...) {
+    char text[512];
+    va_list args;
+    va_start(args, format);
+    std::vsnprintf(text, sizeof text, format, args);
+    va_end(args);
+    log_debug("ALSA {}:{} ({}): {}{}", file ? file : "?", line, function ? function : "?", text,
+              err ? fmt::format(": {}", snd_strerror(err)) : std::string());
+}
+
+void jack_message(const char* text) { log_debug("JACK: {}", text ? text : ""); }
+
 void initialise() {
+    snd_lib_error_set_handler(&alsa_message);
+    jack_set_error_function(&jack_message);
+    jack_set_info_function(&jack_message);
     if (const PaError e = Pa_Initialize(); e != paNoError)
         throw InputError("portaudio", 0, 0, "", fmt::format("cannot initialise PortAudio: {}", Pa_GetErrorText(e)));
 }
