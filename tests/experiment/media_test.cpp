@@ -4,6 +4,11 @@
 
 #include <cmath>
 
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/experiment/runner.h"
+#include "test_support.h"
+
 namespace avsi::experiment {
 namespace {
 
@@ -80,6 +85,42 @@ TEST(TestPattern, EncodesTheFrameIndexAndClicksAtFrameOnsets) {
     const auto onset = static_cast<std::size_t>(std::lround(5 / s.fps * s.sample_rate));
     EXPECT_GT(std::fabs(audio[onset + 5]), 0.01f);
     EXPECT_EQ(audio[onset - 10], 0.0f);
+}
+
+// A stimulus folder must carry the builder's manifest; its entries are read
+// by path and a folder without one is refused with the command that makes it.
+TEST(StimulusManifest, ReadsEntriesAndRefusesAFolderWithoutOne) {
+    const auto dir = testing::temp_dir("manifest");
+    try {
+        read_stimulus_manifest(dir);
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("avsi build-stimuli"), std::string::npos) << e.what();
+    }
+    write_text_file(dir / "manifest.json", R"({"format": "something-else", "stimuli": []})");
+    EXPECT_THROW(read_stimulus_manifest(dir), InputError);
+    write_text_file(dir / "manifest.json",
+                    R"({"format": "avsi-stimuli-manifest", "experiment": "e", "stimuli": [
+                        {"path": "s1/a.mp4", "frames": 39, "fps": 30.0, "sha256": "ab"},
+                        {"path": "s1/b.mp4", "fps": 30.0, "sha256": "cd"}]})");
+    try {
+        read_stimulus_manifest(dir);
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("stimuli[1]"), std::string::npos) << e.what();
+    }
+    write_text_file(dir / "manifest.json",
+                    R"({"format": "avsi-stimuli-manifest", "experiment": "e", "stimuli": [
+                        {"path": "s1/a.mp4", "frames": 39, "fps": 30.0, "sha256": "ab"}]})");
+    const StimulusManifest m = read_stimulus_manifest(dir);
+    EXPECT_EQ(m.experiment, "e");
+    ASSERT_EQ(m.stimuli.count("s1/a.mp4"), 1u);
+    EXPECT_EQ(m.stimuli.at("s1/a.mp4").frames, 39);
+    EXPECT_EQ(m.sha256, sha256_file(dir / "manifest.json"));
+    // Listed but absent on disk: refused before anything is shown.
+    StimulusFolderOpener opener(dir);
+    EXPECT_THROW(opener.verify({"s1/a.mp4"}), InputError);
+    EXPECT_THROW(opener.verify({"s2/a.mp4"}), InputError);
 }
 
 }  // namespace
