@@ -155,3 +155,34 @@ TEST(TrainGradient, OhmanForwardMatchesTheModel) {
     for (std::size_t k = 0; k < z.size(); ++k)
         EXPECT_NEAR(z[k], reference[k][index(Param::JawRotation)], 1e-12) << u.times_s[k];
 }
+
+TEST(TrainGradient, CohenMassaroSkipsFarSegmentsWithoutChangingTheResult) {
+    // Fast dominance decay over a long utterance: most segments are left out
+    // at each frame, yet z matches the full sum and the gradient still checks.
+    for (std::uint64_t seed = 21; seed <= 23; ++seed) {
+        SCOPED_TRACE(seed);
+        Rng rng(seed);
+        const int keys = 6;
+        const KeyedUtterance u = random_utterance(rng, 40, keys);
+        std::vector<double> x;
+        for (int k = 0; k < keys; ++k)
+            for (double v : {rng.uniform(-0.5, 1.0), rng.uniform(0.2, 5.0), rng.uniform(60.0, 300.0),
+                             rng.uniform(60.0, 300.0), rng.uniform(0.8, 1.5)})
+                x.push_back(v);
+        std::vector<CmSegment> segs;
+        for (std::size_t i = 0; i < u.centres_s.size(); ++i) {
+            const double* q = x.data() + 5 * u.key[i];
+            segs.push_back({u.centres_s[i], q[0], q[1], q[2], q[3], q[4]});
+        }
+        std::vector<double> z;
+        CmPartials partials;
+        cohen_massaro_partials(segs, u.times_s, z, &partials);
+        std::size_t kept = 0;
+        for (std::size_t k = 0; k < z.size(); ++k) kept += partials.row_start[k + 1] - partials.row_start[k];
+        EXPECT_LT(kept, z.size() * segs.size() / 2);  // the bound does leave segments out
+        std::vector<double> reference(u.times_s.size());
+        cohen_massaro_full(segs, u.times_s, reference);
+        for (std::size_t k = 0; k < z.size(); ++k) EXPECT_NEAR(z[k], reference[k], 1e-12);
+        check_gradient(cohen_massaro_keyed, u, x, "cohen-massaro, far segments skipped");
+    }
+}
