@@ -1,5 +1,9 @@
-// Contact sheet rendering; labels drawn with OpenImageIO's text renderer.
+// Contact sheet rendering; tiles pasted with OpenImageIO, labels drawn with cairo.
 #include "avsi/stimuli/contact_sheet.h"
+
+#include <cairo.h>
+
+#include <cstring>
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
@@ -60,15 +64,48 @@ std::vector<SheetEntry> read_sheet_targets(const std::filesystem::path& path) {
 }
 
 namespace {
-// DejaVu Sans has the IPA glyphs (θ ʃ ɑ); fall back to OIIO's default font.
-// (Debian: fonts-dejavu-core, in scripts/install-deps).
-std::string label_font() {
+
+// DejaVu Sans has the IPA glyphs (θ ʃ ɑ) (Debian: fonts-dejavu-core, in
+// scripts/install-deps); cairo finds it through fontconfig.
+void check_label_font() {
     for (const char* path : {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
                              "/usr/share/fonts/TTF/DejaVuSans.ttf", "/usr/share/fonts/dejavu/DejaVuSans.ttf"})
-        if (std::filesystem::exists(path)) return path;
+        if (std::filesystem::exists(path)) return;
     log_warning("contact sheet: DejaVu Sans not found (install fonts-dejavu-core); IPA labels may show as boxes");
-    return "";
 }
+
+// A label strip: `text` (UTF-8) in white on `background`, drawn with cairo
+// (OpenImageIO's render_text shows non-Latin-1 characters as boxes).
+void paste_label(OIIO::ImageBuf& sheet, int x0, int y0, int width, int height, const std::string& text,
+                 const float (&background)[3]) {
+    cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, width, height);
+    cairo_t* cr = cairo_create(surface);
+    cairo_set_source_rgb(cr, background[0], background[1], background[2]);
+    cairo_paint(cr);
+    cairo_select_font_face(cr, "DejaVu Sans", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr, 22.0);
+    cairo_set_source_rgb(cr, 1.0, 1.0, 1.0);
+    cairo_move_to(cr, 10.0, 25.0);
+    cairo_show_text(cr, text.c_str());
+    cairo_surface_flush(surface);
+    const unsigned char* data = cairo_image_surface_get_data(surface);
+    const int stride = cairo_image_surface_get_stride(surface);
+    std::vector<std::uint8_t> rgb(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3);
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            std::uint32_t px = 0;  // native-endian 0xXXRRGGBB
+            std::memcpy(&px, data + static_cast<std::size_t>(y) * static_cast<std::size_t>(stride) + 4 * static_cast<std::size_t>(x), 4);
+            std::uint8_t* dst = rgb.data() + 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x));
+            dst[0] = static_cast<std::uint8_t>((px >> 16) & 0xff);
+            dst[1] = static_cast<std::uint8_t>((px >> 8) & 0xff);
+            dst[2] = static_cast<std::uint8_t>(px & 0xff);
+        }
+    cairo_destroy(cr);
+    cairo_surface_destroy(surface);
+    OIIO::ImageBuf strip(OIIO::ImageSpec(width, height, 3, OIIO::TypeDesc::UINT8), rgb.data());
+    OIIO::ImageBufAlgo::paste(sheet, x0, y0, 0, 0, strip);
+}
+
 }  // namespace
 
 Image render_contact_sheet(const Head& head, const std::vector<SheetEntry>& entries,
@@ -88,9 +125,9 @@ Image render_contact_sheet(const Head& head, const std::vector<SheetEntry>& entr
     const int label_h = 34;
     const int tw = settings.tile_width, th = settings.tile_height + label_h;
     OIIO::ImageBuf sheet(OIIO::ImageSpec(cols * tw, rows * th, 3, OIIO::TypeDesc::UINT8));
-    const float white[] = {1.0f, 1.0f, 1.0f};
-    OIIO::ImageBufAlgo::fill(sheet, {0.12f, 0.12f, 0.14f});
-    const std::string font = label_font();
+    const float background[3] = {0.12f, 0.12f, 0.14f};
+    OIIO::ImageBufAlgo::fill(sheet, background);
+    check_label_font();
     Image tile;
     for (std::size_t i = 0; i < entries.size(); ++i) {
         renderer.render(entries[i].pose, tile);
@@ -98,7 +135,7 @@ Image render_contact_sheet(const Head& head, const std::vector<SheetEntry>& entr
         const int y0 = static_cast<int>(i / static_cast<std::size_t>(cols)) * th;
         OIIO::ImageBuf buf(OIIO::ImageSpec(tile.width, tile.height, 3, OIIO::TypeDesc::UINT8), tile.rgb.data());
         OIIO::ImageBufAlgo::paste(sheet, x0, y0 + label_h, 0, 0, buf);
-        OIIO::ImageBufAlgo::render_text(sheet, x0 + 10, y0 + 25, entries[i].label + "  " + entries[i].phone, 22, font, white);
+        paste_label(sheet, x0, y0, tw, label_h, entries[i].label + "  " + entries[i].phone, background);
     }
     Image out;
     out.width = cols * tw;

@@ -20,7 +20,7 @@ namespace avsi::stimuli {
 struct VideoSettings {
     double fps = 30.0;
     int crf = 18;                       // x264 constant rate factor (0 lossless … 51)
-    const char* preset = "veryfast";    // x264 preset
+    const char* preset = "ultrafast";   // x264 preset (ultrafast: ~2x faster than veryfast, larger files)
     int audio_bitrate_bps = 128000;     // AAC
 };
 
