@@ -211,8 +211,22 @@ void bounded_sum(std::size_t n, const Source& source, std::span<const double> ti
     const Eigen::Map<const Eigen::ArrayXd> t_all(times.data(), static_cast<Index>(frames));
     using Frames = Eigen::Array<double, Eigen::Dynamic, P>;  // frames × parameters
     Frames num(static_cast<Index>(block), P), den(static_cast<Index>(block), P);
+    // Per kept segment and side, its distinct rates.
+    std::vector<RateGroups<P>> rate_groups(2 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (hull_lo[i] == none) continue;
+        for (int side = 0; side < 2; ++side) {
+            RateGroups<P>& g = rate_groups[2 * i + static_cast<std::size_t>(side)];
+            for (int p = 0; p < P; ++p) {
+                const double rate = side == 0 ? theta(p, static_cast<Index>(i)) : phi(p, static_cast<Index>(i));
+                int q = 0;
+                while (q < g.count && g.rate[static_cast<std::size_t>(q)] != rate) ++q;
+                if (q == g.count) g.rate[static_cast<std::size_t>(g.count++)] = rate;
+                g.of_param[static_cast<std::size_t>(p)] = q;
+            }
+        }
+    }
     Eigen::ArrayXd u, e;
-    RateGroups<P> groups;
     for (std::size_t b = 0; b < blocks; ++b) {
         const std::size_t b0 = b * block, b1 = std::min(frames, b0 + block);
         num.setZero();
@@ -233,24 +247,21 @@ void bounded_sum(std::size_t n, const Source& source, std::span<const double> ti
                 if (s0 >= s1) continue;
                 const auto len = static_cast<Index>(s1 - s0);
                 const auto t_side = t_all.segment(static_cast<Index>(s0), len);
-                groups.count = 0;
-                for (int p = 0; p < P; ++p) {
-                    const double rate = before ? theta(p, col) : phi(p, col);
-                    int q = 0;
-                    while (q < groups.count && groups.rate[static_cast<std::size_t>(q)] != rate) ++q;
-                    if (q == groups.count) groups.rate[static_cast<std::size_t>(groups.count++)] = rate;
-                    groups.of_param[static_cast<std::size_t>(p)] = q;
-                }
+                const RateGroups<P>& groups = rate_groups[2 * i + (before ? 0 : 1)];
                 const bool recurrence = uniform && ci == 1.0;
                 if (!recurrence) {
                     if (before)
                         u = ti - t_side;
                     else
                         u = t_side - ti;
-                    if (ci == 2.0)
+                    if (ci == 2.0) {
                         u = u.square();
-                    else if (ci != 1.0)
-                        u = (ci * u.log()).exp();  // log 0 = −∞ gives 0
+                    } else if (ci != 1.0) {
+                        // |τ − t|^c = exp(c·ln|τ − t|) (ln 0 = −∞ gives 0); the
+                        // scalar log is faster than Eigen's here, its exp is not.
+                        for (Index f = 0; f < len; ++f) u[f] = ci * std::log(u[f]);
+                        u = u.exp();
+                    }
                 }
                 e.resize(len);
                 for (int q = 0; q < groups.count; ++q) {
