@@ -20,7 +20,7 @@ avsi="$build/cli/avsi"
 
 echo "load before: $(uptime)"
 start=$(date +%s.%N)
-"$avsi" build-stimuli "$root/protocols/beskow2004-en.toml" --out "$out" --max-sentences 90 --force
+"$avsi" build-stimuli "$root/protocols/beskow2004-en.toml" --out "$out" --max-sentences 90 --all-sentences --force
 end=$(date +%s.%N)
 echo "load after: $(uptime)"
 stimuli=$(find "$out" -name '*.mp4' | wc -l)

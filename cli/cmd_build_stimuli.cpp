@@ -20,6 +20,10 @@ const bool registered = register_command({
         sub.add_flag("--force", o->force, "Rebuild every stimulus even if unchanged");
         sub.add_option("--max-sentences", o->max_sentences, "Only the first N sentences (0 = all)")
             ->capture_default_str();
+        sub.add_flag("--all-sentences", o->all_sentences,
+                     "Build every sentence x condition; by default, when the corpus assigns lists, spare "
+                     "sentences are skipped and warm-up/practice sentences are built only in the conditions "
+                     "the design shows them in");
         return [o] {
             stimuli::build_stimuli(*o);
             return 0;

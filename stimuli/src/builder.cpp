@@ -221,12 +221,33 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     std::vector<Job> jobs;
     const std::size_t n_sentences = settings.max_sentences ? std::min(settings.max_sentences, corpus.sentences.size())
                                                            : corpus.sentences.size();
+    // What the design can show (see BuildSettings::all_sentences). Without
+    // list assignments in the corpus the design takes sentences in corpus
+    // order, so every sentence may be needed.
+    const bool corpus_has_lists = std::any_of(corpus.sentences.begin(), corpus.sentences.end(),
+                                              [](const Sentence& s) { return !s.list.empty(); });
+    const auto& design = protocol.design;
+    const std::string warmup_condition = !design.warmup_condition.empty() ? design.warmup_condition
+                                         : protocol.conditions.empty()    ? std::string()
+                                                                          : protocol.conditions.front().name;
+    const auto shown = [&](const Sentence& s, const ProtocolCondition& c) {
+        if (settings.all_sentences || !corpus_has_lists) return true;
+        if (s.list.empty()) return false;
+        if (s.list == "warmup") return c.name == warmup_condition;
+        if (s.list == "practice") return design.practice_condition.empty() || c.name == design.practice_condition;
+        return true;
+    };
+    std::size_t not_needed = 0;
     for (std::size_t si = 0; si < n_sentences; ++si) {
         const Sentence& s = corpus.sentences[si];
         const std::string audio_key = protocol.corpus.audio == CorpusAudio::Tts
                                           ? "tts:" + protocol.corpus.voice + ":" + s.text
                                           : "rec:" + sha256_file(s.audio) + ":" + sha256_file(s.labels);
         for (const auto& c : protocol.conditions) {
+            if (!shown(s, c)) {
+                ++not_needed;
+                continue;
+            }
             Job job;
             job.sentence = &s;
             job.condition = &c;
@@ -247,6 +268,11 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     // Which need building.
     BuildReport report;
     report.total = jobs.size();
+    report.not_needed = not_needed;
+    if (not_needed)
+        log_info("{} sentence × condition pairs the design never shows are not built (spare sentences, warm-up and "
+                 "practice sentences in other conditions); --all-sentences builds them",
+                 not_needed);
     std::vector<std::size_t> todo;
     for (std::size_t i = 0; i < jobs.size(); ++i) {
         auto& job = jobs[i];

@@ -24,12 +24,19 @@ struct BuildSettings {
     int jobs = 0;            // worker threads; 0 = hardware concurrency
     bool force = false;      // rebuild everything
     std::size_t max_sentences = 0;  // 0 = all (for quick trials)
+    // false: only what the design can show — when the corpus assigns lists,
+    // spare sentences (no list) are skipped, warm-up sentences are built only
+    // in the warm-up condition and practice sentences only in the practice
+    // condition (all conditions when practice cycles through them).
+    // true: every sentence × condition.
+    bool all_sentences = false;
 };
 
 struct BuildReport {
     std::size_t total = 0;
     std::size_t rendered = 0;
     std::size_t skipped = 0;
+    std::size_t not_needed = 0;  // sentence × condition pairs the design never shows (not built)
     std::size_t frames_rendered = 0;
     double elapsed_s = 0.0;
 };
