@@ -7,7 +7,7 @@ ifneq ($(CI),)
 CMAKE_FLAGS += -DAVSI_WERROR=ON
 endif
 
-.PHONY: all deps configure build test demo bench sanitize clean
+.PHONY: all deps configure build build-cli test demo bench sanitize clean
 
 all: build
 
@@ -23,10 +23,14 @@ configure: deps
 build: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
+# The demo needs only the avsi executable, not the tests and benchmarks.
+build-cli: configure
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target avsi
+
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 900
 
-demo: build
+demo: build-cli
 	scripts/demo $(BUILD_DIR)
 
 bench: build
