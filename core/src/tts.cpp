@@ -1,12 +1,20 @@
 // Text-to-speech through libespeak-ng: audio from the synth callback, phone
 // timing from espeakEVENT_PHONEME events, stress from espeak_TextToPhonemes,
 // all mapped into the project phone set through protocols/phone_map.tsv.
+// Each utterance is synthesised in a forked child from a freshly initialised
+// espeak-ng, so the output never depends on what was spoken before.
 #include "avsi/core/tts.h"
 
 #include <espeak-ng/speak_lib.h>
 
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <mutex>
 #include <stdexcept>
@@ -165,6 +173,175 @@ std::vector<bool> align_stress(const std::vector<EspeakEvent>& events, const std
     return stressed;
 }
 
+// --- Synthesis in a forked child -------------------------------------------
+//
+// espeak-ng keeps wave-generator state between utterances: the same text
+// comes out a few samples longer or shorter depending on what was spoken
+// before in the process. So this process never synthesises. It initialises
+// espeak-ng once and forks a child per utterance; the child starts from that
+// same freshly initialised state, synthesises, sends the result through a
+// pipe and exits. Every utterance is then identical whatever came before,
+// in any order, in any process. (The child uses only espeak-ng, malloc and
+// write(), which are safe after fork().)
+
+struct Synthesis {
+    Collector collector;
+    std::vector<StressToken> tokens;
+    std::string variant;
+};
+
+class Writer {
+public:
+    void i64(std::int64_t v) { bytes(&v, sizeof v); }
+    void str(const std::string& v) {
+        i64(static_cast<std::int64_t>(v.size()));
+        bytes(v.data(), v.size());
+    }
+    void bytes(const void* data, std::size_t n) { m_out.append(static_cast<const char*>(data), n); }
+    const std::string& data() const { return m_out; }
+
+private:
+    std::string m_out;
+};
+
+class Reader {
+public:
+    explicit Reader(const std::string& in) : m_in(in) {}
+    std::int64_t i64() {
+        std::int64_t v = 0;
+        bytes(&v, sizeof v);
+        return v;
+    }
+    std::string str() {
+        const auto n = static_cast<std::size_t>(i64());
+        if (n > m_in.size() - m_pos) throw std::runtime_error("espeak-ng child: truncated message");
+        std::string v = m_in.substr(m_pos, n);
+        m_pos += n;
+        return v;
+    }
+    void bytes(void* data, std::size_t n) {
+        if (n > m_in.size() - m_pos) throw std::runtime_error("espeak-ng child: truncated message");
+        std::memcpy(data, m_in.data() + m_pos, n);
+        m_pos += n;
+    }
+
+private:
+    const std::string& m_in;
+    std::size_t m_pos = 0;
+};
+
+enum : std::int64_t { kOk = 0, kInputError = 1, kFailure = 2 };
+
+// In the child: the whole synthesis, serialised.
+std::string child_synthesis(const std::string& text, const TtsSettings& settings, const PhoneInventory& inventory) {
+    Writer w;
+    try {
+        Synthesis r;
+        r.variant = select_voice(settings.voice);
+        espeak_SetParameter(espeakRATE, settings.rate_wpm, 0);
+        espeak_SetParameter(espeakPITCH, settings.pitch, 0);
+        r.tokens = stress_tokens(text, inventory);
+        g_collector = &r.collector;
+        const espeak_ERROR status = espeak_Synth(text.c_str(), text.size() + 1, 0, POS_CHARACTER, 0,
+                                                 espeakCHARS_UTF8, nullptr, nullptr);
+        espeak_Synchronize();
+        g_collector = nullptr;
+        if (status != EE_OK) throw std::runtime_error(fmt::format("espeak-ng failed to synthesise (error {})", int(status)));
+        w.i64(kOk);
+        w.str(r.variant);
+        w.i64(static_cast<std::int64_t>(r.tokens.size()));
+        for (const auto& t : r.tokens) {
+            w.str(t.base);
+            w.i64(t.stress ? (*t.stress ? 1 : 0) : -1);
+        }
+        w.i64(static_cast<std::int64_t>(r.collector.phonemes.size()));
+        for (const auto& e : r.collector.phonemes) {
+            w.str(e.mnemonic);
+            w.i64(e.sample);
+            w.i64(e.word);
+        }
+        w.i64(r.collector.end_sample);
+        w.i64(static_cast<std::int64_t>(r.collector.samples.size()));
+        w.bytes(r.collector.samples.data(), r.collector.samples.size() * sizeof(short));
+    } catch (const InputError& e) {
+        w = Writer{};
+        w.i64(kInputError);
+        w.str(e.first().field);
+        w.str(e.first().message);
+    } catch (const std::exception& e) {
+        w = Writer{};
+        w.i64(kFailure);
+        w.str(e.what());
+    }
+    return w.data();
+}
+
+// Caller holds the mutex and has initialised espeak-ng.
+Synthesis synthesize_isolated(const std::string& text, const TtsSettings& settings, const PhoneInventory& inventory) {
+    int fds[2];
+    if (::pipe(fds) != 0) throw std::runtime_error(fmt::format("tts: pipe failed: {}", std::strerror(errno)));
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+        ::close(fds[0]);
+        ::close(fds[1]);
+        throw std::runtime_error(fmt::format("tts: fork failed: {}", std::strerror(errno)));
+    }
+    if (pid == 0) {  // child
+        ::close(fds[0]);
+        const std::string message = child_synthesis(text, settings, inventory);
+        std::size_t done = 0;
+        while (done < message.size()) {
+            const ssize_t n = ::write(fds[1], message.data() + done, message.size() - done);
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) ::_exit(3);
+            done += static_cast<std::size_t>(n);
+        }
+        ::_exit(0);  // no destructors or atexit handlers of the parent's state
+    }
+    ::close(fds[1]);
+    std::string message;
+    char buffer[1 << 16];
+    for (;;) {
+        const ssize_t n = ::read(fds[0], buffer, sizeof buffer);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) break;
+        message.append(buffer, static_cast<std::size_t>(n));
+    }
+    ::close(fds[0]);
+    int wstatus = 0;
+    while (::waitpid(pid, &wstatus, 0) < 0 && errno == EINTR) {
+    }
+    if (!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0 || message.empty())
+        throw std::runtime_error(fmt::format("tts: the espeak-ng child process failed (status {})", wstatus));
+
+    Reader r(message);
+    const std::int64_t kind = r.i64();
+    if (kind == kInputError) {
+        std::string field = r.str();
+        std::string what = r.str();
+        throw InputError("tts", 0, 0, std::move(field), std::move(what));
+    }
+    if (kind != kOk) throw std::runtime_error(r.str());
+    Synthesis out;
+    out.variant = r.str();
+    out.tokens.resize(static_cast<std::size_t>(r.i64()));
+    for (auto& t : out.tokens) {
+        t.base = r.str();
+        const std::int64_t stress = r.i64();
+        if (stress >= 0) t.stress = stress == 1;
+    }
+    out.collector.phonemes.resize(static_cast<std::size_t>(r.i64()));
+    for (auto& e : out.collector.phonemes) {
+        e.mnemonic = r.str();
+        e.sample = static_cast<long>(r.i64());
+        e.word = static_cast<int>(r.i64());
+    }
+    out.collector.end_sample = static_cast<long>(r.i64());
+    out.collector.samples.resize(static_cast<std::size_t>(r.i64()));
+    r.bytes(out.collector.samples.data(), out.collector.samples.size() * sizeof(short));
+    return out;
+}
+
 // A phone with times in samples, and the word it came from.
 struct SamplePhone {
     Phone phone;
@@ -190,27 +367,19 @@ TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings
             throw InputError("tts", 0, 0, name, fmt::format("expected seconds in [0, 60], got {}", value));
     const PhoneInventory& inventory = PhoneInventory::builtin();
 
-    // Step 1: synthesise under the lock, collecting samples, events and stress.
-    Collector collector;
-    std::vector<StressToken> tokens;
-    std::string variant;
+    // Step 1: synthesise in a child process, collecting samples, events and
+    // stress (see synthesize_isolated).
+    Synthesis synthesis;
     int rate_hz = 0;
     {
         std::lock_guard lock(g_espeak_mutex);
         ensure_initialized();
         rate_hz = g_sample_rate_hz;
-        variant = select_voice(settings.voice);
-        espeak_SetParameter(espeakRATE, settings.rate_wpm, 0);
-        espeak_SetParameter(espeakPITCH, settings.pitch, 0);
-        tokens = stress_tokens(text, inventory);
-        g_collector = &collector;
-        const espeak_ERROR status = espeak_Synth(text.c_str(), text.size() + 1, 0, POS_CHARACTER, 0,
-                                                 espeakCHARS_UTF8, nullptr, nullptr);
-        espeak_Synchronize();
-        g_collector = nullptr;
-        if (status != EE_OK)
-            throw std::runtime_error(fmt::format("espeak-ng failed to synthesise (error {})", int(status)));
+        synthesis = synthesize_isolated(text, settings, inventory);
     }
+    Collector& collector = synthesis.collector;
+    const std::vector<StressToken>& tokens = synthesis.tokens;
+    const std::string& variant = synthesis.variant;
     const std::string where = fmt::format("text \"{}\" (espeak-ng voice {})", text, settings.voice);
     if (collector.phonemes.empty() || collector.samples.empty())
         throw InputError(where, 0, 0, "text", "espeak-ng produced no speech for this text");
