@@ -301,7 +301,9 @@ TEST_F(RunnerE2E, BuiltStimulusSetPlaysEveryFrameOnTimeWithItsAudio) {
     ASSERT_EQ(run({"build-stimuli", protocol.string(), "--out", stimuli.string(), "--jobs", "2"}, dir / "build.txt"), 0)
         << read_text_file(dir / "build.txt");
     const StimulusManifest manifest = read_stimulus_manifest(stimuli);
-    ASSERT_EQ(manifest.stimuli.size(), 8u);  // 4 sentences × 2 conditions
+    // What the design shows: the 2 test sentences in both conditions, the
+    // warm-up sentence in audio-only and the practice sentence in rule.
+    ASSERT_EQ(manifest.stimuli.size(), 6u);
 
     // 4 trials: warm-up, practice (feedback screen), two test blocks; one empty answer.
     const std::vector<std::string> answers = {"sun warm", "she opened the door", "", "he bought bread"};
