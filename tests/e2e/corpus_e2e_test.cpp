@@ -21,17 +21,15 @@
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/tts.h"
+#include "../cli_run.h"
 
 namespace avsi {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct RunResult {
-    int exit_code = -1;
-    std::string out;
-    std::string err;
-};
+using RunResult = test::CliResult;
+using test::run_avsi;
 
 fs::path work_dir(const std::string& name) {
     const fs::path dir =
@@ -41,23 +39,7 @@ fs::path work_dir(const std::string& name) {
     return dir;
 }
 
-std::string quote(const std::string& s) {
-    std::string out = "'";
-    for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return out + "'";
-}
-
-RunResult run_avsi(const std::string& args, const fs::path& dir) {
-    const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-    const std::string command =
-        quote(AVSI_CLI_PATH) + " " + args + " >" + quote(out.string()) + " 2>" + quote(err.string());
-    const int status = std::system(command.c_str());
-    RunResult r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = read_text_file(out);
-    r.err = read_text_file(err);
-    return r;
-}
+std::string quote(const std::string& s) { return test::shell_quote(s); }
 
 TEST(UserCorpus, WavAndTextGridRecordingsReplaceTtsWithNoCodeChange) {
     const fs::path dir = work_dir("user");

@@ -11,17 +11,14 @@
 #include "avsi/core/audio.h"
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
+#include "../cli_run.h"
 
 namespace avsi {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct RunResult {
-    int exit_code = -1;
-    std::string out;
-    std::string err;
-};
+using RunResult = test::CliResult;
 
 const fs::path data_dir = fs::path(AVSI_TEST_DATA_DIR) / "core";
 
@@ -31,25 +28,10 @@ fs::path work_dir() {
     return dir;
 }
 
-std::string quote(const std::string& s) {
-    std::string out = "'";
-    for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return out + "'";
-}
+std::string quote(const std::string& s) { return test::shell_quote(s); }
 
 // Runs `avsi <args>` with stdout and stderr captured to files.
-RunResult run_avsi(const std::string& args) {
-    const fs::path dir = work_dir();
-    const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-    const std::string command = quote(AVSI_CLI_PATH) + " " + args + " >" + quote(out.string()) + " 2>" +
-                                quote(err.string());
-    const int status = std::system(command.c_str());
-    RunResult r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = read_text_file(out);
-    r.err = read_text_file(err);
-    return r;
-}
+RunResult run_avsi(const std::string& args) { return test::run_avsi(args, work_dir()); }
 
 TEST(PhonesCli, TextGivesWavAndContiguousPhonesCoveringIt) {
     const fs::path dir = work_dir();

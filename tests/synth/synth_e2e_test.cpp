@@ -16,6 +16,7 @@
 #include "avsi/synth/control_model.h"
 #include "avsi/synth/fap.h"
 #include "avsi/synth/trajectory.h"
+#include "../cli_run.h"
 #include "test_util.h"
 
 namespace avsi::synth {
@@ -26,27 +27,14 @@ namespace fs = std::filesystem;
 const fs::path phones_tsv = fs::path(AVSI_TEST_DATA_DIR) / "core" / "come.tsv";
 const fs::path models_dir = fs::path(AVSI_PROTOCOLS_DIR) / "models";
 
-struct RunResult {
-    int exit_code = -1;
-    std::string err;
-};
+using RunResult = avsi::test::CliResult;
 
-std::string quote(const fs::path& p) {
-    std::string out = "'";
-    for (char c : p.string()) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return out + "'";
-}
+std::string quote(const fs::path& p) { return avsi::test::shell_quote(p.string()); }
 
 // Runs `avsi <args>` with stderr captured; stdout must stay empty.
 RunResult run_avsi(const fs::path& dir, const std::string& args) {
-    const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-    const std::string command =
-        quote(AVSI_CLI_PATH) + " " + args + " >" + quote(out) + " 2>" + quote(err);
-    const int status = std::system(command.c_str());
-    RunResult r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.err = read_text_file(err);
-    EXPECT_EQ(read_text_file(out), "") << args;
+    RunResult r = avsi::test::run_avsi(args, dir);
+    EXPECT_EQ(r.out, "") << args;
     return r;
 }
 
