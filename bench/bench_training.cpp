@@ -53,6 +53,38 @@ void BM_TrainCohenMassaro200(benchmark::State& state) {
 }
 BENCHMARK(BM_TrainCohenMassaro200)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
+// The rate floor (TrainingSettings::min_rate_per_s, Arg = floor × 10 in
+// s^−c) against held-out error on the corpus' own split (186 train / 80 test
+// for the reference corpus, as `avsi train` uses it), on 2 threads: the
+// evidence for the default floor. Needs AVSI_BENCH_CORPUS.
+void BM_TrainCohenMassaroRateFloor(benchmark::State& state) {
+    const char* given = std::getenv("AVSI_BENCH_CORPUS");
+    if (!given || !*given) {
+        state.SkipWithError("set AVSI_BENCH_CORPUS to a folder written by avsi corpus reference");
+        return;
+    }
+    const auto corpus = avsi::synth::load_articulatory_corpus(given);
+    const auto split = avsi::synth::split_corpus(corpus);
+    const auto train = avsi::synth::load_corpus_utterances(corpus, split.train_ids);
+    const auto test = avsi::synth::load_corpus_utterances(corpus, split.test_ids);
+    avsi::synth::TrainingSettings settings;
+    settings.model = "cohen-massaro";
+    settings.threads = 2;
+    settings.min_rate_per_s = static_cast<double>(state.range(0)) / 10.0;
+    for (auto _ : state) {
+        const auto report = avsi::synth::train_model(settings, train, test);
+        state.counters["min_rate_per_s"] = settings.min_rate_per_s;
+        state.counters["iterations"] = report.iterations;
+        state.counters["train_rmse_percent"] = report.train_rmse_percent;
+        state.counters["test_rmse_percent"] = report.test_rmse_percent;
+        state.counters["test_pearson"] = report.test_pearson;
+        benchmark::DoNotOptimize(report.model.get());
+    }
+}
+BENCHMARK(BM_TrainCohenMassaroRateFloor)
+    ->Arg(1)->Arg(20)->Arg(50)->Arg(100)->Arg(200)
+    ->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+
 }  // namespace
 
 BENCHMARK_MAIN();

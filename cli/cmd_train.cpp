@@ -32,6 +32,9 @@ const bool registered = register_command({
                        "Stop after this many iterations without a lower held-out error")
             ->capture_default_str();
         sub.add_option("--threads", s->training.threads, "Worker threads (0: all cores)")->capture_default_str();
+        sub.add_option("--min-rate", s->training.min_rate_per_s,
+                       "Cohen-Massaro, MPEG-4 CM: lower bound on the dominance rates theta, phi (s^-c)")
+            ->capture_default_str();
         // ANN models (--model ann | ann1 | ann2; synth/ann_training.h).
         auto ann = std::make_shared<synth::AnnCommandSettings>();
         auto ann_ahead = std::make_shared<int>(0), ann_back = std::make_shared<int>(0);

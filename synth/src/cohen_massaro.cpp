@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
+#include "cm_kernel.h"
 #include "model_json.h"
 
 namespace avsi::synth {
@@ -67,6 +68,9 @@ struct RateGroups {
     int count = 0;
     std::array<double, P> rate{};
     std::array<int, P> of_param{};
+    // Per rate: how far from the centre (s) the rate's parameters can still
+    // reach their thresholds; negative: nowhere.
+    std::array<double, P> reach{};
 };
 
 // The bounded sum of eq. 8 (derivation in cohen_massaro.h) for P parameters
@@ -137,6 +141,9 @@ void bounded_sum(std::size_t n, const Source& source, std::span<const double> ti
     const std::size_t frames = times.size();
     constexpr std::size_t none = std::numeric_limits<std::size_t>::max();
     std::vector<std::size_t> hull_lo(n, none), hull_hi(n, 0);
+    // Per kept segment and parameter the lowest threshold ln δ_p of the cells
+    // its hull covers: no term below it is needed anywhere in the hull.
+    Mat hull_ln_delta = Mat::Constant(P, static_cast<Index>(n), std::numeric_limits<double>::infinity());
     struct LogCell {  // a cell with some ln δ_p below min_log_delta
         std::size_t k0, k, lo, hi;
         Col ln_delta;
@@ -166,6 +173,7 @@ void bounded_sum(std::size_t n, const Source& source, std::span<const double> ti
             // between that cell and its centre, so is taken into the hull.
             if (ti > tb && hull_lo[i] != none) {
                 hull_hi[i] = std::max(hull_hi[i], k);
+                hull_ln_delta.col(static_cast<Index>(i)) = hull_ln_delta.col(static_cast<Index>(i)).min(ln_delta);
                 continue;
             }
             const auto col = static_cast<Index>(i);
@@ -182,6 +190,7 @@ void bounded_sum(std::size_t n, const Source& source, std::span<const double> ti
             if (fa == fb) continue;
             hull_lo[i] = std::min(hull_lo[i], fa);
             hull_hi[i] = std::max(hull_hi[i], fb);
+            hull_ln_delta.col(col) = hull_ln_delta.col(col).min(ln_delta);
         }
     }
 
@@ -211,18 +220,30 @@ void bounded_sum(std::size_t n, const Source& source, std::span<const double> ti
     const Eigen::Map<const Eigen::ArrayXd> t_all(times.data(), static_cast<Index>(frames));
     using Frames = Eigen::Array<double, Eigen::Dynamic, P>;  // frames × parameters
     Frames num(static_cast<Index>(block), P), den(static_cast<Index>(block), P);
-    // Per kept segment and side, its distinct rates.
+    // Per kept segment and side, its distinct rates and the reach of each:
+    // the distance r with ln α_p − rate·r^c = min ln δ_p over the hull's
+    // cells, largest over the rate's parameters (a fast rate's dominances
+    // are evaluated only near the centre, not over the whole hull).
     std::vector<RateGroups<P>> rate_groups(2 * n);
     for (std::size_t i = 0; i < n; ++i) {
         if (hull_lo[i] == none) continue;
+        const auto col = static_cast<Index>(i);
         for (int side = 0; side < 2; ++side) {
             RateGroups<P>& g = rate_groups[2 * i + static_cast<std::size_t>(side)];
+            std::array<double, P> excess;
+            excess.fill(-std::numeric_limits<double>::infinity());
             for (int p = 0; p < P; ++p) {
-                const double rate = side == 0 ? theta(p, static_cast<Index>(i)) : phi(p, static_cast<Index>(i));
+                const double rate = side == 0 ? theta(p, col) : phi(p, col);
                 int q = 0;
                 while (q < g.count && g.rate[static_cast<std::size_t>(q)] != rate) ++q;
                 if (q == g.count) g.rate[static_cast<std::size_t>(g.count++)] = rate;
                 g.of_param[static_cast<std::size_t>(p)] = q;
+                const auto uq = static_cast<std::size_t>(q);
+                excess[uq] = std::max(excess[uq], log_alpha(p, col) - hull_ln_delta(p, col));
+            }
+            for (int q = 0; q < g.count; ++q) {
+                const auto uq = static_cast<std::size_t>(q);
+                g.reach[uq] = excess[uq] >= 0.0 ? reach_of(excess[uq] / g.rate[uq], cexp[i]) : -1.0;
             }
         }
     }
@@ -245,47 +266,85 @@ void bounded_sum(std::size_t n, const Source& source, std::span<const double> ti
                 const bool before = side == 0;
                 const std::size_t s0 = before ? h0 : split, s1 = before ? split : h1;
                 if (s0 >= s1) continue;
-                const auto len = static_cast<Index>(s1 - s0);
-                const auto t_side = t_all.segment(static_cast<Index>(s0), len);
                 const RateGroups<P>& groups = rate_groups[2 * i + (before ? 0 : 1)];
+                // Each rate's frames [g0, g1) within its reach; u over their union.
+                std::array<std::size_t, P> g0{}, g1{};
+                std::size_t u0 = s1, u1 = s0;
+                for (int q = 0; q < groups.count; ++q) {
+                    const auto uq = static_cast<std::size_t>(q);
+                    const double r = groups.reach[uq];
+                    std::size_t a = s0, z = s1;
+                    if (r < 0.0) {
+                        a = z;
+                    } else if (before) {
+                        while (a < z && ti - times[a] > r) ++a;
+                    } else {
+                        while (z > a && times[z - 1] - ti > r) --z;
+                    }
+                    g0[uq] = a;
+                    g1[uq] = z;
+                    if (a < z) {
+                        u0 = std::min(u0, a);
+                        u1 = std::max(u1, z);
+                    }
+                }
+                if (u0 >= u1) continue;
+                const auto ulen = static_cast<Index>(u1 - u0);
                 const bool recurrence = uniform && ci == 1.0;
                 if (!recurrence) {
+                    const auto t_side = t_all.segment(static_cast<Index>(u0), ulen);
                     if (before)
                         u = ti - t_side;
                     else
                         u = t_side - ti;
-                    if (ci == 2.0) {
+                    if (ci == 2.0)
                         u = u.square();
-                    } else if (ci != 1.0) {
-                        // |τ − t|^c = exp(c·ln|τ − t|) (ln 0 = −∞ gives 0); the
-                        // scalar log is faster than Eigen's here, its exp is not.
-                        for (Index f = 0; f < len; ++f) u[f] = ci * std::log(u[f]);
-                        u = u.exp();
-                    }
+                    else if (ci != 1.0)
+                        detail::cm_power(u.data(), u1 - u0, ci);  // exp(c·ln|τ − t|), ln 0 = −∞ gives 0
                 }
-                e.resize(len);
+                e.resize(ulen);
                 for (int q = 0; q < groups.count; ++q) {
-                    const double rate = groups.rate[static_cast<std::size_t>(q)];
-                    if (recurrence) {
+                    const auto uq = static_cast<std::size_t>(q);
+                    const std::size_t a = g0[uq], z = g1[uq];
+                    if (a >= z) continue;
+                    const auto len = static_cast<Index>(z - a);
+                    const double rate = groups.rate[uq];
+                    const auto row = static_cast<Index>(a - b0);
+                    if (!recurrence) {
+                        // D_p = α_p·exp(−rate·|τ − t|^c) into the sums of the rate's parameters.
+                        std::array<double, P> scale_num, scale_den;
+                        std::array<double*, P> num_at, den_at;
+                        int count = 0;
+                        for (int p = 0; p < P; ++p) {
+                            if (groups.of_param[static_cast<std::size_t>(p)] != q) continue;
+                            const auto uc = static_cast<std::size_t>(count++);
+                            scale_num[uc] = target_alpha(p, col);
+                            scale_den[uc] = alpha(p, col);
+                            num_at[uc] = num.col(p).data() + row;
+                            den_at[uc] = den.col(p).data() + row;
+                        }
+                        detail::cm_accumulate(u.data() + (a - u0), z - a, rate, count, scale_num.data(),
+                                              scale_den.data(), num_at.data(), den_at.data());
+                        continue;
+                    }
+                    auto eg = e.head(len);
+                    {
                         // Outwards from the frame nearest the centre, each step
                         // multiplying by exp(−rate·h) <= 1 (no overflow; values
                         // that fall below the range of doubles are negligible).
                         const double fall = std::exp(-rate * step);
                         if (before) {
-                            e[len - 1] = std::exp(-rate * (ti - times[s1 - 1]));
-                            for (Index f = len - 1; f > 0; --f) e[f - 1] = e[f] * fall;
+                            eg[len - 1] = std::exp(-rate * (ti - times[z - 1]));
+                            for (Index f = len - 1; f > 0; --f) eg[f - 1] = eg[f] * fall;
                         } else {
-                            e[0] = std::exp(-rate * (times[s0] - ti));
-                            for (Index f = 1; f < len; ++f) e[f] = e[f - 1] * fall;
+                            eg[0] = std::exp(-rate * (times[a] - ti));
+                            for (Index f = 1; f < len; ++f) eg[f] = eg[f - 1] * fall;
                         }
-                    } else {
-                        e = (-rate * u).exp();
                     }
-                    const auto row = static_cast<Index>(s0 - b0);
                     for (int p = 0; p < P; ++p) {
                         if (groups.of_param[static_cast<std::size_t>(p)] != q) continue;
-                        num.col(p).segment(row, len) += target_alpha(p, col) * e;
-                        den.col(p).segment(row, len) += alpha(p, col) * e;
+                        num.col(p).segment(row, len) += target_alpha(p, col) * eg;
+                        den.col(p).segment(row, len) += alpha(p, col) * eg;
                     }
                 }
             }

@@ -547,15 +547,16 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
         }
     std::array<std::vector<double>, param_count> x;
     std::atomic<int> total{0};
-    auto bound = [](std::size_t q, bool fix_c) {
-        return [q, fix_c](ceres::Problem& problem, int, double* b) {
+    const double min_rate = settings.min_rate_per_s;
+    auto bound = [min_rate](std::size_t q, bool fix_c) {
+        return [q, fix_c, min_rate](ceres::Problem& problem, int, double* b) {
             const ParamInfo& info = params()[q];
             problem.SetParameterLowerBound(b, 0, info.min);
             problem.SetParameterUpperBound(b, 0, info.max);
             problem.SetParameterLowerBound(b, 1, 1e-3);
             problem.SetParameterUpperBound(b, 1, 1e3);
             for (int j : {2, 3}) {
-                problem.SetParameterLowerBound(b, j, 0.1);
+                problem.SetParameterLowerBound(b, j, min_rate);
                 problem.SetParameterUpperBound(b, j, 1e4);
             }
             if (fix_c) {
@@ -574,7 +575,8 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
         for (std::size_t k = 0; k < p.keys.size(); ++k) {
             const CohenMassaroParams& e = table.at(p.keys[k]).params[q];
             const double target = p.key_trained[k] ? mean[k] : e.target;
-            const double init_x[5] = {std::clamp(target, info.min, info.max), 1.0, 20.0, 20.0, 1.0};
+            const double rate = std::max(20.0, settings.min_rate_per_s);
+            const double init_x[5] = {std::clamp(target, info.min, info.max), 1.0, rate, rate, 1.0};
             std::copy(init_x, init_x + 5, x[q].begin() + 5 * k);
         }
         total += fit_keyed(p, q, cohen_massaro_keyed, 5, false, x[q], bound(q, false), settings);
@@ -749,7 +751,8 @@ std::unique_ptr<ControlModel> train_mpeg4(std::unique_ptr<ControlModel> init, co
                     std::clamp(mean[k], params()[q].min, params()[q].max);
     }
     const Mpeg4CmSettings& ms = model->settings();
-    std::array<double, 3> global = {ms.theta_anticipatory_per_s, ms.theta_carryover_per_s, ms.t0_s};
+    std::array<double, 3> global = {std::max(ms.theta_anticipatory_per_s, settings.min_rate_per_s),
+                                    std::max(ms.theta_carryover_per_s, settings.min_rate_per_s), ms.t0_s};
 
     ceres::Problem::Options po;
     ceres::Problem problem(po);
@@ -767,9 +770,9 @@ std::unique_ptr<ControlModel> train_mpeg4(std::unique_ptr<ControlModel> init, co
             }
         }
     }
-    problem.SetParameterLowerBound(global.data(), 0, 0.1);
+    problem.SetParameterLowerBound(global.data(), 0, settings.min_rate_per_s);
     problem.SetParameterUpperBound(global.data(), 0, 1e4);
-    problem.SetParameterLowerBound(global.data(), 1, 0.1);
+    problem.SetParameterLowerBound(global.data(), 1, settings.min_rate_per_s);
     problem.SetParameterUpperBound(global.data(), 1, 1e4);
     problem.SetParameterLowerBound(global.data(), 2, -0.1);
     problem.SetParameterUpperBound(global.data(), 2, 0.1);
@@ -894,9 +897,13 @@ TrainingReport run_training(const TrainCommandSettings& s) {
                    {"iterations", static_cast<double>(report.iterations)}};
     prov.notes = fmt::format(
         "Trained by `avsi train --model {}` (Levenberg-Marquardt, Ceres Solver, analytic Jacobians; early stopping "
-        "on the test split, patience {}): {} iterations in {:.1f} s. Errors are RMSE in % of range and Pearson rho, "
+        "on the test split, patience {}{}): {} iterations in {:.1f} s. Errors are RMSE in % of range and Pearson rho, "
         "mean over parameters, non-silence frames.",
-        s.training.model, s.training.patience, report.iterations, report.seconds);
+        s.training.model, s.training.patience,
+        parse_kind(s.training.model) == Kind::Ohman
+            ? std::string()
+            : fmt::format("; dominance rates theta, phi >= {} s^-c", s.training.min_rate_per_s),
+        report.iterations, report.seconds);
     if (auto* m = dynamic_cast<Mpeg4CohenMassaroModel*>(report.model.get())) {
         // The trained targets live in a viseme set beside the model file.
         const fs::path set_path = fs::path(s.out.string() + "").replace_extension(".visemes.json");

@@ -23,8 +23,11 @@
 // so no underflow while δ_j >= e^−680; below that, per frame in the log
 // domain shifted by the largest dominance). All parameters of a segment
 // share τ and c, so |τ − t|^c is computed once per segment and frame
-// (as exp(c·ln|τ − t|); directly for c = 1, 2) and the ten dominances
-// α_p·exp(−θ_p·|τ − t|^c) are evaluated together (Eigen, vectorised).
+// (as exp(c·ln|τ − t|); directly for c = 1, 2) and exp(−θ·|τ − t|^c) once
+// per distinct rate of the segment, over only the frames that rate's
+// parameters reach (vectorised: glibc's libmvec, AVX2 where the processor
+// has it, see synth/src/cm_kernel.h; for c = 1 on uniform frames by an exact
+// recurrence).
 #pragma once
 
 #include <array>

@@ -17,7 +17,12 @@
 //   are shared); α stays the ellipse-area normalisation of the viseme set.
 //
 // Bounds: targets within each parameter's range; α ∈ [1e-3, 1e3];
-// θ, φ ∈ [0.1, 1e4]; c ∈ [0.5, 2.5]; w_c ∈ [0, 1]; t0 ∈ [−0.1, 0.1] s.
+// θ, φ ∈ [min_rate_per_s, 1e4] (TrainingSettings); c ∈ [0.5, 2.5];
+// w_c ∈ [0, 1]; t0 ∈ [−0.1, 0.1] s. The rate floor keeps dominances local:
+// a dominance has fallen by e^−25 (below what the bounded sum keeps, see
+// cohen_massaro.h) at the distance r with rate·r^c = 25, so a rate of 0.1
+// would reach hundreds of seconds — no articulator anticipates a phone that
+// far ahead — and make synthesis nearly O(N·F).
 // Per-parameter problems run in parallel across cores. Early stopping
 // (§4.1): after every iteration the held-out (test split) error is computed;
 // training stops when it has not fallen for `patience` iterations and keeps
@@ -48,6 +53,9 @@ struct TrainingSettings {
     int patience = 3;                      // iterations without held-out improvement before stopping
     int threads = 0;                       // 0: all cores
     double function_tolerance = 1e-7;      // Ceres relative cost change to stop
+    // Lower bound on the dominance rates θ, φ (s^−c; Cohen-Massaro and the
+    // MPEG-4 variant's shared θ pair). FLOOR_EVIDENCE
+    double min_rate_per_s = 0.1;
 };
 
 struct TrainingReport {
