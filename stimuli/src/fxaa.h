@@ -20,4 +20,20 @@ namespace avsi::stimuli::detail {
 void fxaa_to_rgb(const std::uint8_t* rgba, int width, int height, bool enabled, std::vector<float>& luma,
                  std::vector<std::uint8_t>& rgb);
 
+// A pixel rectangle [x0, x1) × [y0, y1), y counted bottom-up as in `rgba`.
+struct PixelRect {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+
+// The same for the pixels of `rect` only (clamped to the image); the rest of
+// `rgb` (already width × height × 3) is left as it is. Each output pixel
+// depends only on `rgba` within fxaa_reach_px of it, so where `rgba` did not
+// change the previous output is still right.
+void fxaa_region_to_rgb(const std::uint8_t* rgba, int width, int height, PixelRect rect, bool enabled,
+                        std::vector<float>& luma, std::vector<std::uint8_t>& rgb);
+
+// How far (pixels) an FXAA output pixel reads its input: the ±span_max/2
+// blend taps plus the bilinear footprint, and the 3 × 3 luma neighbourhood.
+constexpr int fxaa_reach_px = 6;
+
 }  // namespace avsi::stimuli::detail

@@ -3,6 +3,7 @@
 // (Blinn 1977) with three directional lights — key, fill and rim — evaluated
 // per vertex (default, fast on llvmpipe) or per pixel, and a region mode that writes the mesh group of each
 // triangle (gl_PrimitiveID into a texture buffer) for tests.
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -113,9 +114,10 @@ void main() { o_color = vec4(v_shaded, 1.0); }
 // Region mode: the mesh group of each triangle, looked up by gl_PrimitiveID.
 const char* region_shader = R"(#version 330 core
 uniform usamplerBuffer u_groups;
+uniform int u_first_triangle;
 out vec4 o_color;
 void main() {
-    uint g = texelFetch(u_groups, gl_PrimitiveID).r;
+    uint g = texelFetch(u_groups, gl_PrimitiveID + u_first_triangle).r;
     o_color = vec4(float(g + 1u) / 255.0, 0.0, 0.0, 1.0);
 }
 )";
@@ -131,11 +133,16 @@ struct HeadDrawer::Impl {
     };
     Lit lit[2];
     GLuint vao = 0, vbo_dynamic = 0, vbo_static = 0, ebo = 0, region_program = 0;
+    // A second index buffer: the static triangles, then the moving ones
+    // (each part in mesh order); its triangle → group table for region renders.
+    GLuint ebo_split = 0, group_buffer_split = 0, group_texture_split = 0;
+    GLsizei static_index_count = 0;
+    std::vector<std::vector<std::uint32_t>> moving_clusters;
     GLuint group_buffer = 0, group_texture = 0;
     GLsizei index_count = 0;
     std::size_t vertex_count = 0;
     std::vector<float> interleaved;
-    GLint u_region_view_proj = -1, u_groups = -1;
+    GLint u_region_view_proj = -1, u_groups = -1, u_first_triangle = -1;
     glm::vec3 target{0.0f};
 
     GLuint compile(GLenum type, const char* source) {
@@ -257,7 +264,75 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
     d.region_program = d.link(vertex_shader, region_shader);
     d.u_region_view_proj = gl.glGetUniformLocation(d.region_program, "u_view_proj");
     d.u_groups = gl.glGetUniformLocation(d.region_program, "u_groups");
+    d.u_first_triangle = gl.glGetUniformLocation(d.region_program, "u_first_triangle");
     d.interleaved.resize(d.vertex_count * 6);
+
+    // The static / moving split. A vertex moves when a rig transform weights
+    // it; its normal (area-weighted over its triangles) changes when one of its
+    // triangles has a moving vertex; a triangle's pixels change when one of its
+    // vertices moves or changes normal.
+    const std::size_t triangle_count = mesh.indices.size() / 3;
+    std::vector<char> moves(d.vertex_count, 0), reshaded(d.vertex_count, 0), moving_triangle(triangle_count, 0);
+    for (const auto& t : head.transforms)
+        for (std::size_t k = 0; k < t.vertices.size(); ++k)
+            if (t.weights[k] != 0.0f) moves[t.vertices[k]] = 1;
+    for (std::size_t t = 0; t < triangle_count; ++t) {
+        const std::uint32_t* v = &mesh.indices[3 * t];
+        if (moves[v[0]] || moves[v[1]] || moves[v[2]]) reshaded[v[0]] = reshaded[v[1]] = reshaded[v[2]] = 1;
+    }
+    std::vector<std::uint32_t> split;
+    split.reserve(mesh.indices.size());
+    std::vector<std::uint8_t> split_groups;
+    split_groups.reserve(triangle_count);
+    for (int pass = 0; pass < 2; ++pass)
+        for (std::size_t t = 0; t < triangle_count; ++t) {
+            const std::uint32_t* v = &mesh.indices[3 * t];
+            moving_triangle[t] = (reshaded[v[0]] || reshaded[v[1]] || reshaded[v[2]]) ? 1 : 0;
+            if (moving_triangle[t] != pass) continue;
+            split.insert(split.end(), v, v + 3);
+            split_groups.push_back(groups[t]);
+        }
+    d.static_index_count = static_cast<GLsizei>(std::count(moving_triangle.begin(), moving_triangle.end(), 0) * 3);
+    // Clusters: connected components of the moving triangles (union-find over vertices).
+    std::vector<std::uint32_t> parent(d.vertex_count);
+    for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<std::uint32_t>(i);
+    auto find = [&](std::uint32_t x) {
+        while (parent[x] != x) x = parent[x] = parent[parent[x]];
+        return x;
+    };
+    std::vector<char> in_moving(d.vertex_count, 0);
+    for (std::size_t t = 0; t < triangle_count; ++t) {
+        if (!moving_triangle[t]) continue;
+        const std::uint32_t* v = &mesh.indices[3 * t];
+        for (int k = 0; k < 3; ++k) in_moving[v[k]] = 1;
+        parent[find(v[1])] = find(v[0]);
+        parent[find(v[2])] = find(v[0]);
+    }
+    std::vector<int> cluster_of_root(d.vertex_count, -1);
+    for (std::size_t i = 0; i < d.vertex_count; ++i) {
+        if (!in_moving[i]) continue;
+        const std::uint32_t root = find(static_cast<std::uint32_t>(i));
+        if (cluster_of_root[root] < 0) {
+            cluster_of_root[root] = static_cast<int>(d.moving_clusters.size());
+            d.moving_clusters.emplace_back();
+        }
+        d.moving_clusters[static_cast<std::size_t>(cluster_of_root[root])].push_back(static_cast<std::uint32_t>(i));
+    }
+
+    gl.glBindVertexArray(d.vao);
+    gl.glGenBuffers(1, &d.ebo_split);
+    gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo_split);
+    gl.glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(split.size() * sizeof(std::uint32_t)),
+                    split.data(), GL_STATIC_DRAW);
+    gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
+    gl.glBindVertexArray(0);
+    gl.glGenBuffers(1, &d.group_buffer_split);
+    gl.glBindBuffer(GL_TEXTURE_BUFFER, d.group_buffer_split);
+    gl.glBufferData(GL_TEXTURE_BUFFER, static_cast<GLsizeiptr>(split_groups.size()), split_groups.data(),
+                    GL_STATIC_DRAW);
+    gl.glGenTextures(1, &d.group_texture_split);
+    gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture_split);
+    gl.glTexBuffer(GL_TEXTURE_BUFFER, GL_R8UI, d.group_buffer_split);
 }
 
 HeadDrawer::~HeadDrawer() {
@@ -265,14 +340,45 @@ HeadDrawer::~HeadDrawer() {
     auto& gl = d.gl;
     for (const auto& lit : d.lit) gl.glDeleteProgram(lit.program);
     gl.glDeleteProgram(d.region_program);
-    gl.glDeleteTextures(1, &d.group_texture);
-    GLuint buffers[] = {d.vbo_dynamic, d.vbo_static, d.ebo, d.group_buffer};
-    gl.glDeleteBuffers(4, buffers);
+    GLuint textures[] = {d.group_texture, d.group_texture_split};
+    gl.glDeleteTextures(2, textures);
+    GLuint buffers[] = {d.vbo_dynamic, d.vbo_static, d.ebo, d.group_buffer, d.ebo_split, d.group_buffer_split};
+    gl.glDeleteBuffers(6, buffers);
     gl.glDeleteVertexArrays(1, &d.vao);
 }
 
+const std::vector<std::vector<std::uint32_t>>& HeadDrawer::moving_vertex_clusters() const {
+    return m_impl->moving_clusters;
+}
+
+namespace {
+
+// Camera: looks at the target from a distance that shows framing_mm.
+struct Camera {
+    glm::vec3 eye;
+    glm::mat4 view_proj;
+    float yaw;
+};
+
+Camera camera_for(const RenderSettings& settings, const glm::vec3& default_target, int width, int height) {
+    const float fov = glm::radians(settings.field_of_view_deg);
+    const float distance = 0.5f * settings.framing_mm / std::tan(0.5f * fov);
+    const float yaw = settings.camera == CameraView::ThreeQuarter ? glm::radians(35.0f) : 0.0f;
+    const glm::vec3 target = settings.target.value_or(default_target);
+    const glm::vec3 eye = target + distance * glm::vec3(std::sin(yaw), 0.0f, std::cos(yaw));
+    const glm::mat4 view = glm::lookAt(eye, target, glm::vec3(0, 1, 0));
+    const glm::mat4 proj = glm::perspective(fov, float(width) / float(height), distance - 250.0f, distance + 250.0f);
+    return {eye, proj * view, yaw};
+}
+
+}  // namespace
+
+glm::mat4 HeadDrawer::view_projection(const RenderSettings& settings, int width, int height) const {
+    return camera_for(settings, m_impl->target, width, height).view_proj;
+}
+
 void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, int width, int height,
-                      RenderMode mode) {
+                      RenderMode mode, DrawPart part) {
     auto& d = *m_impl;
     auto& gl = d.gl;
     AVSI_ASSERT(posed.positions.size() == d.vertex_count && posed.normals.size() == d.vertex_count);
@@ -284,15 +390,10 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
     gl.glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(d.interleaved.size() * sizeof(float)),
                        d.interleaved.data());
 
-    // Camera: looks at the head centre from a distance that shows framing_mm.
-    const float fov = glm::radians(settings.field_of_view_deg);
-    const float distance = 0.5f * settings.framing_mm / std::tan(0.5f * fov);
-    const float yaw = settings.camera == CameraView::ThreeQuarter ? glm::radians(35.0f) : 0.0f;
-    const glm::vec3 target = settings.target.value_or(d.target);
-    const glm::vec3 eye = target + distance * glm::vec3(std::sin(yaw), 0.0f, std::cos(yaw));
-    const glm::mat4 view = glm::lookAt(eye, target, glm::vec3(0, 1, 0));
-    const glm::mat4 proj = glm::perspective(fov, float(width) / float(height), distance - 250.0f, distance + 250.0f);
-    const glm::mat4 view_proj = proj * view;
+    const Camera camera = camera_for(settings, d.target, width, height);
+    const glm::vec3 eye = camera.eye;
+    const float yaw = camera.yaw;
+    const glm::mat4& view_proj = camera.view_proj;
 
     // Lights in world space, turning with the camera: key from upper left
     // front (warm), fill from the right (cool, dim), rim from behind above.
@@ -317,13 +418,14 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
         // The background is given in sRGB; the framebuffer holds sRGB values.
         gl.glClearColor(settings.background[0], settings.background[1], settings.background[2], 1.0f);
     }
-    gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    if (part != DrawPart::Moving) gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     if (mode == RenderMode::Regions) {
         gl.glUseProgram(d.region_program);
         gl.glUniformMatrix4fv(d.u_region_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
         gl.glActiveTexture(GL_TEXTURE0);
-        gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture);
+        gl.glBindTexture(GL_TEXTURE_BUFFER, part == DrawPart::All ? d.group_texture : d.group_texture_split);
         gl.glUniform1i(d.u_groups, 0);
+        gl.glUniform1i(d.u_first_triangle, part == DrawPart::Moving ? d.static_index_count / 3 : 0);
     } else {
         const auto& lit = d.lit[settings.per_pixel_lighting ? 1 : 0];
         gl.glUseProgram(lit.program);
@@ -334,7 +436,23 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
         gl.glUniform3fv(lit.u_ambient, 1, glm::value_ptr(ambient));
     }
     gl.glBindVertexArray(d.vao);
-    gl.glDrawElements(GL_TRIANGLES, d.index_count, GL_UNSIGNED_INT, nullptr);
+    switch (part) {
+        case DrawPart::All:
+            gl.glDrawElements(GL_TRIANGLES, d.index_count, GL_UNSIGNED_INT, nullptr);
+            break;
+        case DrawPart::Static:
+            gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo_split);
+            gl.glDrawElements(GL_TRIANGLES, d.static_index_count, GL_UNSIGNED_INT, nullptr);
+            gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
+            break;
+        case DrawPart::Moving:
+            gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo_split);
+            if (d.index_count > d.static_index_count)
+                gl.glDrawElements(GL_TRIANGLES, d.index_count - d.static_index_count, GL_UNSIGNED_INT,
+                                  reinterpret_cast<const void*>(std::size_t(d.static_index_count) * sizeof(std::uint32_t)));
+            gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
+            break;
+    }
     gl.glBindVertexArray(0);
 }
 

@@ -3,6 +3,17 @@
 // resolved into it with glBlitFramebuffer when samples > 1), read back, and
 // anti-aliased by FXAA on the CPU (fxaa.h) while it is turned into an RGB
 // image, top row first.
+//
+// The static-part cache (RenderSettings::cache_static): the head's static
+// triangles are drawn once into a cache framebuffer (colour and depth), read
+// back and anti-aliased once. Each frame then restores the scene framebuffer
+// from the cache where the previous frame's moving triangles were drawn,
+// draws the moving triangles with the depth test against the static depth,
+// and reads back and anti-aliases only the screen rectangles of the moving
+// vertex clusters (widened by the FXAA reach); every other pixel is the
+// cached one. Depth testing makes the result the same as drawing everything,
+// except where a static and a moving triangle have exactly equal depth.
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 
@@ -29,6 +40,20 @@ struct OffscreenRenderer::Impl {
     std::vector<std::uint8_t> rgba;
     std::vector<float> luma;  // FXAA scratch
     std::string renderer_name;
+    // The static-part cache.
+    GLuint cache_fbo = 0, cache_color = 0, cache_depth = 0;
+    bool cache_ready = false;
+    bool scene_from_cache = false;  // the scene holds the cache but for previous_rects
+    std::vector<std::uint8_t> static_rgba;  // the static part, read back
+    std::vector<std::uint8_t> static_rgb;   // … and anti-aliased
+    std::vector<detail::PixelRect> previous_rects;  // where the last frame's moving triangles were read back
+    glm::mat4 view_proj{1.0f};
+
+    // The screen rectangles (bottom-up rows, clamped) of the moving vertex
+    // clusters, widened by `margin` pixels; overlapping rectangles are merged.
+    std::vector<detail::PixelRect> moving_rects(const PosedMesh& posed, int w, int h, int margin) const;
+    // Copies `r` from the cache into the scene framebuffer (colour and depth).
+    void restore(const detail::PixelRect& r);
 
 };
 
@@ -77,6 +102,73 @@ OffscreenRenderer::OffscreenRenderer(const Head& head, const RenderSettings& set
 
     d.drawer = std::make_unique<HeadDrawer>(head, &load_proc);
     d.rgba.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 4);
+
+    if (settings.cache_static && settings.samples == 1) {
+        gl.glGenFramebuffers(1, &d.cache_fbo);
+        gl.glBindFramebuffer(GL_FRAMEBUFFER, d.cache_fbo);
+        gl.glGenRenderbuffers(1, &d.cache_color);
+        gl.glBindRenderbuffer(GL_RENDERBUFFER, d.cache_color);
+        gl.glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+        gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, d.cache_color);
+        gl.glGenRenderbuffers(1, &d.cache_depth);
+        gl.glBindRenderbuffer(GL_RENDERBUFFER, d.cache_depth);
+        gl.glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+        gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, d.cache_depth);
+        if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            throw std::runtime_error("OpenGL: the cache framebuffer is incomplete");
+        d.view_proj = d.drawer->view_projection(settings, w, h);
+    }
+}
+
+std::vector<detail::PixelRect> OffscreenRenderer::Impl::moving_rects(const PosedMesh& posed, int w, int h,
+                                                                     int margin) const {
+    std::vector<detail::PixelRect> rects;
+    for (const auto& cluster : drawer->moving_vertex_clusters()) {
+        float x_min = 1e30f, y_min = 1e30f, x_max = -1e30f, y_max = -1e30f;
+        bool behind = false;
+        for (const std::uint32_t v : cluster) {
+            const glm::vec4 c = view_proj * glm::vec4(posed.positions[v], 1.0f);
+            if (!(c.w > 1e-3f)) {
+                behind = true;
+                break;
+            }
+            const float x = (c.x / c.w * 0.5f + 0.5f) * float(w), y = (c.y / c.w * 0.5f + 0.5f) * float(h);
+            x_min = std::min(x_min, x), x_max = std::max(x_max, x);
+            y_min = std::min(y_min, y), y_max = std::max(y_max, y);
+        }
+        detail::PixelRect r{0, 0, w, h};
+        if (!behind) {
+            // Pixel centres covered by a triangle lie inside its vertices' bounding box.
+            const auto lo = [&](float v, int size) { return int(std::clamp(std::floor(v), -1.0f, float(size))) - margin; };
+            const auto hi = [&](float v, int size) { return int(std::clamp(std::ceil(v), -1.0f, float(size))) + 1 + margin; };
+            r = {std::max(lo(x_min, w), 0), std::max(lo(y_min, h), 0), std::min(hi(x_max, w), w),
+                 std::min(hi(y_max, h), h)};
+            if (r.x0 >= r.x1 || r.y0 >= r.y1) continue;  // off screen
+        }
+        rects.push_back(r);
+    }
+    // Merge overlapping rectangles until none overlap.
+    for (bool merged = true; merged;) {
+        merged = false;
+        for (std::size_t i = 0; i < rects.size() && !merged; ++i)
+            for (std::size_t j = i + 1; j < rects.size() && !merged; ++j) {
+                auto& a = rects[i];
+                const auto& b = rects[j];
+                if (a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1) {
+                    a = {std::min(a.x0, b.x0), std::min(a.y0, b.y0), std::max(a.x1, b.x1), std::max(a.y1, b.y1)};
+                    rects.erase(rects.begin() + std::ptrdiff_t(j));
+                    merged = true;
+                }
+            }
+    }
+    return rects;
+}
+
+void OffscreenRenderer::Impl::restore(const detail::PixelRect& r) {
+    gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, cache_fbo);
+    gl.glBindFramebuffer(GL_DRAW_FRAMEBUFFER, scene_fbo);
+    gl.glBlitFramebuffer(r.x0, r.y0, r.x1, r.y1, r.x0, r.y0, r.x1, r.y1, GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT,
+                         GL_NEAREST);
 }
 
 OffscreenRenderer::~OffscreenRenderer() {
@@ -84,10 +176,10 @@ OffscreenRenderer::~OffscreenRenderer() {
     d.context.make_current();
     d.drawer.reset();
     auto& gl = d.gl;
-    GLuint fbos[] = {d.msaa_fbo, d.scene_fbo};
-    gl.glDeleteFramebuffers(2, fbos);
-    GLuint rbs[] = {d.msaa_color, d.msaa_depth, d.scene_color, d.scene_depth};
-    gl.glDeleteRenderbuffers(4, rbs);
+    GLuint fbos[] = {d.msaa_fbo, d.scene_fbo, d.cache_fbo};
+    gl.glDeleteFramebuffers(3, fbos);
+    GLuint rbs[] = {d.msaa_color, d.msaa_depth, d.scene_color, d.scene_depth, d.cache_color, d.cache_depth};
+    gl.glDeleteRenderbuffers(6, rbs);
 }
 
 std::string OffscreenRenderer::gl_renderer() const { return m_impl->renderer_name; }
@@ -98,6 +190,11 @@ void OffscreenRenderer::render(const Pose& pose, Image& out, RenderMode mode) {
     const int w = m_settings.width, h = m_settings.height;
     d.context.make_current();
     pose_head(m_head, pose, m_posed);
+    if (d.cache_fbo != 0 && mode == RenderMode::Shaded) {
+        render_cached(out);
+        return;
+    }
+    d.scene_from_cache = false;
     // Regions are exact group indices: never multisampled or filtered.
     const bool msaa = d.msaa_fbo != 0 && mode == RenderMode::Shaded;
     gl.glBindFramebuffer(GL_FRAMEBUFFER, msaa ? d.msaa_fbo : d.scene_fbo);
@@ -116,6 +213,60 @@ void OffscreenRenderer::render(const Pose& pose, Image& out, RenderMode mode) {
     out.height = h;
     // Regions are exact group indices: never filtered.
     detail::fxaa_to_rgb(d.rgba.data(), w, h, m_settings.fxaa && mode == RenderMode::Shaded, d.luma, out.rgb);
+}
+
+void OffscreenRenderer::render_cached(Image& out) {
+    auto& d = *m_impl;
+    auto& gl = d.gl;
+    const int w = m_settings.width, h = m_settings.height;
+    const bool fxaa = m_settings.fxaa;
+    gl.glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    if (!d.cache_ready) {
+        // The static part, once: drawn, read back, anti-aliased, copied into the scene.
+        gl.glBindFramebuffer(GL_FRAMEBUFFER, d.cache_fbo);
+        d.drawer->draw(m_posed, m_settings, w, h, RenderMode::Shaded, DrawPart::Static);
+        gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, d.cache_fbo);
+        d.static_rgba.resize(d.rgba.size());
+        gl.glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, d.static_rgba.data());
+        detail::fxaa_to_rgb(d.static_rgba.data(), w, h, fxaa, d.luma, d.static_rgb);
+        d.cache_ready = true;
+    }
+    if (!d.scene_from_cache) {
+        // The first frame, or one after an uncached render (regions) used the scene.
+        d.restore({0, 0, w, h});
+        d.rgba = d.static_rgba;
+        d.previous_rects.clear();
+        d.scene_from_cache = true;
+    } else {
+        // Undo the previous frame's moving triangles.
+        for (const auto& r : d.previous_rects) {
+            d.restore(r);
+            for (int y = r.y0; y < r.y1; ++y) {
+                const std::size_t at = 4 * (std::size_t(y) * std::size_t(w) + std::size_t(r.x0));
+                std::memcpy(d.rgba.data() + at, d.static_rgba.data() + at, 4 * std::size_t(r.x1 - r.x0));
+            }
+        }
+    }
+    gl.glBindFramebuffer(GL_FRAMEBUFFER, d.scene_fbo);
+    d.drawer->draw(m_posed, m_settings, w, h, RenderMode::Shaded, DrawPart::Moving);
+    d.previous_rects = d.moving_rects(m_posed, w, h, 1);
+    gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, d.scene_fbo);
+    gl.glPixelStorei(GL_PACK_ROW_LENGTH, w);
+    for (const auto& r : d.previous_rects) {
+        const std::size_t at = 4 * (std::size_t(r.y0) * std::size_t(w) + std::size_t(r.x0));
+        gl.glReadPixels(r.x0, r.y0, r.x1 - r.x0, r.y1 - r.y0, GL_RGBA, GL_UNSIGNED_BYTE, d.rgba.data() + at);
+    }
+    gl.glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    const GLenum error = gl.glGetError();
+    if (error != GL_NO_ERROR) throw std::runtime_error("OpenGL error " + std::to_string(error) + " while rendering");
+    out.width = w;
+    out.height = h;
+    out.rgb = d.static_rgb;
+    for (const auto& r : d.previous_rects) {
+        const int reach = fxaa ? detail::fxaa_reach_px : 0;
+        detail::fxaa_region_to_rgb(d.rgba.data(), w, h, {r.x0 - reach, r.y0 - reach, r.x1 + reach, r.y1 + reach},
+                                   fxaa, d.luma, out.rgb);
+    }
 }
 
 Image OffscreenRenderer::render(const Pose& pose, RenderMode mode) {

@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <glm/mat4x4.hpp>
+
 #include "avsi/stimuli/head.h"
 
 namespace avsi::stimuli {
@@ -23,6 +25,17 @@ enum class CameraView { Front, ThreeQuarter };
 // What a pixel shows: the shaded face, or the index + 1 of the mesh group
 // (HeadMesh::group_names) of the surface in front, in the red channel (0 = background).
 enum class RenderMode { Shaded, Regions };
+
+// Which triangles HeadDrawer::draw draws. The rig moves only some vertices
+// (lips, jaw, cheeks, eyelids); a triangle is "moving" when one of its
+// vertices moves or has a normal that depends on a moving vertex. With a
+// fixed camera and lights the other, "static", triangles look the same in
+// every frame, so they can be drawn once and their colour and depth reused.
+enum class DrawPart {
+    All,     // clear, then every triangle (in mesh order)
+    Static,  // clear, then the static triangles only
+    Moving,  // no clear: the moving triangles over what the framebuffer holds
+};
 
 struct RenderSettings {
     int width = 640;
@@ -34,6 +47,12 @@ struct RenderSettings {
     int samples = 1;                 // MSAA samples per pixel (1 = off)
     bool fxaa = true;                // FXAA post-process pass
     bool per_pixel_lighting = false; // Blinn-Phong per pixel instead of per vertex
+    // Draw the static part of the head (DrawPart) once per renderer and per
+    // frame only the moving triangles over its cached colour and depth, read
+    // back and anti-alias only the rectangles they cover. The same picture as
+    // drawing everything (up to depth ties between a static and a moving
+    // triangle); ~3x faster. Not used with MSAA (samples > 1) or region renders.
+    bool cache_static = true;
     float field_of_view_deg = 18.0f; // vertical
     // Height of the world shown at the target's depth: the default shows the
     // face from the hairline to the neck below the chin, the mouth ~100 px wide at 480 px.
@@ -68,9 +87,17 @@ public:
     HeadDrawer(const HeadDrawer&) = delete;
     HeadDrawer& operator=(const HeadDrawer&) = delete;
 
-    // Clears and draws into the currently bound framebuffer of size width × height.
+    // Draws `part` of the head into the currently bound framebuffer of size
+    // width × height (clearing it first unless part is Moving).
     void draw(const PosedMesh& posed, const RenderSettings& settings, int width, int height,
-              RenderMode mode = RenderMode::Shaded);
+              RenderMode mode = RenderMode::Shaded, DrawPart part = DrawPart::All);
+
+    // The camera's view-projection matrix for these settings and frame size.
+    glm::mat4 view_projection(const RenderSettings& settings, int width, int height) const;
+
+    // The vertices of the moving triangles, in clusters that move together
+    // (one per connected set of rig channels: the mouth and jaw, each eye's lids).
+    const std::vector<std::vector<std::uint32_t>>& moving_vertex_clusters() const;
 
 private:
     struct Impl;
@@ -97,6 +124,8 @@ public:
     std::string gl_renderer() const;
 
 private:
+    void render_cached(Image& out);
+
     struct Impl;
     const Head& m_head;
     RenderSettings m_settings;
