@@ -203,6 +203,22 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
     p.render.height = static_cast<int>(render.get_int("height", p.render.height, 16, 4320, problems));
     p.render.camera = render.get_string("camera", p.render.camera, problems);
     p.render.background = render.get_string("background", p.render.background, problems);
+    // head_mesh and head_rig: a lab's own head, given together (the rig names mesh vertices).
+    for (const auto& [key, target] : {std::pair<const char*, fs::path*>{"head_mesh", &p.render.head_mesh},
+                                      std::pair<const char*, fs::path*>{"head_rig", &p.render.head_rig}}) {
+        const std::string file = render.get_string(key, "", problems);
+        if (file.empty()) continue;
+        *target = resolve(path, file);
+        if (!fs::is_regular_file(*target))
+            render.report(key,
+                          fmt::format("expected an existing file, got \"{}\" (resolved to {}, which does not exist)",
+                                      file, target->string()),
+                          problems);
+    }
+    if (render.has("head_mesh") != render.has("head_rig"))
+        render.report(render.has("head_mesh") ? "head_mesh" : "head_rig",
+                      "expected head_mesh and head_rig together (a rig belongs to its mesh), got only one",
+                      problems);
     render.check_unknown_keys(problems);
     p.render_section = render;
 

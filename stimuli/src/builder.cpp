@@ -180,7 +180,8 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     render.background = parse_colour(pr.background, protocol);
     const double fps = pr.fps;
     const vocoder::VocoderSettings vocoder_base = vocoder_settings(protocol);
-    const Head head = load_default_head();
+    // The protocol's own head ([render] head_mesh + head_rig) or the built-in one.
+    const Head head = pr.head_mesh.empty() ? load_default_head() : load_head(pr.head_mesh, pr.head_rig);
 
     // Models, loaded once per condition (synthesis is const).
     std::map<std::string, std::unique_ptr<synth::ControlModel>> models;

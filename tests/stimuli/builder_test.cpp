@@ -13,6 +13,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/stimuli/builder.h"
+#include "avsi/stimuli/head.h"
 #include "avsi/stimuli/video.h"
 
 namespace avsi::stimuli {
@@ -111,6 +112,62 @@ TEST_F(BuilderFixture, BuildsOnlyTheSentenceConditionPairsTheDesignShows) {
                                                "w1/blank.mp4"}));
 }
 
+// The message of the InputError a build throws, or "".
+std::string build_error(const std::filesystem::path& protocol, const std::filesystem::path& out) {
+    BuildSettings s;
+    s.protocol_path = protocol;
+    s.out_dir = out;
+    try {
+        build_stimuli(s);
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+// A lab's own head: [render] head_mesh and head_rig, relative to the protocol
+// file, here copies of the built-in head's files in a folder of their own.
+TEST_F(BuilderFixture, BuildsWithTheHeadTheProtocolNames) {
+    const std::filesystem::path data = std::filesystem::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build";
+    std::string text = read_text_file(data / "protocol.toml");
+    const auto replace = [&](const std::string& from, const std::string& to) {
+        const auto at = text.find(from);
+        ASSERT_NE(at, std::string::npos) << from;
+        text.replace(at, from.size(), to);
+    };
+    replace("sentences = \"corpus.csv\"", "sentences = \"" + (data / "corpus.csv").generic_string() + "\"");
+    replace("model = \"../../../../protocols/models/rule.json\"",
+            "model = \"" + (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json").generic_string() + "\"");
+    std::filesystem::create_directories(dir / "lab" / "heads");
+    std::filesystem::copy_file(default_head_obj(), dir / "lab" / "heads" / "head.obj");
+    std::filesystem::copy_file(default_head_rig(), dir / "lab" / "heads" / "head.rig.json");
+    write_text_file(dir / "lab" / "protocol.toml",
+                    text + "head_mesh = \"heads/head.obj\"\nhead_rig = \"heads/head.rig.json\"\n");
+    BuildSettings s = settings("own-head");
+    s.protocol_path = dir / "lab" / "protocol.toml";
+    s.max_sentences = 1;
+    const BuildReport report = build_stimuli(s);
+    EXPECT_EQ(report.rendered, 3u);
+    const auto manifest = nlohmann::json::parse(read_text_file(s.out_dir / "manifest.json"));
+    EXPECT_EQ(manifest["settings"]["head"]["mesh_sha256"], sha256_file(dir / "lab" / "heads" / "head.obj"));
+    EXPECT_EQ(manifest["settings"]["head"]["rig_sha256"], sha256_file(dir / "lab" / "heads" / "head.rig.json"));
+    for (const auto& e : manifest["stimuli"])
+        EXPECT_EQ(decode_video(s.out_dir / e["path"].get<std::string>()).frame_count, e["frames"].get<std::size_t>());
+
+    // A mesh without its rig, and a rig that is not there: refused at the key's line.
+    const int last_line = static_cast<int>(std::count(text.begin(), text.end(), '\n')) + 1;
+    write_text_file(dir / "lab" / "mesh-only.toml", text + "head_mesh = \"heads/head.obj\"\n");
+    const std::string only = build_error(dir / "lab" / "mesh-only.toml", dir / "o1");
+    EXPECT_NE(only.find("mesh-only.toml:" + std::to_string(last_line) + ":"), std::string::npos) << only;
+    EXPECT_NE(only.find("head_mesh and head_rig together"), std::string::npos) << only;
+    write_text_file(dir / "lab" / "missing.toml",
+                    text + "head_mesh = \"heads/head.obj\"\nhead_rig = \"heads/nothing.rig.json\"\n");
+    const std::string missing = build_error(dir / "lab" / "missing.toml", dir / "o2");
+    EXPECT_NE(missing.find("missing.toml:" + std::to_string(last_line + 1) + ":"), std::string::npos) << missing;
+    EXPECT_NE(missing.find("render.head_rig"), std::string::npos) << missing;
+    EXPECT_NE(missing.find("nothing.rig.json"), std::string::npos) << missing;
+}
+
 // A copy of the test protocol with its [vocoder] section replaced, written
 // to the fixture's folder with absolute corpus and model paths.
 std::filesystem::path protocol_with_vocoder(const std::filesystem::path& dir, const std::string& vocoder) {
@@ -129,18 +186,6 @@ std::filesystem::path protocol_with_vocoder(const std::filesystem::path& dir, co
     const auto path = dir / "protocol.toml";
     write_text_file(path, text);
     return path;
-}
-
-std::string build_error(const std::filesystem::path& protocol, const std::filesystem::path& out) {
-    BuildSettings s;
-    s.protocol_path = protocol;
-    s.out_dir = out;
-    try {
-        build_stimuli(s);
-    } catch (const InputError& e) {
-        return e.what();
-    }
-    return "";
 }
 
 TEST_F(BuilderFixture, MapsEveryVocoderKeyOfTheProtocol) {

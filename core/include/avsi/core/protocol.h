@@ -55,6 +55,10 @@ struct RenderSettings {
     int height = 480;
     std::string camera = "front";
     std::string background = "#808080";
+    // A lab's own head: OBJ mesh and rig JSON, resolved against the protocol
+    // folder; both empty = the built-in head.
+    std::filesystem::path head_mesh;
+    std::filesystem::path head_rig;
 };
 
 enum class ResponseMode { Subject, Experimenter };
