@@ -37,6 +37,10 @@ namespace {
     }
 }
 
+[[maybe_unused]] void exp_scalar(double* v, std::size_t len) {
+    for (std::size_t f = 0; f < len; ++f) v[f] = std::exp(v[f]);
+}
+
 }  // namespace
 
 #ifdef AVSI_CM_LIBMVEC
@@ -54,6 +58,12 @@ void power_sse2(double* u, std::size_t len, double c) {
     for (; f + 2 <= len; f += 2)
         _mm_storeu_pd(u + f, _ZGVbN2v_exp(_mm_mul_pd(vc, _ZGVbN2v_log(_mm_loadu_pd(u + f)))));
     if (f < len) u[f] = u[f] > 0.0 ? std::exp(c * std::log(u[f])) : 0.0;
+}
+
+void exp_sse2(double* v, std::size_t len) {
+    std::size_t f = 0;
+    for (; f + 2 <= len; f += 2) _mm_storeu_pd(v + f, _ZGVbN2v_exp(_mm_loadu_pd(v + f)));
+    if (f < len) v[f] = std::exp(v[f]);
 }
 
 void accumulate_sse2(const double* u, std::size_t len, double rate, int count, const double* scale_num,
@@ -100,6 +110,17 @@ void power_avx2(double* u, std::size_t len, double c) {
     }
 }
 
+void exp_avx2(double* v, std::size_t len) {
+    std::size_t f = 0;
+    for (; f + 4 <= len; f += 4) _mm256_storeu_pd(v + f, _ZGVdN4v_exp(_mm256_loadu_pd(v + f)));
+    if (f < len) {
+        double pad[4] = {0.0, 0.0, 0.0, 0.0};
+        for (std::size_t g = f; g < len; ++g) pad[g - f] = v[g];
+        _mm256_storeu_pd(pad, _ZGVdN4v_exp(_mm256_loadu_pd(pad)));
+        for (std::size_t g = f; g < len; ++g) v[g] = pad[g - f];
+    }
+}
+
 void accumulate_avx2(const double* u, std::size_t len, double rate, int count, const double* scale_num,
                      const double* scale_den, double* const* num, double* const* den) {
     const __m256d neg_rate = _mm256_set1_pd(-rate);
@@ -133,11 +154,13 @@ void accumulate_avx2(const double* u, std::size_t len, double rate, int count, c
 namespace {
 
 using PowerFn = void (*)(double*, std::size_t, double);
+using ExpFn = void (*)(double*, std::size_t);
 using AccumulateFn = void (*)(const double*, std::size_t, double, int, const double*, const double*, double* const*,
                               double* const*);
 
 struct Kernels {
     PowerFn power;
+    ExpFn exp;
     AccumulateFn accumulate;
     const char* isa;
 };
@@ -146,15 +169,15 @@ struct Kernels {
 // each against the full sum and for timing them).
 Kernels choose() {
     const char* forced = std::getenv("AVSI_CM_KERNEL");
-    if (forced && std::strcmp(forced, "scalar") == 0) return {power_scalar, accumulate_scalar, "scalar"};
+    if (forced && std::strcmp(forced, "scalar") == 0) return {power_scalar, exp_scalar, accumulate_scalar, "scalar"};
 #ifdef AVSI_CM_LIBMVEC
     __builtin_cpu_init();
     const bool narrow = forced && std::strcmp(forced, "sse2") == 0;
     if (!narrow && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
-        return {power_avx2, accumulate_avx2, "avx2"};
-    return {power_sse2, accumulate_sse2, "sse2"};
+        return {power_avx2, exp_avx2, accumulate_avx2, "avx2"};
+    return {power_sse2, exp_sse2, accumulate_sse2, "sse2"};
 #else
-    return {power_scalar, accumulate_scalar, "scalar"};
+    return {power_scalar, exp_scalar, accumulate_scalar, "scalar"};
 #endif
 }
 
@@ -166,6 +189,8 @@ const Kernels& kernels() {
 }  // namespace
 
 void cm_power(double* u, std::size_t len, double c) { kernels().power(u, len, c); }
+
+void cm_exp(double* v, std::size_t len) { kernels().exp(v, len); }
 
 void cm_accumulate(const double* u, std::size_t len, double rate, int count, const double* scale_num,
                    const double* scale_den, double* const* num, double* const* den) {

@@ -20,6 +20,9 @@ void cm_power(double* u, std::size_t len, double c);
 void cm_accumulate(const double* u, std::size_t len, double rate, int count, const double* scale_num,
                    const double* scale_den, double* const* num, double* const* den);
 
+// v[f] = exp(v[f]) for every f < len.
+void cm_exp(double* v, std::size_t len);
+
 // The instruction set the kernels run with: "avx2", "sse2" or "scalar".
 const char* cm_kernel_isa();
 

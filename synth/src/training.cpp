@@ -24,6 +24,7 @@
 #include "avsi/synth/evaluation.h"
 #include "avsi/synth/mpeg4_cohen_massaro.h"
 #include "avsi/synth/ohman.h"
+#include "cm_kernel.h"
 
 namespace avsi::synth {
 
@@ -139,12 +140,17 @@ void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const
         partials->segment.clear();
         partials->d.clear();
     }
+    std::vector<double> ratio;
     for (std::size_t k = 0; k < times_s.size(); ++k) {
         const double m = frame_sum.collect(times_s[k], partials != nullptr);
         std::vector<CmTerm>& terms = frame_sum.terms();
         double sum = 0.0, num = 0.0;
-        for (CmTerm& term : terms) {
-            term.log_d = std::exp(term.log_d - m);  // now D_i / max D
+        ratio.resize(terms.size());
+        for (std::size_t e = 0; e < terms.size(); ++e) ratio[e] = terms[e].log_d - m;
+        detail::cm_exp(ratio.data(), ratio.size());  // vectorised
+        for (std::size_t e = 0; e < terms.size(); ++e) {
+            CmTerm& term = terms[e];
+            term.log_d = ratio[e];  // now D_i / max D
             sum += term.log_d;
             num += term.log_d * segments[term.i].target;
         }
@@ -606,6 +612,13 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
             entry.params[q] = {v[0], v[1], v[2], v[3]};
         }
     }
+    // Entries the corpus does not train keep the start model's values, their
+    // rates raised to the floor so the whole file obeys it.
+    for (auto& [key, entry] : table)
+        for (auto& q : entry.params) {
+            q.theta_per_s = std::max(q.theta_per_s, settings.min_rate_per_s);
+            q.phi_per_s = std::max(q.phi_per_s, settings.min_rate_per_s);
+        }
     iterations = total;
     return init;
 }

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 #include "avsi/core/rng.h"
 #include "avsi/synth/cohen_massaro.h"
@@ -112,13 +114,25 @@ TEST(TrainRecovery, OhmanAndMpeg4TrainingLowerTheHeldOutError) {
         TrainingSettings settings;
         settings.model = kind;
         settings.threads = 2;
-        const auto start = load_model(std::string(AVSI_PROTOCOLS_DIR) + "/models/" + kind + ".json");
+        // MPEG-4 CM starts from the hand-set model (14 visemes, θ 25/s, t0 0;
+        // protocols/models/make_defaults.py), not from the default file, which
+        // is trained on the reference speaker and so moves with retraining.
+        if (kind == "mpeg4-cohen-massaro") {
+            settings.init_model = std::filesystem::temp_directory_path() / "avsi_recovery_mpeg4_handset.json";
+            std::ofstream(settings.init_model)
+                << R"({"kind": "mpeg4-cohen-massaro", "version": 1, "provenance": {"method": "hand-set"}, "viseme_set": ")"
+                << (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "visemes" / "mpeg4_14.json").string()
+                << R"(", "theta_anticipatory_per_s": 25.0, "theta_carryover_per_s": 25.0, "t0_s": 0.0})";
+        }
+        const auto start = load_model(settings.init_model.empty()
+                                          ? std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / (kind + ".json")
+                                          : settings.init_model);
         const auto before = evaluate_predictors(test, {{"start", [&](const PhoneSequence& ph, std::span<const double> t,
                                                                      std::vector<Frame>& out) { start->evaluate(ph, t, out); }}});
         const TrainingReport report = train_model(settings, train, test);
         const auto all = static_cast<std::size_t>(FrameSubset::AllNonSilence);
         // The hand-set start models know nothing of this speaker; training must
         // cut their held-out error by at least 30 %.
-        EXPECT_LT(report.test_rmse_percent, 0.7 * before[0].mean[all].rmse_percent);
+        EXPECT_LT(report.test_rmse_percent, 0.7 * before[0].mean[all].rmse_percent) << "before " << before[0].mean[all].rmse_percent;
     }
 }
