@@ -5,10 +5,11 @@
 // c = 1),
 // with per-phone exponents c != 1, with c != 1 and a different θ and φ
 // for every phone and parameter, and with the current trained default model
-// file (rates down to 0.1/s: such dominances reach the whole utterance, so the
-// exact bounded sum approaches the full N·F one). Run:
-//   taskset -c 0 build-syn/bench/bench_synth --benchmark_filter=CohenMassaro
-//       --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+// file (rates down to the training floor of 10 s^−c, exponents down to 0.5:
+// far-reaching tails, ten rates per segment). AVSI_CM_KERNEL=sse2 times the
+// kernels without AVX2. Run:
+//   taskset -c 1 build-syn/bench/bench_synth --benchmark_filter=CohenMassaro
+//       --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
 #include <filesystem>
