@@ -16,7 +16,7 @@ struct AnalyzeOptions {
     double confidence = 0.95;
 };
 
-const bool registered = register_command({
+const bool registered_analyze = register_command({
     "analyze",
     "Repeated-measures ANOVA, sphericity, pairwise LSD and an HTML/Markdown report from scores.csv",
     [](CLI::App& sub) -> std::function<int()> {

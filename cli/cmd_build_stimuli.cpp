@@ -9,7 +9,7 @@
 namespace avsi::cli {
 namespace {
 
-const bool registered = register_command({
+const bool registered_build_stimuli = register_command({
     "build-stimuli",
     "Build the stimulus videos of a protocol (sentence x condition) with a manifest",
     [](CLI::App& sub) -> std::function<int()> {

@@ -42,7 +42,7 @@ int run_calibrate(CalibrateOptions o) {
     return 0;
 }
 
-const bool registered = register_command({
+const bool registered_calibrate = register_command({
     "calibrate",
     "Search vocoder band count and envelope cutoff for a target mean ESTOI over a corpus folder (pilot aid)",
     [](CLI::App& sub) -> std::function<int()> {

@@ -8,7 +8,7 @@
 namespace avsi::cli {
 namespace {
 
-const bool registered = register_command({
+const bool registered_contact_sheet = register_command({
     "contact-sheet",
     "Render the head at rest and at a set of articulatory targets into one labelled PNG",
     [](CLI::App& sub) -> std::function<int()> {

@@ -61,7 +61,7 @@ void add_reference(CLI::App& corpus, std::function<int()>& chosen) {
     sub->callback([o, &chosen] { chosen = [o] { return run_reference(*o); }; });
 }
 
-const bool registered = register_command({
+const bool registered_corpus = register_command({
     "corpus",
     "Make articulatory corpora for training and evaluating control models; import and balance sentence corpora",
     [](CLI::App& sub) -> std::function<int()> {

@@ -37,7 +37,7 @@ int run_design(const DesignOptions& o) {
     return 0;
 }
 
-const bool registered = register_command({
+const bool registered_design = register_command({
     "design",
     "Counterbalanced trial lists per subject (lists.csv) with a balance report",
     [](CLI::App& sub) -> std::function<int()> {

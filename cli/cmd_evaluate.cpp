@@ -12,7 +12,7 @@
 namespace avsi::cli {
 namespace {
 
-const bool registered = register_command({
+const bool registered_evaluate = register_command({
     "evaluate",
     "Score models against an articulatory corpus: RMSE % of range and Pearson rho (Table 2), plus a plot",
     [](CLI::App& sub) -> std::function<int()> {

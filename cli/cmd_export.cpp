@@ -25,7 +25,7 @@ int run_export(const ExportOptions& o) {
     return 0;
 }
 
-const bool registered = register_command({
+const bool registered_export = register_command({
     "export",
     "Export a session database to tidy CSV (responses, timing per trial and per session, frames, sessions, events)",
     [](CLI::App& sub) -> std::function<int()> {

@@ -8,7 +8,7 @@
 namespace avsi::cli {
 namespace {
 
-const bool registered = register_command({
+const bool registered_fap2traj = register_command({
     "fap2traj",
     "MPEG-4 FAP stream (.fap v2.1) to an articulatory trajectory CSV",
     [](CLI::App& sub) -> std::function<int()> {

@@ -51,7 +51,7 @@ int run_mix(const MixOptions& o) {
     return 0;
 }
 
-const bool registered = register_command({
+const bool registered_mix = register_command({
     "mix",
     "Add masking noise (speech-shaped or a recording) to speech at a given SNR, without vocoding",
     [](CLI::App& sub) -> std::function<int()> {

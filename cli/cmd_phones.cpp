@@ -67,7 +67,7 @@ int run_phones(const PhonesOptions& o) {
     return ExitSuccess;
 }
 
-const bool registered = register_command({
+const bool registered_phones = register_command({
     "phones",
     "Text or an alignment (TextGrid, .lab, .tsv) to a timed phone sequence",
     [](CLI::App& sub) -> std::function<int()> {

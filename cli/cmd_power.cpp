@@ -41,7 +41,7 @@ int run_power(const PowerOptions& o) {
     return 0;
 }
 
-const bool registered = register_command({
+const bool registered_power = register_command({
     "power",
     "Power of the ANOVA and of a pairwise LSD contrast over subject counts, by simulation",
     [](CLI::App& sub) -> std::function<int()> {

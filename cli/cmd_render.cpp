@@ -8,7 +8,7 @@
 namespace avsi::cli {
 namespace {
 
-const bool registered = register_command({
+const bool registered_render = register_command({
     "render",
     "Render the talking head from a trajectory or FAP file to MP4 or PNG frames",
     [](CLI::App& sub) -> std::function<int()> {

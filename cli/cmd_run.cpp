@@ -70,7 +70,7 @@ int run_run(RunOptions& o) {
     return 0;
 }
 
-const bool registered = register_command({
+const bool registered_run = register_command({
     "run",
     "Run or resume one subject's session (window, audio, responses stored in SQLite)",
     [](CLI::App& sub) -> std::function<int()> {

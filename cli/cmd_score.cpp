@@ -13,7 +13,7 @@ struct ScoreOptions {
     bool strict = false;
 };
 
-const bool registered = register_command({
+const bool registered_score = register_command({
     "score",
     "Score typed responses against each sentence's keywords (keywords.csv, scores.csv)",
     [](CLI::App& sub) -> std::function<int()> {

@@ -16,7 +16,7 @@ struct StoiOptions {
     bool extended = false;
 };
 
-const bool registered = register_command({
+const bool registered_stoi = register_command({
     "stoi",
     "Short-time objective intelligibility (STOI, or ESTOI with --extended) of a degraded file against the clean one",
     [](CLI::App& sub) -> std::function<int()> {

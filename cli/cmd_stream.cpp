@@ -96,7 +96,7 @@ int run_stream(const StreamOptions& o) {
     return 0;
 }
 
-const bool registered = register_command({
+const bool registered_stream = register_command({
     "stream",
     "Stream timed phones from stdin through an ANN model (e.g. ANN 2) to frames on stdout, low latency",
     [](CLI::App& sub) -> std::function<int()> {

@@ -11,7 +11,7 @@
 namespace avsi::cli {
 namespace {
 
-const bool registered = register_command({
+const bool registered_synth = register_command({
     "synth",
     "Phones or text to articulatory parameter trajectories with a control model",
     [](CLI::App& sub) -> std::function<int()> {

@@ -10,7 +10,7 @@
 namespace avsi::cli {
 namespace {
 
-const bool registered = register_command({
+const bool registered_train = register_command({
     "train",
     "Train a control model on an articulatory corpus (Levenberg-Marquardt, early stopping on the test split)",
     [](CLI::App& sub) -> std::function<int()> {

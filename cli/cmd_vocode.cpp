@@ -89,7 +89,7 @@ int run_vocode(const VocodeOptions& o, const CLI::App& sub) {
     return 0;
 }
 
-const bool registered = register_command({
+const bool registered_vocode = register_command({
     "vocode",
     "Noise-excited channel vocoder (Shannon et al. 1995) over a WAV file or a folder, with optional masking noise",
     [](CLI::App& sub) -> std::function<int()> {

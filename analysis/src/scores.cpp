@@ -11,17 +11,11 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
+#include "avsi/core/text.h"
 
 namespace avsi::analysis {
 
 namespace {
-
-std::string trim(std::string_view s) {
-    std::size_t b = 0, e = s.size();
-    while (b < e && (s[b] == ' ' || s[b] == '\t')) ++b;
-    while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r')) --e;
-    return std::string(s.substr(b, e - b));
-}
 
 bool is_missing(const std::string& s) { return s.empty() || s == "NA" || s == "na" || s == "NaN"; }
 

@@ -16,6 +16,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
+#include "avsi/core/text.h"
 
 namespace avsi::analysis {
 
@@ -32,13 +33,6 @@ const char* rule_name(MatchRule rule) {
 }
 
 namespace {
-
-std::string trim(std::string_view s) {
-    std::size_t b = 0, e = s.size();
-    while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
-    while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
-    return std::string(s.substr(b, e - b));
-}
 
 std::string join(const std::vector<std::string>& words) {
     std::string out;

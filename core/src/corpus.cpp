@@ -9,17 +9,11 @@
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/text.h"
 
 namespace avsi {
 
 namespace {
-
-std::string trim(std::string s) {
-    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
-    std::size_t start = 0;
-    while (start < s.size() && std::isspace(static_cast<unsigned char>(s[start]))) ++start;
-    return s.substr(start);
-}
 
 std::vector<std::string> split(const std::string& s, char sep) {
     std::vector<std::string> out;

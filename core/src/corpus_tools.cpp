@@ -19,24 +19,12 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/core/rng.h"
+#include "avsi/core/text.h"
 #include "avsi/core/tts.h"
 
 namespace avsi {
 
 namespace {
-
-std::string lower(std::string_view s) {
-    std::string out(s);
-    for (auto& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return out;
-}
-
-std::string trim(std::string_view s) {
-    std::size_t a = 0, b = s.size();
-    while (a < b && std::isspace(static_cast<unsigned char>(s[a]))) ++a;
-    while (b > a && std::isspace(static_cast<unsigned char>(s[b - 1]))) --b;
-    return std::string(s.substr(a, b - a));
-}
 
 // Words of a text as written (letters, digits, apostrophes, non-ASCII bytes);
 // a trailing possessive "'s" stays part of the word.
@@ -126,8 +114,8 @@ WordTable WordTable::load(const std::filesystem::path& frequency_tsv, const std:
         const std::string pos = row.fields[c_pos];
         if (pos.find_first_not_of("nvar") != std::string::npos)
             problems.add(p, row.line, 0, "pos", fmt::format("expected letters of \"nvar\", got \"{}\"", pos));
-        WordFrequency f{lower(row.fields[c_lemma]), *count, pos};
-        const std::string word = lower(row.fields[c_word]);
+        WordFrequency f{ascii_lower(row.fields[c_lemma]), *count, pos};
+        const std::string word = ascii_lower(row.fields[c_word]);
         if (word == f.lemma) t.m_lemma_pos[f.lemma] = pos;
         t.m_rows.emplace(word, std::move(f));
     }
@@ -137,13 +125,13 @@ WordTable WordTable::load(const std::filesystem::path& frequency_tsv, const std:
     while (std::getline(in, line)) {
         line = trim(line);
         if (line.empty() || line[0] == '#') continue;
-        t.m_function_words.insert(lower(line));
+        t.m_function_words.insert(ascii_lower(line));
     }
     return t;
 }
 
 std::vector<WordFrequency> WordTable::lookup(std::string_view word_in) const {
-    std::string word = lower(word_in);
+    std::string word = ascii_lower(word_in);
     if (ends_with(word, "'s")) word.resize(word.size() - 2);
     std::vector<WordFrequency> out;
     auto add = [&](const WordFrequency& f) {
@@ -173,7 +161,7 @@ double WordTable::log_frequency(std::string_view word) const {
 }
 
 bool WordTable::is_function_word(std::string_view word) const {
-    return m_function_words.count(lower(word)) > 0;
+    return m_function_words.count(ascii_lower(word)) > 0;
 }
 
 // ------------------------------------------------------------------ visemes
@@ -718,7 +706,7 @@ ImportOutcome import_sentences(const std::vector<std::string>& texts, const Impo
         std::set<std::string> seen;
         const auto ws = text_words(texts[t]);
         for (std::size_t w = 0; w < ws.size(); ++w) {
-            const std::string key = lower(ws[w]);
+            const std::string key = ascii_lower(ws[w]);
             if (words.is_function_word(key)) {
                 r.notes.push_back(fmt::format("{}: function word", ws[w]));
                 continue;

@@ -8,6 +8,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/text.h"
 
 namespace avsi {
 
@@ -143,16 +144,8 @@ std::string csv_line(const std::vector<std::string>& fields, char delimiter) {
     return out;
 }
 
-namespace {
-std::string_view trim(std::string_view s) {
-    while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-    while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-    return s;
-}
-}  // namespace
-
 std::optional<double> parse_double(std::string_view text) {
-    text = trim(text);
+    text = trim_view(text);
     if (text.empty()) return std::nullopt;
     if (text.front() == '+') text.remove_prefix(1);
     double value = 0.0;
@@ -163,7 +156,7 @@ std::optional<double> parse_double(std::string_view text) {
 }
 
 std::optional<long long> parse_int(std::string_view text) {
-    text = trim(text);
+    text = trim_view(text);
     if (text.empty()) return std::nullopt;
     if (text.front() == '+') text.remove_prefix(1);
     long long value = 0;

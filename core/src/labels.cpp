@@ -14,23 +14,11 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
+#include "avsi/core/text.h"
 
 namespace avsi {
 
 namespace {
-
-std::string trim(std::string_view s) {
-    std::size_t a = 0, b = s.size();
-    while (a < b && std::isspace(static_cast<unsigned char>(s[a]))) ++a;
-    while (b > a && std::isspace(static_cast<unsigned char>(s[b - 1]))) --b;
-    return std::string(s.substr(a, b - a));
-}
-
-std::string lower(std::string_view s) {
-    std::string out(s);
-    for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return out;
-}
 
 void append_utf8(std::string& out, char32_t cp) {
     if (cp < 0x80) {
@@ -570,7 +558,7 @@ PhoneSequence phones_from_intervals(const std::vector<Interval>& intervals, cons
 }
 
 PhoneSequence read_phones(const std::filesystem::path& path, const LabelReadOptions& options) {
-    const std::string ext = lower(path.extension().string());
+    const std::string ext = ascii_lower(path.extension().string());
     std::vector<Interval> intervals;
     if (ext == ".textgrid") {
         const TextGrid grid = read_textgrid(path);

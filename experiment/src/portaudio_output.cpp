@@ -21,6 +21,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
+#include "avsi/core/text.h"
 #include "avsi/experiment/media.h"
 
 namespace avsi::experiment {
@@ -47,11 +48,6 @@ void initialise() {
     jack_set_info_function(&jack_message);
     if (const PaError e = Pa_Initialize(); e != paNoError)
         throw InputError("portaudio", 0, 0, "", fmt::format("cannot initialise PortAudio: {}", Pa_GetErrorText(e)));
-}
-
-std::string lower(std::string s) {
-    for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return s;
 }
 
 std::string describe(PaDeviceIndex i) {
@@ -98,9 +94,9 @@ PaDeviceIndex find_device(const std::string& wanted) {
     }
     std::vector<PaDeviceIndex> matches;
     for (PaDeviceIndex i : devices) {
-        const std::string name = lower(Pa_GetDeviceInfo(i)->name);
-        if (name == lower(wanted)) return i;
-        if (name.find(lower(wanted)) != std::string::npos) matches.push_back(i);
+        const std::string name = ascii_lower(Pa_GetDeviceInfo(i)->name);
+        if (name == ascii_lower(wanted)) return i;
+        if (name.find(ascii_lower(wanted)) != std::string::npos) matches.push_back(i);
     }
     if (matches.size() == 1) return matches.front();
     throw InputError("portaudio", 0, 0, "audio-device",

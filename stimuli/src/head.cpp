@@ -15,6 +15,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "smoothstep.h"
 
 namespace avsi::stimuli {
 
@@ -102,11 +103,6 @@ struct RigReader {
         return j.get<float>();
     }
 };
-
-float smoothstep(float e0, float e1, float x) {
-    const float t = std::clamp((x - e0) / (e1 - e0), 0.0f, 1.0f);
-    return t * t * (3.0f - 2.0f * t);
-}
 
 // Weights of one region: the fraction of each vertex's triangles that lie in
 // the region's groups, smoothed over the mesh edges, times spatial falloffs.

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "avsi/core/files.h"
+#include "smoothstep.h"
 
 namespace avsi::stimuli {
 
@@ -24,10 +25,6 @@ namespace {
 
 constexpr float pi = 3.14159265358979f;
 
-float smoothstep(float e0, float e1, float x) {
-    const float t = std::clamp((x - e0) / (e1 - e0), 0.0f, 1.0f);
-    return t * t * (3.0f - 2.0f * t);
-}
 float gauss2(float dx, float sx, float dy, float sy) {
     return std::exp(-(dx / sx) * (dx / sx) - (dy / sy) * (dy / sy));
 }

@@ -18,6 +18,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/rng.h"
+#include "avsi/core/text.h"
 
 namespace avsi::synth {
 
@@ -26,13 +27,6 @@ using nlohmann::json;
 
 namespace {
 
-constexpr double nan_v = std::numeric_limits<double>::quiet_NaN();
-
-std::string lower(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
-    return s;
-}
-
 std::vector<std::string> param_names() {
     std::vector<std::string> names;
     for (const auto& info : params()) names.emplace_back(info.name);
@@ -40,7 +34,7 @@ std::vector<std::string> param_names() {
 }
 
 TrackKind default_kind(const fs::path& track) {
-    const std::string ext = lower(track.extension().string());
+    const std::string ext = ascii_lower(track.extension().string());
     return (ext == ".ema" || ext == ".est" || ext == ".track") ? TrackKind::Sensors : TrackKind::Parameters;
 }
 
@@ -88,10 +82,10 @@ ParamTrack read_param_track_csv(const fs::path& path) {
         }
         times.push_back(*t);
         Frame f;
-        f.fill(nan_v);
+        f.fill(missing_value);
         for (const auto& [c, p] : cols) {
             const std::string& field = row.fields[c];
-            if (field.empty() || lower(field) == "nan") continue;
+            if (field.empty() || ascii_lower(field) == "nan") continue;
             const auto v = parse_double(field);
             if (!v)
                 problems.add(table.path, row.line, 0, table.header[c],
@@ -248,7 +242,7 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
         corpus.entries.push_back(std::move(e));
     };
 
-    if (lower(corpus.manifest.extension().string()) == ".csv") {
+    if (ascii_lower(corpus.manifest.extension().string()) == ".csv") {
         const CsvTable table = parse_csv(text, mpath);
         const std::size_t id = table.require_column("id");
         const std::size_t track = table.require_column("track");

@@ -17,6 +17,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
+#include "avsi/core/text.h"
 
 namespace avsi::synth {
 
@@ -27,18 +28,6 @@ std::size_t EstTrack::channel(const std::string& name) const {
 
 namespace {
 
-std::string lower(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
-    return s;
-}
-
-std::string trim(std::string_view s) {
-    const auto b = s.find_first_not_of(" \t\r");
-    if (b == std::string_view::npos) return {};
-    const auto e = s.find_last_not_of(" \t\r");
-    return std::string(s.substr(b, e - b + 1));
-}
-
 float swap_float(float v) {
     std::uint32_t u;
     std::memcpy(&u, &v, 4);
@@ -48,7 +37,7 @@ float swap_float(float v) {
 }
 
 bool parse_bool(const std::string& v, bool& out) {
-    const std::string l = lower(v);
+    const std::string l = ascii_lower(v);
     if (l == "true" || l == "1" || l == "yes") {
         out = true;
         return true;
@@ -92,7 +81,7 @@ EstTrack read_est_track(const std::filesystem::path& path) {
         const auto space = line.find_first_of(" \t");
         const std::string key = line.substr(0, space);
         const std::string value = space == std::string::npos ? "" : trim(line.substr(space));
-        const std::string lkey = lower(key);
+        const std::string lkey = ascii_lower(key);
         if (lkey.rfind("channel_", 0) == 0) {
             const auto n = parse_int(lkey.substr(8));
             if (!n || *n < 0)
@@ -105,7 +94,7 @@ EstTrack read_est_track(const std::filesystem::path& path) {
     if (!ended) throw InputError(file, line_no, 0, "header", "no EST_Header_End line");
 
     auto require = [&](const std::string& key) -> std::pair<std::string, int> {
-        const auto it = header.find(lower(key));
+        const auto it = header.find(ascii_lower(key));
         if (it == header.end())
             throw InputError(file, 0, 0, key, "required header field is missing");
         return it->second;
@@ -119,7 +108,7 @@ EstTrack read_est_track(const std::filesystem::path& path) {
     };
 
     const auto [type_text, type_line] = require("DataType");
-    const std::string type = lower(type_text);
+    const std::string type = ascii_lower(type_text);
     if (type != "ascii" && type != "binary")
         throw InputError(file, type_line, 1, "DataType",
                          fmt::format("expected ascii or binary, got \"{}\"", type_text));
@@ -157,9 +146,9 @@ EstTrack read_est_track(const std::filesystem::path& path) {
     if (type == "binary") {
         bool big = false;
         const auto [order, order_line] = require("ByteOrder");
-        if (order == "10" || lower(order) == "be" || lower(order) == "msb")
+        if (order == "10" || ascii_lower(order) == "be" || ascii_lower(order) == "msb")
             big = true;
-        else if (order == "01" || lower(order) == "le" || lower(order) == "lsb")
+        else if (order == "01" || ascii_lower(order) == "le" || ascii_lower(order) == "lsb")
             big = false;
         else
             throw InputError(file, order_line, 1, "ByteOrder",
@@ -284,7 +273,7 @@ EstTrack read_sensor_csv(const std::filesystem::path& path) {
         bool present = true;
         for (std::size_t c : cols) {
             const std::string& f = row.fields[c];
-            if (f.empty() || lower(f) == "nan") {
+            if (f.empty() || ascii_lower(f) == "nan") {
                 present = false;
                 values.push_back(std::numeric_limits<float>::quiet_NaN());
                 continue;
@@ -306,7 +295,7 @@ EstTrack read_sensor_csv(const std::filesystem::path& path) {
 }
 
 EstTrack read_sensor_file(const std::filesystem::path& path) {
-    if (lower(path.extension().string()) == ".csv") return read_sensor_csv(path);
+    if (ascii_lower(path.extension().string()) == ".csv") return read_sensor_csv(path);
     return read_est_track(path);
 }
 

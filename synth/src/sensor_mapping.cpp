@@ -16,8 +16,6 @@ namespace avsi::synth {
 
 namespace {
 
-constexpr double nan_v = std::numeric_limits<double>::quiet_NaN();
-
 struct SensorColumns {
     std::size_t x, y;
 };
@@ -39,14 +37,14 @@ SensorColumns find_sensor(const EstTrack& t, const std::string& sensor, const Se
 }
 
 double value(const EstTrack& t, std::size_t k, std::size_t c) {
-    if (!t.present[k]) return nan_v;
+    if (!t.present[k]) return missing_value;
     return static_cast<double>(t.values[k][c]);
 }
 
 // The q-th percentile (0–100) of the finite values, by linear interpolation.
 double percentile(std::vector<double> v, double q) {
     v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
-    if (v.empty()) return nan_v;
+    if (v.empty()) return missing_value;
     std::sort(v.begin(), v.end());
     const double pos = std::clamp(q, 0.0, 100.0) / 100.0 * static_cast<double>(v.size() - 1);
     const auto lo = static_cast<std::size_t>(std::floor(pos));
@@ -62,7 +60,7 @@ double mean_finite(const std::vector<double>& v) {
             sum += x;
             ++n;
         }
-    return n ? sum / static_cast<double>(n) : nan_v;
+    return n ? sum / static_cast<double>(n) : missing_value;
 }
 
 }  // namespace
@@ -194,7 +192,7 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
     std::vector<Frame> raw(n);
     for (std::size_t k = 0; k < n; ++k) {
         Frame f;
-        f.fill(nan_v);
+        f.fill(missing_value);
         f[index(Param::JawRotation)] = (gap[k] - gap_rest) / s.jaw_opening_full_mm;
         f[index(Param::JawThrust)] = (thrust[k] - thrust_rest) / s.jaw_thrust_full_mm;
         f[index(Param::UpperLipRaise)] = (ul_up[k] - ul_up_rest) / s.lip_vertical_full_mm;
@@ -224,7 +222,7 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
         const double w = std::clamp((time - t0) / (t1 - t0), 0.0, 1.0);
         Frame f;
         for (std::size_t p = 0; p < param_count; ++p)
-            f[p] = out.present[p] ? (1.0 - w) * raw[j][p] + w * raw[j + 1][p] : nan_v;
+            f[p] = out.present[p] ? (1.0 - w) * raw[j][p] + w * raw[j + 1][p] : missing_value;
         out.frames.push_back(f);
     }
     return out;

@@ -13,17 +13,13 @@
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/log.h"
+#include "avsi/core/text.h"
 #include "avsi/core/tts.h"
 #include "avsi/synth/cohen_massaro.h"
 
 namespace avsi::synth {
 
 namespace {
-
-std::string lower(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    return s;
-}
 
 std::string xml_escape(std::string_view s) {
     std::string out;
@@ -168,8 +164,8 @@ void run_synthesis(const SynthesisSettings& s) {
         throw UsageError("give exactly one of --phones FILE and --text \"…\"");
     if (s.out_path.empty()) throw UsageError("--out is required");
     if (!s.wav_path.empty() && !have_text) throw UsageError("--wav needs --text (it writes the TTS audio)");
-    std::string format = lower(s.format);
-    if (format == "auto") format = lower(s.out_path.extension().string()) == ".fap" ? "fap" : "csv";
+    std::string format = ascii_lower(s.format);
+    if (format == "auto") format = ascii_lower(s.out_path.extension().string()) == ".fap" ? "fap" : "csv";
     if (format != "csv" && format != "fap")
         throw UsageError(fmt::format("--format: expected csv, fap or auto, got \"{}\"", s.format));
     const auto plot_param = param_from_name(s.plot_param);

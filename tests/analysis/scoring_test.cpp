@@ -1,6 +1,7 @@
 // Keyword scoring: normalisation, each rule and their order, the recorded
 // rule, strict vs lenient, overrides and the output files.
 #include <filesystem>
+#include <ostream>
 
 #include <gtest/gtest.h>
 
@@ -77,6 +78,11 @@ struct RuleCase {
     MatchRule lenient;
     MatchRule strict;
 };
+
+// gtest prints a failing case by this (not as a byte dump).
+void PrintTo(const RuleCase& c, std::ostream* os) {
+    *os << "keyword \"" << c.keyword << "\", response \"" << c.response << "\"";
+}
 
 class EachRule : public ::testing::TestWithParam<RuleCase> {};
 

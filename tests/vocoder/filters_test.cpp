@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <ostream>
 
 #include "avsi/core/rng.h"
 
@@ -17,6 +18,11 @@ struct BandCase {
     int order;
     double low_hz, high_hz, rate_hz;
 };
+
+// gtest prints a failing case by this (not as a byte dump).
+void PrintTo(const BandCase& c, std::ostream* os) {
+    *os << "order " << c.order << ", " << c.low_hz << "–" << c.high_hz << " Hz at " << c.rate_hz << " Hz";
+}
 
 class ButterworthBandpass : public ::testing::TestWithParam<BandCase> {};
 

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <ostream>
 #include <memory>
 
 #include "avsi/core/log.h"
@@ -87,6 +88,12 @@ struct LevelCase {
     bool zero_phase;
     int rate;
 };
+
+// gtest prints a failing case by this (not as a byte dump).
+void PrintTo(const LevelCase& c, std::ostream* os) {
+    *os << c.bands << " bands, " << to_string(c.carrier) << " carrier, " << to_string(c.envelope) << " envelope, "
+        << (c.zero_phase ? "zero-phase" : "causal") << ", " << c.rate << " Hz";
+}
 
 class VocoderLevels : public ::testing::TestWithParam<LevelCase> {};
 

@@ -14,14 +14,12 @@ namespace avsi::vocoder {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr double kPi = std::numbers::pi;
-
 // Poles of the normalised analog Butterworth low-pass prototype (cutoff
 // 1 rad/s), in the left half plane: p_k = exp(jπ(2k + N + 1) / (2N)).
 std::vector<Complex> prototype_poles(int order) {
     std::vector<Complex> poles;
     for (int k = 0; k < order; ++k)
-        poles.push_back(std::polar(1.0, kPi * (2.0 * k + order + 1) / (2.0 * order)));
+        poles.push_back(std::polar(1.0, std::numbers::pi * (2.0 * k + order + 1) / (2.0 * order)));
     return poles;
 }
 
@@ -29,7 +27,7 @@ std::vector<Complex> prototype_poles(int order) {
 Complex bilinear(Complex s, double fs) { return (2.0 * fs + s) / (2.0 * fs - s); }
 
 // Analog frequency (rad/s) that the bilinear transform maps onto f_hz.
-double prewarp(double f_hz, double fs) { return 2.0 * fs * std::tan(kPi * f_hz / fs); }
+double prewarp(double f_hz, double fs) { return 2.0 * fs * std::tan(std::numbers::pi * f_hz / fs); }
 
 // Groups digital poles into sections: each pole with positive imaginary
 // part with its conjugate, real poles two by two (one left over becomes a
@@ -144,7 +142,7 @@ Sos butterworth_bandpass(int order, double low_hz, double high_hz, double sample
 }
 
 std::complex<double> sos_response(const Sos& sos, double frequency_hz, double sample_rate_hz) {
-    const Complex z_inv = std::polar(1.0, -2.0 * kPi * frequency_hz / sample_rate_hz);
+    const Complex z_inv = std::polar(1.0, -2.0 * std::numbers::pi * frequency_hz / sample_rate_hz);
     Complex h = 1.0;
     for (const Biquad& q : sos) h *= section_response(q, z_inv);
     return h;

@@ -27,8 +27,6 @@ namespace avsi::vocoder {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 double to_db(double ratio) { return 20.0 * std::log10(ratio); }
 
 std::string format_hz(double hz) { return fmt::format("{:.1f}", hz); }
@@ -315,7 +313,7 @@ struct Pipeline {
                 // A rotating phasor, re-anchored to the exact sin/cos every
                 // 1024 samples of absolute time (so blocks do not matter).
                 for (std::size_t b = 0; b < lanes; ++b) {
-                    const double w = 2.0 * kPi * centres_hz[b] / rate;
+                    const double w = 2.0 * std::numbers::pi * centres_hz[b] / rate;
                     const std::complex<double> step = std::polar(1.0, w);
                     // Start as a whole-signal run would: from the last anchor.
                     const std::size_t anchor = first / 1024 * 1024;
@@ -568,7 +566,7 @@ std::string describe(const VocoderSettings& s, double rate) {
             const double df = 1e-3 * (edges[b + 1] - edges[b]);
             const double dphi = std::arg(sos_response(sos, centres[b] + df, rate) /
                                          sos_response(sos, centres[b] - df, rate));
-            delays_ms.push_back(-dphi / (2.0 * kPi * 2.0 * df) * 1000.0);
+            delays_ms.push_back(-dphi / (2.0 * std::numbers::pi * 2.0 * df) * 1000.0);
         }
         std::string text;
         for (std::size_t b = 0; b < delays_ms.size(); ++b) text += fmt::format("{}{:.2f}", b ? ", " : "", delays_ms[b]);

@@ -31,6 +31,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -41,6 +42,10 @@
 #include "avsi/synth/trajectory.h"
 
 namespace avsi::synth {
+
+// The value of a measured sample the data cannot give (a lost sensor frame, a
+// parameter the sensors do not measure).
+inline constexpr double missing_value = std::numeric_limits<double>::quiet_NaN();
 
 // Measured parameter values at a constant frame rate; NaN marks a missing value.
 struct ParamTrack {

@@ -1,0 +1,19 @@
+// Small text helpers every reader of user files needs: trimming and ASCII
+// case folding. One definition for the project (they were repeated per file).
+#pragma once
+
+#include <string>
+#include <string_view>
+
+namespace avsi {
+
+// `s` without leading and trailing ASCII white space (a view into `s`).
+std::string_view trim_view(std::string_view s);
+
+// `s` without leading and trailing ASCII white space, as a string.
+std::string trim(std::string_view s);
+
+// `s` with ASCII letters in lower case; other bytes (UTF-8 included) unchanged.
+std::string ascii_lower(std::string_view s);
+
+}  // namespace avsi

@@ -1,0 +1,23 @@
+// Text helpers (text.h).
+#include "avsi/core/text.h"
+
+#include <cctype>
+
+namespace avsi {
+
+std::string_view trim_view(std::string_view s) {
+    std::size_t a = 0, b = s.size();
+    while (a < b && std::isspace(static_cast<unsigned char>(s[a]))) ++a;
+    while (b > a && std::isspace(static_cast<unsigned char>(s[b - 1]))) --b;
+    return s.substr(a, b - a);
+}
+
+std::string trim(std::string_view s) { return std::string(trim_view(s)); }
+
+std::string ascii_lower(std::string_view s) {
+    std::string out(s);
+    for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return out;
+}
+
+}  // namespace avsi
