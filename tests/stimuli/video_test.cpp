@@ -5,7 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <vector>
 #include <filesystem>
 
 #include "avsi/core/files.h"
@@ -77,6 +80,82 @@ TEST_F(VideoFixture, SameInputGivesByteIdenticalFiles) {
     render_video(renderer, traj, &audio, dir / "a.mp4");
     render_video(renderer, traj, &audio, dir / "b.mp4");
     EXPECT_EQ(sha256_file(dir / "a.mp4"), sha256_file(dir / "b.mp4"));
+}
+
+// Mean absolute difference per channel value between two same-size images.
+double mean_abs_difference(const Image& a, const Image& b) {
+    EXPECT_EQ(a.rgb.size(), b.rgb.size());
+    double sum = 0.0;
+    for (std::size_t i = 0; i < a.rgb.size() && i < b.rgb.size(); ++i) sum += std::abs(int(a.rgb[i]) - int(b.rgb[i]));
+    return sum / double(std::max<std::size_t>(a.rgb.size(), 1));
+}
+
+// The encoder's RGB → YUV conversion (BT.601 limited range, written into the
+// stream) decodes back to the rendered colours: only chroma subsampling and
+// rounding differ. Swapped chroma planes or a full/limited range mix-up
+// would give errors of tens of levels on the skin.
+TEST_F(VideoFixture, DecodedFramesMatchTheRenderedColours) {
+    static const Head head = load_default_head();
+    RenderSettings rs;
+    rs.width = 320;
+    rs.height = 240;
+    OffscreenRenderer renderer(head, rs);
+    const auto traj = test_trajectory(6, 30.0);
+    std::vector<Image> rendered;
+    VideoSettings vs;
+    vs.crf = 0;  // lossless H.264: what is decoded is exactly the converted YUV
+    VideoWriter writer(dir / "lossless.mp4", 320, 240, traj.size(), nullptr, vs);
+    for (std::size_t k = 0; k < traj.size(); ++k) {
+        rendered.push_back(renderer.render(pose_at(traj, k, 0.0)));
+        writer.write(rendered.back());
+    }
+    writer.finish();
+    const DecodedVideo v = decode_video(dir / "lossless.mp4", true);
+    ASSERT_EQ(v.frames.size(), rendered.size());
+    for (std::size_t k = 0; k < rendered.size(); ++k) {
+        SCOPED_TRACE(k);
+        EXPECT_LT(mean_abs_difference(v.frames[k], rendered[k]), 1.5);
+        // The centre pixel (the face) within a few levels per channel.
+        const std::uint8_t* a = v.frames[k].pixel(160, 120);
+        const std::uint8_t* b = rendered[k].pixel(160, 120);
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c], b[c], 4) << "channel " << c;
+    }
+}
+
+// Only the pixels that changed since the previous frame are converted; that
+// must give exactly what converting the whole frame gives. With lossless
+// encoding, each frame of a sequence decodes to the same picture as a
+// one-frame video of it (converted whole).
+TEST_F(VideoFixture, ConvertingOnlyChangedPixelsEqualsConvertingWholeFrames) {
+    static const Head head = load_default_head();
+    RenderSettings rs;
+    rs.width = 320;
+    rs.height = 240;
+    OffscreenRenderer renderer(head, rs);
+    const auto traj = test_trajectory(5, 30.0);
+    VideoSettings vs;
+    vs.crf = 0;
+    std::vector<Image> rendered;
+    {
+        VideoWriter writer(dir / "sequence.mp4", 320, 240, traj.size(), nullptr, vs);
+        for (std::size_t k = 0; k < traj.size(); ++k) {
+            // Blink in frame 2 only: the eyes change, then change back.
+            rendered.push_back(renderer.render(pose_at(traj, k, k == 2 ? 1.0 : 0.0)));
+            writer.write(rendered.back());
+        }
+        writer.finish();
+    }
+    const DecodedVideo sequence = decode_video(dir / "sequence.mp4", true);
+    ASSERT_EQ(sequence.frames.size(), rendered.size());
+    for (std::size_t k = 0; k < rendered.size(); ++k) {
+        SCOPED_TRACE(k);
+        VideoWriter single(dir / "single.mp4", 320, 240, 1, nullptr, vs);
+        single.write(rendered[k]);
+        single.finish();
+        const DecodedVideo one = decode_video(dir / "single.mp4", true);
+        ASSERT_EQ(one.frames.size(), 1u);
+        EXPECT_EQ(one.frames[0].rgb, sequence.frames[k].rgb);
+    }
 }
 
 TEST(Blinks, SeededAndWithinRange) {
