@@ -12,6 +12,7 @@
 //       --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
 #include <filesystem>
 
 #include "avsi/core/rng.h"
@@ -93,6 +94,23 @@ void CohenMassaroDefaultFile60s60fps(benchmark::State& state) {
     }
 }
 BENCHMARK(CohenMassaroDefaultFile60s60fps)->Unit(benchmark::kMillisecond);
+
+// Any Cohen-Massaro model file named by AVSI_BENCH_CM_MODEL (for comparing
+// trained candidates, synth/README.md); skipped when unset.
+void CohenMassaroEnvFile60s60fps(benchmark::State& state) {
+    const char* path = std::getenv("AVSI_BENCH_CM_MODEL");
+    if (!path || !*path) {
+        state.SkipWithError("set AVSI_BENCH_CM_MODEL to a model file");
+        return;
+    }
+    const auto model = avsi::synth::load_model(path);
+    const auto phones = random_utterance(60.0, 1);
+    for (auto _ : state) {
+        auto z = model->synthesize(phones, 60.0);
+        benchmark::DoNotOptimize(z.frames.data());
+    }
+}
+BENCHMARK(CohenMassaroEnvFile60s60fps)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

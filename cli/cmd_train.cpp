@@ -35,6 +35,12 @@ const bool registered_train = register_command({
         sub.add_option("--min-rate", s->training.min_rate_per_s,
                        "Cohen-Massaro, MPEG-4 CM: lower bound on the dominance rates theta, phi (s^-c)")
             ->capture_default_str();
+        sub.add_option("--min-c", s->training.min_c,
+                       "Cohen-Massaro: lower bound on the dominance exponent c (per phone)")
+            ->capture_default_str();
+        sub.add_option("--max-c", s->training.max_c,
+                       "Cohen-Massaro: upper bound on c; equal to --min-c fixes c (one training stage)")
+            ->capture_default_str();
         // ANN models (--model ann | ann1 | ann2; synth/ann_training.h).
         auto ann = std::make_shared<synth::AnnCommandSettings>();
         auto ann_ahead = std::make_shared<int>(0), ann_back = std::make_shared<int>(0);

@@ -37,6 +37,24 @@ namespace {
     }
 }
 
+[[maybe_unused]] void decay_sum_scalar(double* num, double* den, const double* decay, std::size_t rows,
+                                       std::size_t width, bool decay_first, double* acc_num, double* acc_den) {
+    for (std::size_t c = 0; c < width; ++c) acc_num[c] = acc_den[c] = 0.0;
+    for (std::size_t r = 0; r < rows; ++r) {
+        double* sn = num + r * width;
+        double* sd = den + r * width;
+        const double* d = decay + r * width;
+        for (std::size_t c = 0; c < width; ++c) {
+            if (decay_first) {
+                sn[c] *= d[c];
+                sd[c] *= d[c];
+            }
+            acc_num[c] += sn[c];
+            acc_den[c] += sd[c];
+        }
+    }
+}
+
 [[maybe_unused]] void exp_scalar(double* v, std::size_t len) {
     for (std::size_t f = 0; f < len; ++f) v[f] = std::exp(v[f]);
 }
@@ -64,6 +82,32 @@ void exp_sse2(double* v, std::size_t len) {
     std::size_t f = 0;
     for (; f + 2 <= len; f += 2) _mm_storeu_pd(v + f, _ZGVbN2v_exp(_mm_loadu_pd(v + f)));
     if (f < len) v[f] = std::exp(v[f]);
+}
+
+void decay_sum_sse2(double* num, double* den, const double* decay, std::size_t rows, std::size_t width,
+                    bool decay_first, double* acc_num, double* acc_den) {
+    if (width % 2 != 0) {
+        decay_sum_scalar(num, den, decay, rows, width, decay_first, acc_num, acc_den);
+        return;
+    }
+    for (std::size_t c = 0; c < width; c += 2) {
+        __m128d an = _mm_setzero_pd(), ad = _mm_setzero_pd();
+        for (std::size_t r = 0; r < rows; ++r) {
+            const std::size_t o = r * width + c;
+            __m128d sn = _mm_loadu_pd(num + o), sd = _mm_loadu_pd(den + o);
+            if (decay_first) {
+                const __m128d d = _mm_loadu_pd(decay + o);
+                sn = _mm_mul_pd(sn, d);
+                sd = _mm_mul_pd(sd, d);
+                _mm_storeu_pd(num + o, sn);
+                _mm_storeu_pd(den + o, sd);
+            }
+            an = _mm_add_pd(an, sn);
+            ad = _mm_add_pd(ad, sd);
+        }
+        _mm_storeu_pd(acc_num + c, an);
+        _mm_storeu_pd(acc_den + c, ad);
+    }
 }
 
 void accumulate_sse2(const double* u, std::size_t len, double rate, int count, const double* scale_num,
@@ -121,6 +165,32 @@ void exp_avx2(double* v, std::size_t len) {
     }
 }
 
+void decay_sum_avx2(double* num, double* den, const double* decay, std::size_t rows, std::size_t width,
+                    bool decay_first, double* acc_num, double* acc_den) {
+    if (width % 4 != 0) {
+        decay_sum_sse2(num, den, decay, rows, width, decay_first, acc_num, acc_den);
+        return;
+    }
+    for (std::size_t c = 0; c < width; c += 4) {
+        __m256d an = _mm256_setzero_pd(), ad = _mm256_setzero_pd();
+        for (std::size_t r = 0; r < rows; ++r) {
+            const std::size_t o = r * width + c;
+            __m256d sn = _mm256_loadu_pd(num + o), sd = _mm256_loadu_pd(den + o);
+            if (decay_first) {
+                const __m256d d = _mm256_loadu_pd(decay + o);
+                sn = _mm256_mul_pd(sn, d);
+                sd = _mm256_mul_pd(sd, d);
+                _mm256_storeu_pd(num + o, sn);
+                _mm256_storeu_pd(den + o, sd);
+            }
+            an = _mm256_add_pd(an, sn);
+            ad = _mm256_add_pd(ad, sd);
+        }
+        _mm256_storeu_pd(acc_num + c, an);
+        _mm256_storeu_pd(acc_den + c, ad);
+    }
+}
+
 void accumulate_avx2(const double* u, std::size_t len, double rate, int count, const double* scale_num,
                      const double* scale_den, double* const* num, double* const* den) {
     const __m256d neg_rate = _mm256_set1_pd(-rate);
@@ -157,11 +227,13 @@ using PowerFn = void (*)(double*, std::size_t, double);
 using ExpFn = void (*)(double*, std::size_t);
 using AccumulateFn = void (*)(const double*, std::size_t, double, int, const double*, const double*, double* const*,
                               double* const*);
+using DecaySumFn = void (*)(double*, double*, const double*, std::size_t, std::size_t, bool, double*, double*);
 
 struct Kernels {
     PowerFn power;
     ExpFn exp;
     AccumulateFn accumulate;
+    DecaySumFn decay_sum;
     const char* isa;
 };
 
@@ -169,15 +241,15 @@ struct Kernels {
 // each against the full sum and for timing them).
 Kernels choose() {
     const char* forced = std::getenv("AVSI_CM_KERNEL");
-    if (forced && std::strcmp(forced, "scalar") == 0) return {power_scalar, exp_scalar, accumulate_scalar, "scalar"};
+    if (forced && std::strcmp(forced, "scalar") == 0) return {power_scalar, exp_scalar, accumulate_scalar, decay_sum_scalar, "scalar"};
 #ifdef AVSI_CM_LIBMVEC
     __builtin_cpu_init();
     const bool narrow = forced && std::strcmp(forced, "sse2") == 0;
     if (!narrow && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
-        return {power_avx2, exp_avx2, accumulate_avx2, "avx2"};
-    return {power_sse2, exp_sse2, accumulate_sse2, "sse2"};
+        return {power_avx2, exp_avx2, accumulate_avx2, decay_sum_avx2, "avx2"};
+    return {power_sse2, exp_sse2, accumulate_sse2, decay_sum_sse2, "sse2"};
 #else
-    return {power_scalar, exp_scalar, accumulate_scalar, "scalar"};
+    return {power_scalar, exp_scalar, accumulate_scalar, decay_sum_scalar, "scalar"};
 #endif
 }
 
@@ -195,6 +267,11 @@ void cm_exp(double* v, std::size_t len) { kernels().exp(v, len); }
 void cm_accumulate(const double* u, std::size_t len, double rate, int count, const double* scale_num,
                    const double* scale_den, double* const* num, double* const* den) {
     kernels().accumulate(u, len, rate, count, scale_num, scale_den, num, den);
+}
+
+void cm_decay_sum(double* num, double* den, const double* decay, std::size_t rows, std::size_t width,
+                  bool decay_first, double* acc_num, double* acc_den) {
+    kernels().decay_sum(num, den, decay, rows, width, decay_first, acc_num, acc_den);
 }
 
 const char* cm_kernel_isa() { return kernels().isa; }

@@ -23,6 +23,13 @@ void cm_accumulate(const double* u, std::size_t len, double rate, int count, con
 // v[f] = exp(v[f]) for every f < len.
 void cm_exp(double* v, std::size_t len);
 
+// The per-frame step of the c = 1 recursions (cohen_massaro.cpp): states
+// num, den of `rows` rows × `width` columns (row-major), decay likewise.
+// If decay_first, num and den are multiplied elementwise by decay; then
+// acc_num[c] = Σ_r num[r·width + c] and acc_den[c] likewise (c < width).
+void cm_decay_sum(double* num, double* den, const double* decay, std::size_t rows, std::size_t width,
+                  bool decay_first, double* acc_num, double* acc_den);
+
 // The instruction set the kernels run with: "avx2", "sse2" or "scalar".
 const char* cm_kernel_isa();
 

@@ -554,8 +554,13 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
     std::array<std::vector<double>, param_count> x;
     std::atomic<int> total{0};
     const double min_rate = settings.min_rate_per_s;
-    auto bound = [min_rate](std::size_t q, bool fix_c) {
-        return [q, fix_c, min_rate](ceres::Problem& problem, int, double* b) {
+    const double min_c = settings.min_c, max_c = settings.max_c;
+    if (!(min_c > 0.0 && min_c <= max_c && max_c <= 10.0))
+        throw InputError("", 0, 0, "--c-range",
+                         fmt::format("expected 0 < min c <= max c <= 10, got [{}, {}]", min_c, max_c));
+    const bool fixed_c = min_c == max_c;
+    auto bound = [min_rate, min_c, max_c](std::size_t q, bool fix_c) {
+        return [q, fix_c, min_rate, min_c, max_c](ceres::Problem& problem, int, double* b) {
             const ParamInfo& info = params()[q];
             problem.SetParameterLowerBound(b, 0, info.min);
             problem.SetParameterUpperBound(b, 0, info.max);
@@ -568,13 +573,16 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
             if (fix_c) {
                 problem.SetManifold(b, new ceres::SubsetManifold(5, {4}));
             } else {
-                problem.SetParameterLowerBound(b, 4, 0.5);
-                problem.SetParameterUpperBound(b, 4, 2.5);
+                problem.SetParameterLowerBound(b, 4, min_c);
+                problem.SetParameterUpperBound(b, 4, max_c);
             }
         };
     };
-    // Stage 1: all five free per parameter.
-    parallel_params(p, threads, [&](std::size_t q) {
+    // Start values: the mean target over each key's frames, α = 1, rates
+    // max(20, floor), c = 1 clamped into its range.
+    const double start_c = std::clamp(1.0, min_c, max_c);
+    for (std::size_t q = 0; q < param_count; ++q) {
+        if (!p.present[q]) continue;
         const ParamInfo& info = params()[q];
         const std::vector<double> mean = mean_target_per_key(p, q, info.neutral);
         x[q].assign(5 * p.keys.size(), 0.0);
@@ -582,14 +590,18 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
             const CohenMassaroParams& e = table.at(p.keys[k]).params[q];
             const double target = p.key_trained[k] ? mean[k] : e.target;
             const double rate = std::max(20.0, settings.min_rate_per_s);
-            const double init_x[5] = {std::clamp(target, info.min, info.max), 1.0, rate, rate, 1.0};
+            const double init_x[5] = {std::clamp(target, info.min, info.max), 1.0, rate, rate, start_c};
             std::copy(init_x, init_x + 5, x[q].begin() + 5 * k);
         }
-        total += fit_keyed(p, q, cohen_massaro_keyed, 5, false, x[q], bound(q, false), settings);
-    });
+    }
+    // Stage 1 (c free): all five free per parameter.
+    if (!fixed_c)
+        parallel_params(p, threads, [&](std::size_t q) {
+            total += fit_keyed(p, q, cohen_massaro_keyed, 5, false, x[q], bound(q, false), settings);
+        });
     // One c per phone key: the median over the trained parameters.
-    std::vector<double> c(p.keys.size(), 1.0);
-    for (std::size_t k = 0; k < p.keys.size(); ++k) {
+    std::vector<double> c(p.keys.size(), start_c);
+    for (std::size_t k = 0; k < p.keys.size() && !fixed_c; ++k) {
         std::vector<double> cs;
         for (std::size_t q = 0; q < param_count; ++q)
             if (p.present[q]) cs.push_back(x[q][5 * k + 4]);
@@ -613,12 +625,15 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
         }
     }
     // Entries the corpus does not train keep the start model's values, their
-    // rates raised to the floor so the whole file obeys it.
-    for (auto& [key, entry] : table)
+    // rates raised to the floor and c clamped into its range so the whole
+    // file obeys the bounds.
+    for (auto& [key, entry] : table) {
+        entry.c = std::clamp(entry.c, min_c, max_c);
         for (auto& q : entry.params) {
             q.theta_per_s = std::max(q.theta_per_s, settings.min_rate_per_s);
             q.phi_per_s = std::max(q.phi_per_s, settings.min_rate_per_s);
         }
+    }
     iterations = total;
     return init;
 }
@@ -915,7 +930,11 @@ TrainingReport run_training(const TrainCommandSettings& s) {
         s.training.model, s.training.patience,
         parse_kind(s.training.model) == Kind::Ohman
             ? std::string()
-            : fmt::format("; dominance rates theta, phi >= {} s^-c", s.training.min_rate_per_s),
+            : fmt::format("; dominance rates theta, phi >= {} s^-c{}", s.training.min_rate_per_s,
+                          parse_kind(s.training.model) != Kind::CohenMassaro ? std::string()
+                          : s.training.min_c == s.training.max_c
+                              ? fmt::format("; exponent c = {}", s.training.min_c)
+                              : fmt::format("; exponent c in [{}, {}]", s.training.min_c, s.training.max_c)),
         report.iterations, report.seconds);
     if (auto* m = dynamic_cast<Mpeg4CohenMassaroModel*>(report.model.get())) {
         // The trained targets live in a viseme set beside the model file.

@@ -165,6 +165,68 @@ TEST(CohenMassaro, BoundedSumWithExtremeRatesStaysWithin1e9) {
     }
 }
 
+// Segments as a model makes them: per segment one of `keys` phone keys, each
+// key with its own c (c = 1 for the first `unit_keys` keys) and per parameter
+// T, α, θ, φ; rates drawn from [rate_lo, rate_hi]. Returns the utterance end.
+double keyed_segments_all(Rng& rng, std::size_t n, std::size_t keys, std::size_t unit_keys, double rate_lo,
+                          double rate_hi, std::array<std::vector<CmSegment>, param_count>& all) {
+    std::vector<std::array<CmSegment, param_count>> table(keys);
+    for (std::size_t k = 0; k < keys; ++k) {
+        const double c = k < unit_keys ? 1.0 : rng.uniform(0.5, 2.5);
+        for (auto& s : table[k])
+            s = {0.0, rng.uniform(-1.0, 1.0), rng.uniform(0.02, 3.0), rng.uniform(rate_lo, rate_hi),
+                 rng.uniform(rate_lo, rate_hi), c};
+    }
+    double t = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double d = rng.uniform(0.03, 0.3);
+        const std::size_t k = rng.uniform_int(keys);
+        for (std::size_t p = 0; p < param_count; ++p) {
+            CmSegment s = table[k][p];
+            s.tau_s = t + d / 2;
+            all[p].push_back(s);
+        }
+        t += d;
+    }
+    return t;
+}
+
+TEST(CohenMassaro, UnitExponentRecursionsWithin1e9OfFullSum) {
+    // On uniform frames the c = 1 segments are summed whole by recursions
+    // (cohen_massaro.cpp), the others by the bound: all c = 1, a mix, slow
+    // rates with tails over the whole utterance, and fast rates whose sums
+    // decay into the subnormal range (flushed) within a few frames.
+    struct Case {
+        std::size_t keys, unit_keys;
+        double rate_lo, rate_hi, fps;
+    };
+    const Case cases[] = {{30, 30, 3.0, 60.0, 60.0},  {30, 15, 3.0, 60.0, 60.0},  {12, 12, 1.0, 5.0, 25.0},
+                          {40, 20, 1.0, 10.0, 90.0},   {20, 20, 2000.0, 6000.0, 60.0}, {20, 10, 500.0, 6000.0, 60.0},
+                          {5, 5, 20.0, 20.0, 60.0}};
+    std::uint64_t seed = 100;
+    for (const Case& c : cases) {
+        SCOPED_TRACE("keys " + std::to_string(c.keys) + ", c = 1 for " + std::to_string(c.unit_keys) + ", rates " +
+                     std::to_string(c.rate_lo) + ".." + std::to_string(c.rate_hi));
+        Rng rng(++seed);
+        std::array<std::vector<CmSegment>, param_count> all;
+        const double end_s = keyed_segments_all(rng, 150, c.keys, c.unit_keys, c.rate_lo, c.rate_hi, all);
+        std::vector<double> times(frame_count(end_s, c.fps));
+        for (std::size_t k = 0; k < times.size(); ++k) times[k] = double(k) / c.fps;
+        EXPECT_LE(worst_all_vs_full(all, times), 1e-9);
+        // One parameter alone (the single-parameter path).
+        std::vector<double> full(times.size()), bounded(times.size());
+        cohen_massaro_full(all[4], times, full);
+        cohen_massaro_bounded(all[4], times, bounded);
+        double worst = 0.0;
+        for (std::size_t k = 0; k < times.size(); ++k) worst = std::max(worst, std::abs(full[k] - bounded[k]));
+        EXPECT_LE(worst, 1e-9);
+    }
+    // The flush-to-zero mode of the recursions is the caller's again after.
+    volatile double tiny = 1e-300;
+    const double subnormal = tiny * 1e-10;
+    EXPECT_GT(subnormal, 0.0);
+}
+
 TEST(Ohman, HandComputedPointsOfThreeSegments) {
     // AA [0, 0.2], P [0.2, 0.3], IY [0.3, 0.5]: centres 0.1, 0.25, 0.4.
     Frame aa{}, iy{};

@@ -28,6 +28,13 @@
 // parameters reach (vectorised: glibc's libmvec, AVX2 where the processor
 // has it, see synth/src/cm_kernel.h; for c = 1 on uniform frames by an exact
 // recurrence).
+// Segments with c = 1 on uniformly spaced frames need no bound at all: for
+// c = 1 a dominance factorises along time, so per parameter and distinct
+// rate the sum over all such segments obeys a first-order recursion
+// (A(t_f) = A(t_{f+1})·exp(−θ·h) + the segments passed), one multiply per
+// frame and rate however far the tails reach; that is the exact full sum up
+// to rounding (cohen_massaro.cpp, recursive_sums). It is used unless some
+// cell owner's dominance is below e^−600 (then the bounded path above).
 #pragma once
 
 #include <array>

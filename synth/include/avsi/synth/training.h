@@ -62,6 +62,11 @@ struct TrainingSettings {
     // 0.818 / 0.787) for floors 0.1 / 2 / 5 / 10 / 20: up to 10 the floor
     // costs no accuracy (the differences are the optimiser's), 20 does.
     double min_rate_per_s = 10.0;
+    // Range of the Cohen-Massaro dominance exponent c (per phone). When
+    // min_c == max_c, c is fixed at that value and training has one stage
+    // (T, α, θ, φ); otherwise two (see the file comment).
+    double min_c = 0.5;
+    double max_c = 2.5;
 };
 
 struct TrainingReport {
