@@ -80,18 +80,28 @@ void fxaa_region_to_rgb(const std::uint8_t* rgba, int width, int height, PixelRe
                        0.114f * float(rgba[4 * i + 2])) *
                       (1.0f / 255.0f);
     // Interior pixels (the one-pixel border is copied as is). Rows in the
-    // bottom-up source order; y + 1 is the row above.
+    // bottom-up source order; y + 1 is the row above. First, branch-free so
+    // the compiler vectorises it, which pixels are on an edge (local contrast
+    // at least max(contrast_min, l_max × contrast_rel)); then only those.
+    const std::size_t ex0 = std::max<std::size_t>(x0, 1), ex1 = std::min(x1, w - 1);
+    std::vector<std::uint8_t> edge(ex1 > ex0 ? ex1 - ex0 : 0);
     for (std::size_t y = std::max<std::size_t>(y0, 1); y < std::min(y1, h - 1); ++y) {
         const float* row = luma.data() + y * w;
         const float* below = row - w;
         const float* above = row + w;
         std::uint8_t* dst = rgb.data() + (h - 1 - y) * w * 3;
-        for (std::size_t x = std::max<std::size_t>(x0, 1); x < std::min(x1, w - 1); ++x) {
+        for (std::size_t x = ex0; x < ex1; ++x) {
+            const float l_m = row[x];
+            const float l_min = std::min(l_m, std::min(std::min(above[x - 1], above[x + 1]), std::min(below[x - 1], below[x + 1])));
+            const float l_max = std::max(l_m, std::max(std::max(above[x - 1], above[x + 1]), std::max(below[x - 1], below[x + 1])));
+            edge[x - ex0] = l_max - l_min >= std::max(contrast_min, l_max * contrast_rel);
+        }
+        for (std::size_t x = ex0; x < ex1; ++x) {
+            if (!edge[x - ex0]) continue;
             const float l_m = row[x];
             const float l_sw = below[x - 1], l_se = below[x + 1], l_nw = above[x - 1], l_ne = above[x + 1];
             const float l_min = std::min(l_m, std::min(std::min(l_nw, l_ne), std::min(l_sw, l_se)));
             const float l_max = std::max(l_m, std::max(std::max(l_nw, l_ne), std::max(l_sw, l_se)));
-            if (l_max - l_min < std::max(contrast_min, l_max * contrast_rel)) continue;
             // Along the edge: perpendicular to the luma gradient (∂L/∂x, ∂L/∂y).
             float dx = (l_nw + l_ne) - (l_sw + l_se);   // ∝ ∂L/∂y
             float dy = (l_nw + l_sw) - (l_ne + l_se);   // ∝ −∂L/∂x
