@@ -132,7 +132,7 @@ private:
 }  // namespace
 
 void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const double> times_s,
-                            std::vector<double>& z, CmPartials* partials) {
+                            std::vector<double>& z, CmPartials* partials, bool need_dc) {
     CmFrameSum frame_sum(segments);
     z.assign(times_s.size(), 0.0);
     if (partials) {
@@ -142,7 +142,7 @@ void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const
     }
     std::vector<double> ratio;
     for (std::size_t k = 0; k < times_s.size(); ++k) {
-        const double m = frame_sum.collect(times_s[k], partials != nullptr);
+        const double m = frame_sum.collect(times_s[k], partials != nullptr && need_dc);
         std::vector<CmTerm>& terms = frame_sum.terms();
         double sum = 0.0, num = 0.0;
         ratio.resize(terms.size());
@@ -167,7 +167,7 @@ void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const
             d[1] = g / s.alpha;                          // eq. 11
             d[2] = term.before ? -term.xc * g : 0.0;     // eq. 12
             d[3] = term.before ? 0.0 : -term.xc * g;     // eq. 13
-            d[4] = term.x > 0 ? -rate * term.xc * term.log_x * g : 0.0;  // eq. 14 (with its sign)
+            d[4] = need_dc && term.x > 0 ? -rate * term.xc * term.log_x * g : 0.0;  // eq. 14 (with its sign)
             const double dxc = term.x > 0 ? s.c * term.xc / term.x : 0.0;  // d(x^c)/dx
             d[5] = (term.before ? -rate * dxc : rate * dxc) * g;          // ∂/∂τ
             partials->segment.push_back(term.i);
@@ -177,8 +177,10 @@ void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const
     }
 }
 
-void cohen_massaro_keyed(const KeyedUtterance& u, std::span<const double> x, std::vector<double>& z,
-                         std::vector<double>* jacobian) {
+namespace {
+
+void cohen_massaro_keyed_impl(const KeyedUtterance& u, std::span<const double> x, std::vector<double>& z,
+                              std::vector<double>* jacobian, bool need_dc) {
     std::vector<CmSegment> segs(u.centres_s.size());
     for (std::size_t i = 0; i < segs.size(); ++i) {
         const double* q = x.data() + 5 * static_cast<std::size_t>(u.key[i]);
@@ -189,7 +191,7 @@ void cohen_massaro_keyed(const KeyedUtterance& u, std::span<const double> x, std
         return;
     }
     CmPartials dz;
-    cohen_massaro_partials(segs, u.times_s, z, &dz);
+    cohen_massaro_partials(segs, u.times_s, z, &dz, need_dc);
     const std::size_t cols = x.size();
     jacobian->assign(u.times_s.size() * cols, 0.0);
     for (std::size_t k = 0; k < u.times_s.size(); ++k)
@@ -197,6 +199,19 @@ void cohen_massaro_keyed(const KeyedUtterance& u, std::span<const double> x, std
             double* row = jacobian->data() + k * cols + 5 * static_cast<std::size_t>(u.key[dz.segment[e]]);
             for (int j = 0; j < 5; ++j) row[j] += dz.d[e][j];  // summed per phone class
         }
+}
+
+// The same with c held fixed: no ∂z/∂c (column 4 stays 0), so no ln|τ − t|.
+void cohen_massaro_keyed_fixed_c(const KeyedUtterance& u, std::span<const double> x, std::vector<double>& z,
+                                 std::vector<double>* jacobian) {
+    cohen_massaro_keyed_impl(u, x, z, jacobian, false);
+}
+
+}  // namespace
+
+void cohen_massaro_keyed(const KeyedUtterance& u, std::span<const double> x, std::vector<double>& z,
+                         std::vector<double>* jacobian) {
+    cohen_massaro_keyed_impl(u, x, z, jacobian, true);
 }
 
 namespace {
@@ -360,19 +375,23 @@ using KeyedFunction = void (*)(const KeyedUtterance&, std::span<const double>, s
                                std::vector<double>*);
 
 // Residuals z − y of one series; parameter blocks are the keys the utterance
-// uses (each of `stride` values, or 1 for Öhman anchors).
+// uses, each the first `free` of the key's `stride` values (1 for Öhman
+// anchors); the rest are held at their values in `x` when the cost is made.
 class KeyedCost : public ceres::CostFunction {
 public:
-    KeyedCost(const Series& s, KeyedFunction f, int stride, const std::vector<bool>& key_is_anchor, bool ohman)
+    KeyedCost(const Series& s, KeyedFunction f, int stride, int free, const std::vector<bool>& key_is_anchor,
+              bool ohman, const std::vector<double>& x)
         : m_series(s), m_f(f), m_stride(stride) {
         std::map<int, int> local;
         for (int key : s.u.key)
             if (local.try_emplace(key, static_cast<int>(m_keys.size())).second) m_keys.push_back(key);
         for (int& key : m_series.u.key) key = local[key];
         for (int key : m_keys) {
-            const int size = ohman && key_is_anchor[static_cast<std::size_t>(key)] ? 1 : stride;
+            const int size = ohman && key_is_anchor[static_cast<std::size_t>(key)] ? 1 : free;
             m_sizes.push_back(size);
             mutable_parameter_block_sizes()->push_back(size);
+            for (int j = 0; j < stride; ++j)
+                m_held.push_back(j < size ? 0.0 : x[static_cast<std::size_t>(key * stride + j)]);
         }
         set_num_residuals(static_cast<int>(s.y.size()));
     }
@@ -381,7 +400,7 @@ public:
 
     bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
         const std::size_t cols = m_keys.size() * static_cast<std::size_t>(m_stride);
-        std::vector<double> x(cols, 0.0), z, jac;
+        std::vector<double> x(m_held), z, jac;
         for (std::size_t b = 0; b < m_keys.size(); ++b)
             for (int j = 0; j < m_sizes[b]; ++j) x[b * m_stride + j] = parameters[b][j];
         m_f(m_series.u, x, z, jacobians ? &jac : nullptr);
@@ -403,6 +422,7 @@ private:
     int m_stride;
     std::vector<int> m_keys;
     std::vector<int> m_sizes;
+    std::vector<double> m_held;  // per local key `stride` values; the held ones
 };
 
 // Held-out error after every iteration; stops when it has not fallen for
@@ -469,15 +489,15 @@ double series_sse(const std::vector<Series>& set, KeyedFunction f, std::span<con
 }
 
 // Fits one parameter's phone-keyed problem in place (x: stride values per key).
-int fit_keyed(const Prepared& p, std::size_t q, KeyedFunction f, int stride, bool ohman, std::vector<double>& x,
-              const std::function<void(ceres::Problem&, int key, double* block)>& bound,
+int fit_keyed(const Prepared& p, std::size_t q, KeyedFunction f, int stride, int free, bool ohman,
+              std::vector<double>& x, const std::function<void(ceres::Problem&, int key, double* block)>& bound,
               const TrainingSettings& settings) {
     ceres::Problem::Options po;
     po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     ceres::Problem problem(po);
     std::vector<bool> added(p.keys.size(), false);
     for (const auto& s : p.train[q]) {
-        auto* cost = new KeyedCost(s, f, stride, p.key_is_anchor, ohman);
+        auto* cost = new KeyedCost(s, f, stride, free, p.key_is_anchor, ohman, x);
         std::vector<double*> blocks;
         for (int key : cost->keys()) blocks.push_back(x.data() + stride * key);
         problem.AddResidualBlock(cost, nullptr, blocks);
@@ -570,9 +590,7 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
                 problem.SetParameterLowerBound(b, j, min_rate);
                 problem.SetParameterUpperBound(b, j, 1e4);
             }
-            if (fix_c) {
-                problem.SetManifold(b, new ceres::SubsetManifold(5, {4}));
-            } else {
+            if (!fix_c) {  // (fixed: c is not part of the block)
                 problem.SetParameterLowerBound(b, 4, min_c);
                 problem.SetParameterUpperBound(b, 4, max_c);
             }
@@ -597,7 +615,7 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
     // Stage 1 (c free): all five free per parameter.
     if (!fixed_c)
         parallel_params(p, threads, [&](std::size_t q) {
-            total += fit_keyed(p, q, cohen_massaro_keyed, 5, false, x[q], bound(q, false), settings);
+            total += fit_keyed(p, q, cohen_massaro_keyed, 5, 5, false, x[q], bound(q, false), settings);
         });
     // One c per phone key: the median over the trained parameters.
     std::vector<double> c(p.keys.size(), start_c);
@@ -612,7 +630,7 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
     // Stage 2: T, α, θ, φ again with the shared c fixed.
     parallel_params(p, threads, [&](std::size_t q) {
         for (std::size_t k = 0; k < p.keys.size(); ++k) x[q][5 * k + 4] = c[k];
-        total += fit_keyed(p, q, cohen_massaro_keyed, 5, false, x[q], bound(q, true), settings);
+        total += fit_keyed(p, q, cohen_massaro_keyed_fixed_c, 5, 4, false, x[q], bound(q, true), settings);
     });
     for (std::size_t k = 0; k < p.keys.size(); ++k) {
         if (!p.key_trained[k]) continue;
@@ -679,7 +697,7 @@ std::unique_ptr<ControlModel> train_ohman(std::unique_ptr<ControlModel> init, co
                 problem.SetParameterUpperBound(b, 1, 1.0);
             }
         };
-        total += fit_keyed(p, q, ohman_keyed, 2, true, x[q], bound, settings);
+        total += fit_keyed(p, q, ohman_keyed, 2, 2, true, x[q], bound, settings);
     });
     for (std::size_t k = 0; k < p.keys.size(); ++k) {
         if (!p.key_trained[k]) continue;

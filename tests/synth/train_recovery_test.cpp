@@ -21,12 +21,14 @@ namespace {
 constexpr double noise_fraction = 0.005;  // noise sd as a fraction of each range
 const std::array<Param, 2> trained = {Param::JawRotation, Param::LipRounding};
 
-CohenMassaroModel::Table truth() {
+// The known parameter set; unit_c: every c = 1 (as the default training
+// keeps it), else per-phone exponents 0.8–1.4.
+CohenMassaroModel::Table truth(bool unit_c = false) {
     CohenMassaroModel::Table t;
     auto entry = [&](const std::string& key, double c, double jaw, double round, double alpha, double theta,
                      double phi) {
         CohenMassaroPhone e;
-        e.c = c;
+        e.c = unit_c ? 1.0 : c;
         for (auto& q : e.params) q = {0.0, 1.0, 20.0, 20.0};
         e.params[index(Param::JawRotation)] = {jaw, alpha, theta, phi};
         e.params[index(Param::LipRounding)] = {round, alpha * 0.8, theta * 1.2, phi};
@@ -80,19 +82,33 @@ std::vector<CorpusUtterance> generate(const ControlModel& model, std::size_t n, 
 
 }  // namespace
 
-TEST(TrainRecovery, CohenMassaroRecoversKnownTargets) {
+// unit_c: c = 1 data, default training (c fixed at 1, one stage); else
+// c ≠ 1 data and c trained in [0.5, 2.5] (two stages).
+class TrainRecoveryC : public testing::TestWithParam<bool> {};
+
+TEST_P(TrainRecoveryC, CohenMassaroRecoversKnownTargets) {
+    const bool unit_c = GetParam();
     Rng rng(2004);
-    CohenMassaroModel model(truth());
+    CohenMassaroModel model(truth(unit_c));
     model.tolerance = 0.0;
     const auto train = generate(model, 60, rng);
     const auto test = generate(model, 20, rng);
     TrainingSettings settings;
     settings.model = "cohen-massaro";
     settings.threads = 2;
+    if (!unit_c) {
+        settings.min_c = 0.5;
+        settings.max_c = 2.5;
+    }
     const TrainingReport report = train_model(settings, train, test);
     auto* trained_model = dynamic_cast<CohenMassaroModel*>(report.model.get());
     ASSERT_NE(trained_model, nullptr);
-    for (const auto& [key, entry] : truth())
+    for (const auto& [key, entry] : trained_model->phones())
+        if (truth(unit_c).count(key)) {
+            EXPECT_GE(entry.c, settings.min_c) << key;
+            EXPECT_LE(entry.c, settings.max_c) << key;
+        }
+    for (const auto& [key, entry] : truth(unit_c))
         for (Param p : trained) {
             SCOPED_TRACE(key + " " + std::string(param_info(p).name));
             const double got = trained_model->phones().at(key).params[index(p)].target;
@@ -103,6 +119,11 @@ TEST(TrainRecovery, CohenMassaroRecoversKnownTargets) {
     EXPECT_GT(report.test_pearson, 0.99);
     EXPECT_GT(report.iterations, 0);
 }
+
+INSTANTIATE_TEST_SUITE_P(TrainRecovery, TrainRecoveryC, testing::Bool(),
+                         [](const testing::TestParamInfo<bool>& info) {
+                             return info.param ? std::string("UnitC") : std::string("FreeC");
+                         });
 
 TEST(TrainRecovery, OhmanAndMpeg4TrainingLowerTheHeldOutError) {
     Rng rng(7);
