@@ -4,12 +4,13 @@
 // commit af04861, frozen here so the figure does not move with retraining;
 // c = 1),
 // with per-phone exponents c != 1, with c != 1 and a different θ and φ
-// for every phone and parameter, and with the current trained default model
-// file (rates down to the training floor of 10 s^−c, exponents down to 0.5:
-// far-reaching tails, ten rates per segment). AVSI_CM_KERNEL=sse2 times the
-// kernels without AVX2. Run:
-//   taskset -c 1 build-syn/bench/bench_synth --benchmark_filter=CohenMassaro
-//       --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
+// for every phone and parameter, with the current trained default model
+// file (c = 1, rates down to the training floor of 10 s^−c: far-reaching
+// tails, summed by the c = 1 recursions), and with any model file named by
+// AVSI_BENCH_CM_MODEL. AVSI_CM_KERNEL=sse2 times the kernels without AVX2.
+// Run:
+//   taskset -c 0 build-syn/bench/bench_synth --benchmark_filter=CohenMassaro
+//       --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
