@@ -137,7 +137,9 @@ struct HeadDrawer::Impl {
     // (each part in mesh order); its triangle → group table for region renders.
     GLuint ebo_split = 0, group_buffer_split = 0, group_texture_split = 0;
     GLsizei static_index_count = 0;
+    GLsizei blink_index_count = 0;  // the blink-only clusters' triangles, after the static ones
     std::vector<std::vector<std::uint32_t>> moving_clusters;
+    std::vector<bool> blink_only_clusters;
     GLuint group_buffer = 0, group_texture = 0;
     GLsizei index_count = 0;
     std::size_t vertex_count = 0;
@@ -272,27 +274,21 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
     // triangles has a moving vertex; a triangle's pixels change when one of its
     // vertices moves or changes normal.
     const std::size_t triangle_count = mesh.indices.size() / 3;
+    // moves: bit 1 = moved by a speech parameter, bit 2 = moved by the blink.
     std::vector<char> moves(d.vertex_count, 0), reshaded(d.vertex_count, 0), moving_triangle(triangle_count, 0);
-    for (const auto& t : head.transforms)
+    for (const auto& t : head.transforms) {
+        const char bit = static_cast<std::size_t>(t.channel_index) < synth::param_count ? 1 : 2;
         for (std::size_t k = 0; k < t.vertices.size(); ++k)
-            if (t.weights[k] != 0.0f) moves[t.vertices[k]] = 1;
+            if (t.weights[k] != 0.0f) moves[t.vertices[k]] |= bit;
+    }
     for (std::size_t t = 0; t < triangle_count; ++t) {
         const std::uint32_t* v = &mesh.indices[3 * t];
         if (moves[v[0]] || moves[v[1]] || moves[v[2]]) reshaded[v[0]] = reshaded[v[1]] = reshaded[v[2]] = 1;
     }
-    std::vector<std::uint32_t> split;
-    split.reserve(mesh.indices.size());
-    std::vector<std::uint8_t> split_groups;
-    split_groups.reserve(triangle_count);
-    for (int pass = 0; pass < 2; ++pass)
-        for (std::size_t t = 0; t < triangle_count; ++t) {
-            const std::uint32_t* v = &mesh.indices[3 * t];
-            moving_triangle[t] = (reshaded[v[0]] || reshaded[v[1]] || reshaded[v[2]]) ? 1 : 0;
-            if (moving_triangle[t] != pass) continue;
-            split.insert(split.end(), v, v + 3);
-            split_groups.push_back(groups[t]);
-        }
-    d.static_index_count = static_cast<GLsizei>(std::count(moving_triangle.begin(), moving_triangle.end(), 0) * 3);
+    for (std::size_t t = 0; t < triangle_count; ++t) {
+        const std::uint32_t* v = &mesh.indices[3 * t];
+        moving_triangle[t] = (reshaded[v[0]] || reshaded[v[1]] || reshaded[v[2]]) ? 1 : 0;
+    }
     // Clusters: connected components of the moving triangles (union-find over vertices).
     std::vector<std::uint32_t> parent(d.vertex_count);
     for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<std::uint32_t>(i);
@@ -309,15 +305,41 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
         parent[find(v[2])] = find(v[0]);
     }
     std::vector<int> cluster_of_root(d.vertex_count, -1);
+    std::vector<char> cluster_moves;  // the moves bits of each cluster's vertices
     for (std::size_t i = 0; i < d.vertex_count; ++i) {
         if (!in_moving[i]) continue;
         const std::uint32_t root = find(static_cast<std::uint32_t>(i));
         if (cluster_of_root[root] < 0) {
             cluster_of_root[root] = static_cast<int>(d.moving_clusters.size());
             d.moving_clusters.emplace_back();
+            cluster_moves.push_back(0);
         }
-        d.moving_clusters[static_cast<std::size_t>(cluster_of_root[root])].push_back(static_cast<std::uint32_t>(i));
+        const auto c = static_cast<std::size_t>(cluster_of_root[root]);
+        d.moving_clusters[c].push_back(static_cast<std::uint32_t>(i));
+        cluster_moves[c] = static_cast<char>(cluster_moves[c] | moves[i]);
     }
+    // A cluster moved by the blink alone (the eyelids) is at its rest pose in
+    // every frame without a blink: it can be cached with the static part.
+    d.blink_only_clusters.resize(d.moving_clusters.size());
+    for (std::size_t c = 0; c < d.moving_clusters.size(); ++c) d.blink_only_clusters[c] = cluster_moves[c] == 2;
+    // The split index buffer: static triangles, the blink-only clusters' ones,
+    // the other moving ones (each part in mesh order).
+    std::vector<std::uint32_t> split;
+    split.reserve(mesh.indices.size());
+    std::vector<std::uint8_t> split_groups;
+    split_groups.reserve(triangle_count);
+    for (int part = 0; part < 3; ++part)
+        for (std::size_t t = 0; t < triangle_count; ++t) {
+            const std::uint32_t* v = &mesh.indices[3 * t];
+            const int p = !moving_triangle[t]
+                              ? 0
+                              : d.blink_only_clusters[static_cast<std::size_t>(cluster_of_root[find(v[0])])] ? 1 : 2;
+            if (p != part) continue;
+            split.insert(split.end(), v, v + 3);
+            split_groups.push_back(groups[t]);
+            if (p == 0) d.static_index_count += 3;
+            if (p == 1) d.blink_index_count += 3;
+        }
 
     gl.glBindVertexArray(d.vao);
     gl.glGenBuffers(1, &d.ebo_split);
@@ -349,6 +371,10 @@ HeadDrawer::~HeadDrawer() {
 
 const std::vector<std::vector<std::uint32_t>>& HeadDrawer::moving_vertex_clusters() const {
     return m_impl->moving_clusters;
+}
+
+bool HeadDrawer::cluster_moves_only_with_blink(std::size_t cluster) const {
+    return m_impl->blink_only_clusters.at(cluster);
 }
 
 namespace {
@@ -418,14 +444,17 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
         // The background is given in sRGB; the framebuffer holds sRGB values.
         gl.glClearColor(settings.background[0], settings.background[1], settings.background[2], 1.0f);
     }
-    if (part != DrawPart::Moving) gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    const bool over = part == DrawPart::Moving || part == DrawPart::MovingButLids;
+    if (!over) gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     if (mode == RenderMode::Regions) {
         gl.glUseProgram(d.region_program);
         gl.glUniformMatrix4fv(d.u_region_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
         gl.glActiveTexture(GL_TEXTURE0);
         gl.glBindTexture(GL_TEXTURE_BUFFER, part == DrawPart::All ? d.group_texture : d.group_texture_split);
         gl.glUniform1i(d.u_groups, 0);
-        gl.glUniform1i(d.u_first_triangle, part == DrawPart::Moving ? d.static_index_count / 3 : 0);
+        gl.glUniform1i(d.u_first_triangle, part == DrawPart::Moving          ? d.static_index_count / 3
+                                            : part == DrawPart::MovingButLids ? (d.static_index_count + d.blink_index_count) / 3
+                                                                              : 0);
     } else {
         const auto& lit = d.lit[settings.per_pixel_lighting ? 1 : 0];
         gl.glUseProgram(lit.program);
@@ -441,17 +470,23 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
             gl.glDrawElements(GL_TRIANGLES, d.index_count, GL_UNSIGNED_INT, nullptr);
             break;
         case DrawPart::Static:
+        case DrawPart::StaticAndLids: {
+            const GLsizei count = d.static_index_count + (part == DrawPart::StaticAndLids ? d.blink_index_count : 0);
             gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo_split);
-            gl.glDrawElements(GL_TRIANGLES, d.static_index_count, GL_UNSIGNED_INT, nullptr);
+            gl.glDrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT, nullptr);
             gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
             break;
+        }
         case DrawPart::Moving:
+        case DrawPart::MovingButLids: {
+            const GLsizei first = d.static_index_count + (part == DrawPart::MovingButLids ? d.blink_index_count : 0);
             gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo_split);
-            if (d.index_count > d.static_index_count)
-                gl.glDrawElements(GL_TRIANGLES, d.index_count - d.static_index_count, GL_UNSIGNED_INT,
-                                  reinterpret_cast<const void*>(std::size_t(d.static_index_count) * sizeof(std::uint32_t)));
+            if (d.index_count > first)
+                gl.glDrawElements(GL_TRIANGLES, d.index_count - first, GL_UNSIGNED_INT,
+                                  reinterpret_cast<const void*>(std::size_t(first) * sizeof(std::uint32_t)));
             gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
             break;
+        }
     }
     gl.glBindVertexArray(0);
 }

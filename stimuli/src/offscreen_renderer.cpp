@@ -13,6 +13,10 @@
 // vertex clusters (widened by the FXAA reach); every other pixel is the
 // cached one. Depth testing makes the result the same as drawing everything,
 // except where a static and a moving triangle have exactly equal depth.
+// A second cache also holds the clusters only the blink moves (the eyelids)
+// at rest; frames without a blink (most) start from it and draw only the
+// other moving triangles. Switching between the two caches restores the
+// whole frame.
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
@@ -40,20 +44,23 @@ struct OffscreenRenderer::Impl {
     std::vector<std::uint8_t> rgba;
     std::vector<float> luma;  // FXAA scratch
     std::string renderer_name;
-    // The static-part cache.
-    GLuint cache_fbo = 0, cache_color = 0, cache_depth = 0;
-    bool cache_ready = false;
-    bool scene_from_cache = false;  // the scene holds the cache but for previous_rects
-    std::vector<std::uint8_t> static_rgba;  // the static part, read back
-    std::vector<std::uint8_t> static_rgb;   // … and anti-aliased
+    // The static-part caches: [0] the static part, [1] it and the eyelids at rest.
+    bool cached = false;
+    bool has_lids = false;  // the head has clusters only the blink moves
+    GLuint cache_fbo[2] = {0, 0}, cache_color[2] = {0, 0}, cache_depth[2] = {0, 0};
+    bool cache_ready[2] = {false, false};
+    int scene_base = -1;  // the cache the scene holds but for previous_rects; -1: none
+    std::vector<std::uint8_t> static_rgba[2];  // the cached part, read back
+    std::vector<std::uint8_t> static_rgb[2];   // … and anti-aliased
     std::vector<detail::PixelRect> previous_rects;  // where the last frame's moving triangles were read back
     glm::mat4 view_proj{1.0f};
 
     // The screen rectangles (bottom-up rows, clamped) of the moving vertex
-    // clusters, widened by `margin` pixels; overlapping rectangles are merged.
-    std::vector<detail::PixelRect> moving_rects(const PosedMesh& posed, int w, int h, int margin) const;
-    // Copies `r` from the cache into the scene framebuffer (colour and depth).
-    void restore(const detail::PixelRect& r);
+    // clusters (but the blink-only ones when `skip_lids`), widened by `margin`
+    // pixels; overlapping rectangles are merged.
+    std::vector<detail::PixelRect> moving_rects(const PosedMesh& posed, int w, int h, int margin, bool skip_lids) const;
+    // Copies `r` from cache `base` into the scene framebuffer (colour and depth).
+    void restore(const detail::PixelRect& r, int base);
 
 };
 
@@ -104,26 +111,34 @@ OffscreenRenderer::OffscreenRenderer(const Head& head, const RenderSettings& set
     d.rgba.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 4);
 
     if (settings.cache_static && settings.samples == 1) {
-        gl.glGenFramebuffers(1, &d.cache_fbo);
-        gl.glBindFramebuffer(GL_FRAMEBUFFER, d.cache_fbo);
-        gl.glGenRenderbuffers(1, &d.cache_color);
-        gl.glBindRenderbuffer(GL_RENDERBUFFER, d.cache_color);
-        gl.glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
-        gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, d.cache_color);
-        gl.glGenRenderbuffers(1, &d.cache_depth);
-        gl.glBindRenderbuffer(GL_RENDERBUFFER, d.cache_depth);
-        gl.glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
-        gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, d.cache_depth);
-        if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-            throw std::runtime_error("OpenGL: the cache framebuffer is incomplete");
+        d.cached = true;
+        for (std::size_t c = 0; c < d.drawer->moving_vertex_clusters().size(); ++c)
+            d.has_lids = d.has_lids || d.drawer->cluster_moves_only_with_blink(c);
+        for (int b = 0; b < (d.has_lids ? 2 : 1); ++b) {
+            gl.glGenFramebuffers(1, &d.cache_fbo[b]);
+            gl.glBindFramebuffer(GL_FRAMEBUFFER, d.cache_fbo[b]);
+            gl.glGenRenderbuffers(1, &d.cache_color[b]);
+            gl.glBindRenderbuffer(GL_RENDERBUFFER, d.cache_color[b]);
+            gl.glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+            gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, d.cache_color[b]);
+            gl.glGenRenderbuffers(1, &d.cache_depth[b]);
+            gl.glBindRenderbuffer(GL_RENDERBUFFER, d.cache_depth[b]);
+            gl.glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+            gl.glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, d.cache_depth[b]);
+            if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+                throw std::runtime_error("OpenGL: the cache framebuffer is incomplete");
+        }
         d.view_proj = d.drawer->view_projection(settings, w, h);
     }
 }
 
 std::vector<detail::PixelRect> OffscreenRenderer::Impl::moving_rects(const PosedMesh& posed, int w, int h,
-                                                                     int margin) const {
+                                                                     int margin, bool skip_lids) const {
     std::vector<detail::PixelRect> rects;
-    for (const auto& cluster : drawer->moving_vertex_clusters()) {
+    const auto& clusters = drawer->moving_vertex_clusters();
+    for (std::size_t c = 0; c < clusters.size(); ++c) {
+        if (skip_lids && drawer->cluster_moves_only_with_blink(c)) continue;
+        const auto& cluster = clusters[c];
         float x_min = 1e30f, y_min = 1e30f, x_max = -1e30f, y_max = -1e30f;
         bool behind = false;
         for (const std::uint32_t v : cluster) {
@@ -164,8 +179,8 @@ std::vector<detail::PixelRect> OffscreenRenderer::Impl::moving_rects(const Posed
     return rects;
 }
 
-void OffscreenRenderer::Impl::restore(const detail::PixelRect& r) {
-    gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, cache_fbo);
+void OffscreenRenderer::Impl::restore(const detail::PixelRect& r, int base) {
+    gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, cache_fbo[base]);
     gl.glBindFramebuffer(GL_DRAW_FRAMEBUFFER, scene_fbo);
     gl.glBlitFramebuffer(r.x0, r.y0, r.x1, r.y1, r.x0, r.y0, r.x1, r.y1, GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT,
                          GL_NEAREST);
@@ -176,10 +191,11 @@ OffscreenRenderer::~OffscreenRenderer() {
     d.context.make_current();
     d.drawer.reset();
     auto& gl = d.gl;
-    GLuint fbos[] = {d.msaa_fbo, d.scene_fbo, d.cache_fbo};
-    gl.glDeleteFramebuffers(3, fbos);
-    GLuint rbs[] = {d.msaa_color, d.msaa_depth, d.scene_color, d.scene_depth, d.cache_color, d.cache_depth};
-    gl.glDeleteRenderbuffers(6, rbs);
+    GLuint fbos[] = {d.msaa_fbo, d.scene_fbo, d.cache_fbo[0], d.cache_fbo[1]};
+    gl.glDeleteFramebuffers(4, fbos);
+    GLuint rbs[] = {d.msaa_color,     d.msaa_depth,     d.scene_color,    d.scene_depth,
+                    d.cache_color[0], d.cache_depth[0], d.cache_color[1], d.cache_depth[1]};
+    gl.glDeleteRenderbuffers(8, rbs);
 }
 
 std::string OffscreenRenderer::gl_renderer() const { return m_impl->renderer_name; }
@@ -190,11 +206,11 @@ void OffscreenRenderer::render(const Pose& pose, Image& out, RenderMode mode) {
     const int w = m_settings.width, h = m_settings.height;
     d.context.make_current();
     pose_head(m_head, pose, m_posed);
-    if (d.cache_fbo != 0 && mode == RenderMode::Shaded) {
-        render_cached(out);
+    if (d.cached && mode == RenderMode::Shaded) {
+        render_cached(out, d.has_lids && pose.blink == 0.0);  // pose_head leaves a zero channel at rest
         return;
     }
-    d.scene_from_cache = false;
+    d.scene_base = -1;
     // Regions are exact group indices: never multisampled or filtered.
     const bool msaa = d.msaa_fbo != 0 && mode == RenderMode::Shaded;
     gl.glBindFramebuffer(GL_FRAMEBUFFER, msaa ? d.msaa_fbo : d.scene_fbo);
@@ -215,41 +231,45 @@ void OffscreenRenderer::render(const Pose& pose, Image& out, RenderMode mode) {
     detail::fxaa_to_rgb(d.rgba.data(), w, h, m_settings.fxaa && mode == RenderMode::Shaded, d.luma, out.rgb);
 }
 
-void OffscreenRenderer::render_cached(Image& out) {
+void OffscreenRenderer::render_cached(Image& out, bool lids_at_rest) {
     auto& d = *m_impl;
     auto& gl = d.gl;
     const int w = m_settings.width, h = m_settings.height;
     const bool fxaa = m_settings.fxaa;
+    const int base = lids_at_rest ? 1 : 0;
     gl.glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    if (!d.cache_ready) {
-        // The static part, once: drawn, read back, anti-aliased, copied into the scene.
-        gl.glBindFramebuffer(GL_FRAMEBUFFER, d.cache_fbo);
-        d.drawer->draw(m_posed, m_settings, w, h, RenderMode::Shaded, DrawPart::Static);
-        gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, d.cache_fbo);
-        d.static_rgba.resize(d.rgba.size());
-        gl.glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, d.static_rgba.data());
-        detail::fxaa_to_rgb(d.static_rgba.data(), w, h, fxaa, d.luma, d.static_rgb);
-        d.cache_ready = true;
+    if (!d.cache_ready[base]) {
+        // The cached part, once: drawn, read back, anti-aliased.
+        gl.glBindFramebuffer(GL_FRAMEBUFFER, d.cache_fbo[base]);
+        d.drawer->draw(m_posed, m_settings, w, h, RenderMode::Shaded,
+                       lids_at_rest ? DrawPart::StaticAndLids : DrawPart::Static);
+        gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, d.cache_fbo[base]);
+        d.static_rgba[base].resize(d.rgba.size());
+        gl.glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, d.static_rgba[base].data());
+        detail::fxaa_to_rgb(d.static_rgba[base].data(), w, h, fxaa, d.luma, d.static_rgb[base]);
+        d.cache_ready[base] = true;
     }
-    if (!d.scene_from_cache) {
-        // The first frame, or one after an uncached render (regions) used the scene.
-        d.restore({0, 0, w, h});
-        d.rgba = d.static_rgba;
+    if (d.scene_base != base) {
+        // The first frame, one after an uncached render (regions) used the
+        // scene, or a switch between the caches (a blink starts or ends).
+        d.restore({0, 0, w, h}, base);
+        d.rgba = d.static_rgba[base];
         d.previous_rects.clear();
-        d.scene_from_cache = true;
+        d.scene_base = base;
     } else {
         // Undo the previous frame's moving triangles.
         for (const auto& r : d.previous_rects) {
-            d.restore(r);
+            d.restore(r, base);
             for (int y = r.y0; y < r.y1; ++y) {
                 const std::size_t at = 4 * (std::size_t(y) * std::size_t(w) + std::size_t(r.x0));
-                std::memcpy(d.rgba.data() + at, d.static_rgba.data() + at, 4 * std::size_t(r.x1 - r.x0));
+                std::memcpy(d.rgba.data() + at, d.static_rgba[base].data() + at, 4 * std::size_t(r.x1 - r.x0));
             }
         }
     }
     gl.glBindFramebuffer(GL_FRAMEBUFFER, d.scene_fbo);
-    d.drawer->draw(m_posed, m_settings, w, h, RenderMode::Shaded, DrawPart::Moving);
-    d.previous_rects = d.moving_rects(m_posed, w, h, 1);
+    d.drawer->draw(m_posed, m_settings, w, h, RenderMode::Shaded,
+                   lids_at_rest ? DrawPart::MovingButLids : DrawPart::Moving);
+    d.previous_rects = d.moving_rects(m_posed, w, h, 1, lids_at_rest);
     gl.glBindFramebuffer(GL_READ_FRAMEBUFFER, d.scene_fbo);
     gl.glPixelStorei(GL_PACK_ROW_LENGTH, w);
     for (const auto& r : d.previous_rects) {
@@ -261,7 +281,7 @@ void OffscreenRenderer::render_cached(Image& out) {
     if (error != GL_NO_ERROR) throw std::runtime_error("OpenGL error " + std::to_string(error) + " while rendering");
     out.width = w;
     out.height = h;
-    out.rgb = d.static_rgb;
+    out.rgb = d.static_rgb[base];
     for (const auto& r : d.previous_rects) {
         const int reach = fxaa ? detail::fxaa_reach_px : 0;
         detail::fxaa_region_to_rgb(d.rgba.data(), w, h, {r.x0 - reach, r.y0 - reach, r.x1 + reach, r.y1 + reach},

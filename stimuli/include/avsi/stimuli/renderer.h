@@ -31,10 +31,15 @@ enum class RenderMode { Shaded, Regions };
 // vertices moves or has a normal that depends on a moving vertex. With a
 // fixed camera and lights the other, "static", triangles look the same in
 // every frame, so they can be drawn once and their colour and depth reused.
+// Moving triangles of a cluster that only the blink moves (the eyelids) are
+// at their rest pose in every frame without a blink, so they can be cached
+// too: StaticAndLids / MovingButLids split the head that way.
 enum class DrawPart {
-    All,     // clear, then every triangle (in mesh order)
-    Static,  // clear, then the static triangles only
-    Moving,  // no clear: the moving triangles over what the framebuffer holds
+    All,            // clear, then every triangle (in mesh order)
+    Static,         // clear, then the static triangles only
+    Moving,         // no clear: the moving triangles over what the framebuffer holds
+    StaticAndLids,  // clear, then the static triangles and the blink-only clusters' (right when blink = 0)
+    MovingButLids,  // no clear: the moving triangles but the blink-only clusters'
 };
 
 struct RenderSettings {
@@ -98,6 +103,8 @@ public:
     // The vertices of the moving triangles, in clusters that move together
     // (one per connected set of rig channels: the mouth and jaw, each eye's lids).
     const std::vector<std::vector<std::uint32_t>>& moving_vertex_clusters() const;
+    // Whether only the blink moves that cluster (its triangles are in StaticAndLids).
+    bool cluster_moves_only_with_blink(std::size_t cluster) const;
 
 private:
     struct Impl;
@@ -124,7 +131,7 @@ public:
     std::string gl_renderer() const;
 
 private:
-    void render_cached(Image& out);
+    void render_cached(Image& out, bool lids_at_rest);
 
     struct Impl;
     const Head& m_head;
