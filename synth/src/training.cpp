@@ -131,18 +131,19 @@ private:
 
 }  // namespace
 
-void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const double> times_s,
-                            std::vector<double>& z, CmPartials* partials, bool need_dc) {
+namespace {
+
+// Eq. 8 at each time and, when `partials` (then need_dc says whether ∂/∂c is
+// wanted), each contributing segment's partials of eq. 9–14 handed to
+// visit(k, segment, d) in segment-walk order; begin_row(k) before a row's.
+template <class Visit>
+void cm_partials_visit(std::span<const CmSegment> segments, std::span<const double> times_s,
+                       std::vector<double>& z, bool partials, bool need_dc, const Visit& visit) {
     CmFrameSum frame_sum(segments);
     z.assign(times_s.size(), 0.0);
-    if (partials) {
-        partials->row_start.assign(1, 0);
-        partials->segment.clear();
-        partials->d.clear();
-    }
     std::vector<double> ratio;
     for (std::size_t k = 0; k < times_s.size(); ++k) {
-        const double m = frame_sum.collect(times_s[k], partials != nullptr && need_dc);
+        const double m = frame_sum.collect(times_s[k], partials && need_dc);
         std::vector<CmTerm>& terms = frame_sum.terms();
         double sum = 0.0, num = 0.0;
         ratio.resize(terms.size());
@@ -170,11 +171,30 @@ void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const
             d[4] = need_dc && term.x > 0 ? -rate * term.xc * term.log_x * g : 0.0;  // eq. 14 (with its sign)
             const double dxc = term.x > 0 ? s.c * term.xc / term.x : 0.0;  // d(x^c)/dx
             d[5] = (term.before ? -rate * dxc : rate * dxc) * g;          // ∂/∂τ
-            partials->segment.push_back(term.i);
-            partials->d.push_back(d);
+            visit(k, term.i, d);
         }
-        partials->row_start.push_back(partials->segment.size());
     }
+}
+
+}  // namespace
+
+void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const double> times_s,
+                            std::vector<double>& z, CmPartials* partials, bool need_dc) {
+    if (!partials) {
+        cm_partials_visit(segments, times_s, z, false, need_dc, [](std::size_t, std::uint32_t, const auto&) {});
+        return;
+    }
+    partials->row_start.assign(1, 0);
+    partials->segment.clear();
+    partials->d.clear();
+    std::size_t row = 0;
+    cm_partials_visit(segments, times_s, z, true, need_dc,
+                      [&](std::size_t k, std::uint32_t i, const std::array<double, 6>& d) {
+                          for (; row < k; ++row) partials->row_start.push_back(partials->segment.size());
+                          partials->segment.push_back(i);
+                          partials->d.push_back(d);
+                      });
+    for (; row < times_s.size(); ++row) partials->row_start.push_back(partials->segment.size());
 }
 
 namespace {
@@ -190,15 +210,13 @@ void cohen_massaro_keyed_impl(const KeyedUtterance& u, std::span<const double> x
         cohen_massaro_partials(segs, u.times_s, z, nullptr);
         return;
     }
-    CmPartials dz;
-    cohen_massaro_partials(segs, u.times_s, z, &dz, need_dc);
     const std::size_t cols = x.size();
     jacobian->assign(u.times_s.size() * cols, 0.0);
-    for (std::size_t k = 0; k < u.times_s.size(); ++k)
-        for (std::size_t e = dz.row_start[k]; e < dz.row_start[k + 1]; ++e) {
-            double* row = jacobian->data() + k * cols + 5 * static_cast<std::size_t>(u.key[dz.segment[e]]);
-            for (int j = 0; j < 5; ++j) row[j] += dz.d[e][j];  // summed per phone class
-        }
+    cm_partials_visit(segs, u.times_s, z, true, need_dc,
+                      [&](std::size_t k, std::uint32_t i, const std::array<double, 6>& d) {
+                          double* row = jacobian->data() + k * cols + 5 * static_cast<std::size_t>(u.key[i]);
+                          for (int j = 0; j < 5; ++j) row[j] += d[static_cast<std::size_t>(j)];  // per phone class
+                      });
 }
 
 // The same with c held fixed: no ∂z/∂c (column 4 stays 0), so no ln|τ − t|.
