@@ -241,7 +241,8 @@ struct Kernels {
 // each against the full sum and for timing them).
 Kernels choose() {
     const char* forced = std::getenv("AVSI_CM_KERNEL");
-    if (forced && std::strcmp(forced, "scalar") == 0) return {power_scalar, exp_scalar, accumulate_scalar, decay_sum_scalar, "scalar"};
+    if (forced && std::strcmp(forced, "scalar") == 0)
+        return {power_scalar, exp_scalar, accumulate_scalar, decay_sum_scalar, "scalar"};
 #ifdef AVSI_CM_LIBMVEC
     __builtin_cpu_init();
     const bool narrow = forced && std::strcmp(forced, "sse2") == 0;
