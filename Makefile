@@ -6,6 +6,16 @@ CMAKE_FLAGS ?=
 # Unity builds (AVSI_UNITY_BUILD in CMakeLists.txt) for a faster first build;
 # `make UNITY=OFF …` compiles file by file.
 UNITY ?= ON
+# Optimised without debug information (-O2 -DNDEBUG, the code RelWithDebInfo
+# makes, minus -g): a shorter first build and link. `make BUILD_TYPE=RelWithDebInfo …`
+# for a debuggable build.
+BUILD_TYPE ?= Release
+# Ninja for a new build folder when it is installed: it compiles the module
+# libraries' sources in parallel instead of library after library. An
+# existing folder keeps the generator it was configured with.
+GENERATOR ?= $(if $(wildcard $(BUILD_DIR)/CMakeCache.txt),,$(if $(shell command -v ninja),-G Ninja,))
+CONFIGURE = cmake -S . -B $(BUILD_DIR) $(GENERATOR) -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) \
+  -DCMAKE_CXX_FLAGS_RELEASE="-O2 -DNDEBUG" -DAVSI_UNITY_BUILD=$(UNITY) $(CMAKE_FLAGS)
 ifneq ($(CI),)
 CMAKE_FLAGS += -DAVSI_WERROR=ON
 endif
@@ -18,10 +28,10 @@ deps:
 	@scripts/install-deps
 
 $(BUILD_DIR)/CMakeCache.txt: | deps
-	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DAVSI_UNITY_BUILD=$(UNITY) $(CMAKE_FLAGS)
+	$(CONFIGURE)
 
 configure: deps
-	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DAVSI_UNITY_BUILD=$(UNITY) $(CMAKE_FLAGS)
+	$(CONFIGURE)
 
 build: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS)

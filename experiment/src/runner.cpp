@@ -204,6 +204,7 @@ struct Gl {
     void (*Clear)(GLbitfield) = nullptr;
     void (*ClearColor)(GLfloat, GLfloat, GLfloat, GLfloat) = nullptr;
     void (*DeleteTextures)(GLsizei, const GLuint*) = nullptr;
+    void (*Disable)(GLenum) = nullptr;
     void (*Finish)(void) = nullptr;
     void (*GenTextures)(GLsizei, GLuint*) = nullptr;
     void (*PixelStorei)(GLenum, GLint) = nullptr;
@@ -211,6 +212,7 @@ struct Gl {
     void (*ReadPixels)(GLint, GLint, GLsizei, GLsizei, GLenum, GLenum, void*) = nullptr;
     void (*TexImage2D)(GLenum, GLint, GLint, GLsizei, GLsizei, GLint, GLenum, GLenum, const void*) = nullptr;
     void (*TexParameteri)(GLenum, GLenum, GLint) = nullptr;
+    void (*TexSubImage2D)(GLenum, GLint, GLint, GLint, GLsizei, GLsizei, GLenum, GLenum, const void*) = nullptr;
     void (*Viewport)(GLint, GLint, GLsizei, GLsizei) = nullptr;
 
     void load() {
@@ -218,6 +220,7 @@ struct Gl {
         Clear = reinterpret_cast<decltype(Clear)>(glfwGetProcAddress("glClear"));
         ClearColor = reinterpret_cast<decltype(ClearColor)>(glfwGetProcAddress("glClearColor"));
         DeleteTextures = reinterpret_cast<decltype(DeleteTextures)>(glfwGetProcAddress("glDeleteTextures"));
+        Disable = reinterpret_cast<decltype(Disable)>(glfwGetProcAddress("glDisable"));
         Finish = reinterpret_cast<decltype(Finish)>(glfwGetProcAddress("glFinish"));
         GenTextures = reinterpret_cast<decltype(GenTextures)>(glfwGetProcAddress("glGenTextures"));
         PixelStorei = reinterpret_cast<decltype(PixelStorei)>(glfwGetProcAddress("glPixelStorei"));
@@ -225,8 +228,9 @@ struct Gl {
         ReadPixels = reinterpret_cast<decltype(ReadPixels)>(glfwGetProcAddress("glReadPixels"));
         TexImage2D = reinterpret_cast<decltype(TexImage2D)>(glfwGetProcAddress("glTexImage2D"));
         TexParameteri = reinterpret_cast<decltype(TexParameteri)>(glfwGetProcAddress("glTexParameteri"));
+        TexSubImage2D = reinterpret_cast<decltype(TexSubImage2D)>(glfwGetProcAddress("glTexSubImage2D"));
         Viewport = reinterpret_cast<decltype(Viewport)>(glfwGetProcAddress("glViewport"));
-        const void* all[] = {reinterpret_cast<const void*>(BindTexture), reinterpret_cast<const void*>(Clear), reinterpret_cast<const void*>(ClearColor), reinterpret_cast<const void*>(DeleteTextures), reinterpret_cast<const void*>(Finish), reinterpret_cast<const void*>(GenTextures), reinterpret_cast<const void*>(PixelStorei), reinterpret_cast<const void*>(ReadBuffer), reinterpret_cast<const void*>(ReadPixels), reinterpret_cast<const void*>(TexImage2D), reinterpret_cast<const void*>(TexParameteri), reinterpret_cast<const void*>(Viewport)};
+        const void* all[] = {reinterpret_cast<const void*>(BindTexture), reinterpret_cast<const void*>(Clear), reinterpret_cast<const void*>(ClearColor), reinterpret_cast<const void*>(DeleteTextures), reinterpret_cast<const void*>(Disable), reinterpret_cast<const void*>(Finish), reinterpret_cast<const void*>(GenTextures), reinterpret_cast<const void*>(PixelStorei), reinterpret_cast<const void*>(ReadBuffer), reinterpret_cast<const void*>(ReadPixels), reinterpret_cast<const void*>(TexImage2D), reinterpret_cast<const void*>(TexParameteri), reinterpret_cast<const void*>(TexSubImage2D), reinterpret_cast<const void*>(Viewport)};
         for (const void* fn : all)
             if (!fn) throw InputError("display", 0, 0, "", "the OpenGL context lacks a GL 1.1 function");
     }
@@ -300,12 +304,17 @@ public:
     GLFWwindow* handle() const { return m_window; }
     double refresh_hz() const { return m_refresh_hz; }
     GLuint texture() const { return m_texture; }
+    // Replaces the texture's pixels with the frame (reallocating only when the size changes).
     void upload(const VideoFrame& f) {
         gl.BindTexture(GL_TEXTURE_2D, m_texture);
         gl.PixelStorei(GL_UNPACK_ALIGNMENT, 1);
-        gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA, f.width, f.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, f.rgba.data());
-        m_texture_width = f.width;
-        m_texture_height = f.height;
+        if (f.width == m_texture_width && f.height == m_texture_height) {
+            gl.TexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, f.width, f.height, GL_RGBA, GL_UNSIGNED_BYTE, f.rgba.data());
+        } else {
+            gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA, f.width, f.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, f.rgba.data());
+            m_texture_width = f.width;
+            m_texture_height = f.height;
+        }
     }
     int texture_width() const { return m_texture_width; }
     int texture_height() const { return m_texture_height; }
@@ -322,6 +331,9 @@ public:
         auto out = OIIO::ImageOutput::create(path.string());
         if (!out) throw InputError(path, "cannot write a PNG here");
         OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+        // zlib level 1: a scripted run saves several screens per trial, and
+        // the flat UI images compress nearly as well as at the default 6.
+        spec.attribute("png:compressionLevel", 1);
         if (!out->open(path.string(), spec)) throw InputError(path, "cannot write: " + out->geterror());
         // GL rows run bottom to top: write with a negative stride.
         const auto stride = static_cast<OIIO::stride_t>(w) * 3;
@@ -391,6 +403,7 @@ struct Playback {
     std::unique_ptr<FramePacer> pacer;
     VideoFrame frame;       // last decoded frame
     bool have_frame = false;
+    int uploaded = -1;      // frame index in the window's texture
     bool started = false;   // pacer started (onset known)
     bool shown_any = false;
 };
@@ -636,7 +649,11 @@ RunResult run_session(const RunSettings& settings) {
                         playback.have_frame = true;
                     }
                     if (playback.have_frame && playback.frame.index == k) {
-                        window.upload(playback.frame);
+                        // A frame held over several refreshes is uploaded once.
+                        if (playback.uploaded != k) {
+                            window.upload(playback.frame);
+                            playback.uploaded = k;
+                        }
                         frame_to_show = k;
                     }
                 }
@@ -668,10 +685,15 @@ RunResult run_session(const RunSettings& settings) {
                 if (frame_to_show >= 0 || playback.shown_any) {
                     const float scale = std::min(display.x * 0.9f / window.texture_width(), display.y * 0.8f / window.texture_height());
                     const ImVec2 size(window.texture_width() * scale, window.texture_height() * scale);
-                    ImGui::GetBackgroundDrawList()->AddImage(
+                    // The video is opaque: drawn without blending (no read of
+                    // the framebuffer under it), then ImGui's state is restored.
+                    ImDrawList* background = ImGui::GetBackgroundDrawList();
+                    background->AddCallback([](const ImDrawList*, const ImDrawCmd*) { gl.Disable(GL_BLEND); }, nullptr);
+                    background->AddImage(
                         reinterpret_cast<ImTextureID>(static_cast<std::intptr_t>(window.texture())),
                         ImVec2((display.x - size.x) * 0.5f, (display.y - size.y) * 0.5f),
                         ImVec2((display.x + size.x) * 0.5f, (display.y + size.y) * 0.5f));
+                    background->AddCallback(ImDrawCallback_ResetRenderState, nullptr);
                 } else {
                     centered_text("+", 0.5f);
                 }
