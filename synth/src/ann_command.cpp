@@ -6,8 +6,6 @@
 #include <cmath>
 #include <sstream>
 
-#include <cairo-svg.h>
-#include <cairo.h>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -16,6 +14,7 @@
 #include "avsi/core/log.h"
 #include "avsi/synth/ann_training.h"
 #include "avsi/synth/evaluation.h"
+#include "svg_plot.h"
 
 namespace avsi::synth {
 namespace fs = std::filesystem;
@@ -51,7 +50,7 @@ void write_lookahead_csv(const fs::path& path, const std::vector<LookaheadPoint>
 
 void write_lookahead_svg(const fs::path& path, const std::vector<LookaheadPoint>& points) {
     if (points.empty()) throw InputError(Diagnostic{path.string(), 0, 0, "", "expected sweep points, got none"});
-    const double width = 560, height = 360, left = 70, right = 20, top = 36, bottom = 52;
+    const detail::PlotBox box{560, 360, 70, 20, 36, 52};
     double lo = points.front().test_rmse_percent, hi = lo;
     for (const auto& p : points) {
         lo = std::min(lo, p.test_rmse_percent);
@@ -65,31 +64,18 @@ void write_lookahead_svg(const fs::path& path, const std::vector<LookaheadPoint>
     lo -= pad;
     hi += pad;
     const double a0 = points.front().look_ahead, a1 = std::max<double>(points.back().look_ahead, a0 + 1);
-    auto X = [&](double a) { return left + (a - a0) / (a1 - a0) * (width - left - right); };
-    auto Y = [&](double v) { return top + (hi - v) / (hi - lo) * (height - top - bottom); };
-    if (!path.parent_path().empty()) fs::create_directories(path.parent_path());
-    cairo_surface_t* surface = cairo_svg_surface_create(path.c_str(), width, height);
-    cairo_t* cr = cairo_create(surface);
-    cairo_set_source_rgb(cr, 1, 1, 1);
-    cairo_paint(cr);
-    cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-    cairo_set_font_size(cr, 11);
-    cairo_set_source_rgb(cr, 0, 0, 0);
-    cairo_set_line_width(cr, 1);
-    cairo_rectangle(cr, left, top, width - left - right, height - top - bottom);
-    cairo_stroke(cr);
-    for (int i = 0; i <= 4; ++i) {
-        const double v = lo + (hi - lo) * i / 4.0;
-        cairo_move_to(cr, left - 50, Y(v) + 4);
-        cairo_show_text(cr, fmt::format("{:.2f}", v).c_str());
-    }
+    auto X = [&](double a) { return box.left + (a - a0) / (a1 - a0) * box.frame_width(); };
+    detail::SvgPage page(path, box);
+    auto Y = [&](double v) { return page.y_of(v, lo, hi); };
+    cairo_t* cr = page.cr();
+    page.frame_with_value_labels(lo, hi, 50);
     for (const auto& p : points) {
-        cairo_move_to(cr, X(p.look_ahead) - 4, height - bottom + 16);
+        cairo_move_to(cr, X(p.look_ahead) - 4, box.height - box.bottom + 16);
         cairo_show_text(cr, fmt::format("{}", p.look_ahead).c_str());
     }
-    cairo_move_to(cr, left, 20);
+    cairo_move_to(cr, box.left, 20);
     cairo_show_text(cr, "Occlusion ANN: held-out RMSE (% of range) vs look-ahead (frames at 60 fps), window 31");
-    cairo_move_to(cr, (width - left) / 2, height - 12);
+    cairo_move_to(cr, (box.width - box.left) / 2, box.height - 12);
     cairo_show_text(cr, "look-ahead (frames)");
     cairo_set_source_rgb(cr, 0.1, 0.3, 0.8);
     cairo_set_line_width(cr, 1.5);
@@ -105,13 +91,7 @@ void write_lookahead_svg(const fs::path& path, const std::vector<LookaheadPoint>
         cairo_arc(cr, X(p.look_ahead), Y(p.test_rmse_percent), 3, 0, 2 * M_PI);
         cairo_fill(cr);
     }
-    cairo_destroy(cr);
-    cairo_surface_finish(surface);
-    const cairo_status_t status = cairo_surface_status(surface);
-    cairo_surface_destroy(surface);
-    if (status != CAIRO_STATUS_SUCCESS)
-        throw InputError(Diagnostic{path.string(), 0, 0, "", fmt::format("cairo could not write the SVG: {}",
-                                                                          cairo_status_to_string(status))});
+    page.finish();
 }
 
 void run_ann_command(const AnnCommandSettings& s) {

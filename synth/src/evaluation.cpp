@@ -6,8 +6,6 @@
 #include <cmath>
 #include <limits>
 
-#include <cairo-svg.h>
-#include <cairo.h>
 #include <fmt/format.h>
 
 #include "avsi/core/csv.h"
@@ -15,6 +13,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/synth/control_model.h"
+#include "svg_plot.h"
 
 namespace avsi::synth {
 
@@ -168,7 +167,9 @@ std::string scores_csv(const std::vector<ModelScores>& scores) {
 
 void write_trajectory_plot_svg(const fs::path& path, const CorpusUtterance& u, Param param,
                                const std::vector<std::pair<std::string, std::vector<double>>>& curves) {
-    const double width = 1000, height = 420, left = 70, right = 180, top = 30, bottom = 70;
+    const detail::PlotBox box{1000, 420, 70, 180, 30, 70};
+    const double width = box.width, height = box.height, left = box.left, right = box.right, top = box.top,
+                 bottom = box.bottom;
     const std::size_t n = u.track.size();
     AVSI_ASSERT(n >= 2);
     const double t0 = u.track.time_s(0), t1 = u.track.time_s(n - 1);
@@ -190,15 +191,10 @@ void write_trajectory_plot_svg(const fs::path& path, const CorpusUtterance& u, P
     lo -= pad;
     hi += pad;
     auto X = [&](double t) { return left + (t - t0) / (t1 - t0) * (width - left - right); };
-    auto Y = [&](double v) { return top + (hi - v) / (hi - lo) * (height - top - bottom); };
 
-    fs::create_directories(path.parent_path().empty() ? fs::path(".") : path.parent_path());
-    cairo_surface_t* surface = cairo_svg_surface_create(path.c_str(), width, height);
-    cairo_t* cr = cairo_create(surface);
-    cairo_set_source_rgb(cr, 1, 1, 1);
-    cairo_paint(cr);
-    cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-    cairo_set_font_size(cr, 11);
+    detail::SvgPage page(path, box);
+    auto Y = [&](double v) { return page.y_of(v, lo, hi); };
+    cairo_t* cr = page.cr();
 
     // Phone boundaries and labels.
     cairo_set_line_width(cr, 0.5);
@@ -216,15 +212,7 @@ void write_trajectory_plot_svg(const fs::path& path, const CorpusUtterance& u, P
         cairo_show_text(cr, label.c_str());
     }
     // Axes.
-    cairo_set_source_rgb(cr, 0, 0, 0);
-    cairo_set_line_width(cr, 1);
-    cairo_rectangle(cr, left, top, width - left - right, height - top - bottom);
-    cairo_stroke(cr);
-    for (int i = 0; i <= 4; ++i) {
-        const double v = lo + (hi - lo) * i / 4.0;
-        cairo_move_to(cr, left - 45, Y(v) + 4);
-        cairo_show_text(cr, fmt::format("{:.2f}", v).c_str());
-    }
+    page.frame_with_value_labels(lo, hi, 45);
     const double step = (t1 - t0) > 4 ? 1.0 : 0.5;
     for (double t = std::ceil(t0 / step) * step; t <= t1 + 1e-9; t += step) {
         cairo_move_to(cr, X(t) - 8, height - bottom + 34);
@@ -266,12 +254,7 @@ void write_trajectory_plot_svg(const fs::path& path, const CorpusUtterance& u, P
     draw(target, black, 2.0, "target", 0);
     for (std::size_t c = 0; c < curves.size(); ++c) draw(curves[c].second, colours[c % 6], 1.2, curves[c].first, c + 1);
 
-    cairo_destroy(cr);
-    cairo_surface_finish(surface);
-    const cairo_status_t status = cairo_surface_status(surface);
-    cairo_surface_destroy(surface);
-    if (status != CAIRO_STATUS_SUCCESS)
-        throw InputError(path, fmt::format("cannot write the SVG plot: {}", cairo_status_to_string(status)));
+    page.finish();
 }
 
 EvaluationResult run_evaluation(const EvaluationSettings& settings) {

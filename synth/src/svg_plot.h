@@ -1,0 +1,87 @@
+// The page both of synth's figures draw on (Fig. 5 target-vs-model tracks in
+// evaluation.cpp, the Fig. 4 look-ahead sweep in ann_command.cpp): a cairo SVG
+// surface with a white background and an 11 px sans-serif font, the plot
+// frame with five value labels, and cairo's write errors reported as
+// InputError when the page is finished.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <cairo-svg.h>
+#include <cairo.h>
+#include <fmt/format.h>
+
+#include "avsi/core/error.h"
+
+namespace avsi::synth::detail {
+
+// Page size and the margins around the plot frame, in SVG points.
+struct PlotBox {
+    double width = 0, height = 0, left = 0, right = 0, top = 0, bottom = 0;
+    double frame_width() const { return width - left - right; }
+    double frame_height() const { return height - top - bottom; }
+};
+
+class SvgPage {
+public:
+    // Creates the file's folder and the surface; nothing is checked until finish().
+    SvgPage(const std::filesystem::path& path, const PlotBox& box) : m_path(path), m_box(box) {
+        if (!path.parent_path().empty()) std::filesystem::create_directories(path.parent_path());
+        m_surface = cairo_svg_surface_create(path.c_str(), box.width, box.height);
+        m_cr = cairo_create(m_surface);
+        cairo_set_source_rgb(m_cr, 1, 1, 1);
+        cairo_paint(m_cr);
+        cairo_select_font_face(m_cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+        cairo_set_font_size(m_cr, 11);
+    }
+    SvgPage(const SvgPage&) = delete;
+    SvgPage& operator=(const SvgPage&) = delete;
+    ~SvgPage() { release(); }
+
+    cairo_t* cr() const { return m_cr; }
+
+    // Vertical position of value v on a frame spanning [lo, hi] bottom to top.
+    double y_of(double v, double lo, double hi) const {
+        return m_box.top + (hi - v) / (hi - lo) * m_box.frame_height();
+    }
+
+    // The black frame and five labels lo … hi ("{:.2f}") at label_inset left of it.
+    void frame_with_value_labels(double lo, double hi, double label_inset) {
+        cairo_set_source_rgb(m_cr, 0, 0, 0);
+        cairo_set_line_width(m_cr, 1);
+        cairo_rectangle(m_cr, m_box.left, m_box.top, m_box.frame_width(), m_box.frame_height());
+        cairo_stroke(m_cr);
+        for (int i = 0; i <= 4; ++i) {
+            const double v = lo + (hi - lo) * i / 4.0;
+            cairo_move_to(m_cr, m_box.left - label_inset, y_of(v, lo, hi) + 4);
+            cairo_show_text(m_cr, fmt::format("{:.2f}", v).c_str());
+        }
+    }
+
+    // Writes the file; throws InputError naming it when cairo could not.
+    void finish() {
+        cairo_destroy(m_cr);
+        m_cr = nullptr;
+        cairo_surface_finish(m_surface);
+        const cairo_status_t status = cairo_surface_status(m_surface);
+        release();
+        if (status != CAIRO_STATUS_SUCCESS)
+            throw InputError(m_path, fmt::format("cannot write the SVG plot: {}", cairo_status_to_string(status)));
+    }
+
+private:
+    void release() {
+        if (m_cr) cairo_destroy(m_cr);
+        if (m_surface) cairo_surface_destroy(m_surface);
+        m_cr = nullptr;
+        m_surface = nullptr;
+    }
+
+    std::filesystem::path m_path;
+    PlotBox m_box;
+    cairo_surface_t* m_surface = nullptr;
+    cairo_t* m_cr = nullptr;
+};
+
+}  // namespace avsi::synth::detail
