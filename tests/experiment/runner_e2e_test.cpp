@@ -178,8 +178,11 @@ TEST_F(RunnerE2E, SigkillAtRandomPointsThenResumeLosesAndRepeatsNothing) {
     for (int attempt = 0; attempt < 80 && !done; ++attempt) {
         // Kill at a random point: after one more committed response, then
         // 0–250 ms on (a scripted trial on the simulated clock takes about
-        // that long: commit, fixation, stimulus or answer box). The last runs
-        // go to the end unkilled, so a kill never lands after the last commit.
+        // that long on a slow machine: commit, fixation, stimulus or answer
+        // box), but no later than the next commit (a fast machine runs
+        // several trials in 250 ms). At least 4 trials are left after the
+        // target, and the last runs go to the end unkilled, so a kill never
+        // lands after the last commit.
         const bool kill_this = answered_before.size() + 5 <= static_cast<std::size_t>(trials);
         const int target = kill_this ? static_cast<int>(answered_before.size()) + 1 : trials + 1;
         const auto extra = std::chrono::milliseconds(rng.uniform_int(250));
@@ -190,9 +193,11 @@ TEST_F(RunnerE2E, SigkillAtRandomPointsThenResumeLosesAndRepeatsNothing) {
         const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
         while ((finished = ::waitpid(pid, &status, WNOHANG)) == 0 && std::chrono::steady_clock::now() < deadline &&
                std::chrono::steady_clock::now() < give_up) {
-            if (deadline == std::chrono::steady_clock::time_point::max() && committed(db) >= target)
+            const int n = committed(db);
+            if (deadline == std::chrono::steady_clock::time_point::max() && n >= target)
                 deadline = std::chrono::steady_clock::now() + extra;
-            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+            if (n > target) break;
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
         }
         if (finished == pid) {
             ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_text_file(dir / "log.txt");
