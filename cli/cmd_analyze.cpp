@@ -2,17 +2,20 @@
 // and the report folder from scores.csv.
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
 #include "avsi/analysis/report.h"
+#include "avsi/core/protocol.h"
 #include "command.h"
 
 namespace avsi::cli {
 namespace {
 
 struct AnalyzeOptions {
-    std::string input, out = "report", keywords, title = "Keyword intelligibility by condition";
+    std::string input, out = "report", keywords, title = "Keyword intelligibility by condition", protocol;
+    std::vector<std::string> conditions;
     double confidence = 0.95;
 };
 
@@ -33,6 +36,15 @@ const bool registered_analyze = register_command({
             ->capture_default_str()
             ->check(CLI::Range(0.5, 0.999));
         sub.add_option("--title", o->title, "Report title")->capture_default_str();
+        auto* conditions =
+            sub.add_option("--conditions", o->conditions,
+                           "Conditions to analyse, in the order of every table, plot and contrast, comma-separated "
+                           "(default: all, in their order in the scores file)")
+                ->delimiter(',');
+        sub.add_option("--protocol", o->protocol,
+                       "Take the conditions and their order from the [[condition]] tables of this protocol (as --conditions)")
+            ->check(CLI::ExistingFile)
+            ->excludes(conditions);
         return [o] {
             analysis::AnalyzeSettings s;
             s.input = o->input;
@@ -40,6 +52,11 @@ const bool registered_analyze = register_command({
             s.keywords_csv = o->keywords;
             s.confidence = o->confidence;
             s.title = o->title;
+            s.conditions = o->conditions;
+            if (!o->protocol.empty()) {
+                for (const auto& c : load_protocol(o->protocol).conditions) s.conditions.push_back(c.name);
+                s.conditions_source = o->protocol;
+            }
             const auto result = analysis::analyze_file(s);
             if (result)
                 fmt::print("{}\n", analysis::apa_anova(result->anova));

@@ -557,7 +557,7 @@ std::optional<AnalysisResult> analyze_file(const AnalyzeSettings& s) {
                          "<db> --out DIR` to get responses.csv, then `avsi score --corpus sentences.csv --responses "
                          "DIR/responses.csv --out DIR`, then `avsi analyze DIR/scores.csv --out report/`");
     in.close();
-    const Scores scores = read_scores(s.input);
+    const Scores scores = select_conditions(read_scores(s.input), s.conditions, s.conditions_source);
     ReportSettings rs;
     rs.out_dir = s.out_dir;
     rs.source = s.input;

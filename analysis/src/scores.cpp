@@ -78,6 +78,33 @@ Scores read_scores(const std::filesystem::path& path) {
     return scores;
 }
 
+Scores select_conditions(const Scores& scores, const std::vector<std::string>& conditions,
+                         const std::string& source, const std::string& what) {
+    if (conditions.empty()) return scores;
+    std::vector<std::string> present;
+    for (const auto& c : scores.cells)
+        if (std::find(present.begin(), present.end(), c.condition) == present.end()) present.push_back(c.condition);
+    DiagnosticList problems;
+    std::set<std::string> listed;
+    for (const auto& name : conditions) {
+        if (!listed.insert(name).second) {
+            problems.add(source, 0, 0, what, fmt::format("condition '{}' is listed twice", name));
+        } else if (std::find(present.begin(), present.end(), name) == present.end()) {
+            const std::string near = closest_match(name, present);
+            problems.add(source, 0, 0, what,
+                         fmt::format("expected one of the conditions in the scores ({}), got '{}'{}",
+                                     fmt::join(present, ", "), name,
+                                     near.empty() ? "" : fmt::format(" (did you mean '{}'?)", near)));
+        }
+    }
+    problems.throw_if_any();
+    Scores selected;
+    for (const auto& name : conditions)
+        for (const auto& c : scores.cells)
+            if (c.condition == name) selected.cells.push_back(c);
+    return selected;
+}
+
 void write_scores(const std::filesystem::path& path, const Scores& scores) {
     std::string out = csv_line({"subject", "condition", "keywords", "correct", "percent"});
     for (const auto& c : scores.cells)

@@ -81,6 +81,35 @@ TEST_F(Cli, ScoreThenAnalyze) {
               std::string::npos);
 }
 
+TEST_F(Cli, AnalyzeTakesTheConditionOrderFromTheProtocol) {
+    // Scores in session order (rule first); the report follows the protocol's [[condition]] order.
+    const std::vector<std::string> session_order = {"rule", "ann2", "audio-only", "ohman", "cohen-massaro", "ann1"};
+    std::string scores = "subject,condition,keywords,correct,percent\n";
+    for (int s = 1; s <= 3; ++s)
+        for (std::size_t c = 0; c < session_order.size(); ++c)
+            scores += fmt::format("p{},{},45,{},{}\n", s, session_order[c], 20 + 3 * int(c) + s,
+                                  100.0 * (20 + 3 * int(c) + s) / 45.0);
+    avsi::write_text_file(dir / "scores.csv", scores);
+    const CliRun r = run_cli(fmt::format("analyze {0}/scores.csv --out {0}/report --protocol {1}/beskow2004-en.toml",
+                                         dir.string(), AVSI_PROTOCOLS_DIR));
+    ASSERT_EQ(r.code, 0) << r.output;
+    const std::string md = avsi::read_text_file(dir / "report" / "report.md");
+    std::size_t previous = 0;
+    for (const char* name : {"| audio-only |", "| cohen-massaro |", "| ohman |", "| ann1 |", "| ann2 |", "| rule |"}) {
+        const std::size_t at = md.find(name);
+        ASSERT_NE(at, std::string::npos) << name << " not in\n" << md;
+        EXPECT_GT(at, previous) << name << " out of the protocol's order in\n" << md;
+        previous = at;
+    }
+    const CliRun both = run_cli(fmt::format("analyze {0}/scores.csv --out {0}/r2 --conditions rule,ohman --protocol {1}/beskow2004-en.toml",
+                                            dir.string(), AVSI_PROTOCOLS_DIR));
+    EXPECT_NE(both.code, 0) << both.output;
+    const CliRun typo = run_cli(fmt::format("analyze {0}/scores.csv --out {0}/r3 --conditions rule,ohmann", dir.string()));
+    EXPECT_EQ(typo.code, 1) << typo.output;
+    EXPECT_NE(typo.output.find("did you mean 'ohman'"), std::string::npos) << typo.output;
+    EXPECT_FALSE(fs::exists(dir / "r3"));
+}
+
 TEST_F(Cli, AnalyzeRefusesDatabase) {
     avsi::write_text_file(dir / "session.db", std::string("SQLite format 3\0........", 24));
     const CliRun r = run_cli(fmt::format("analyze {0}/session.db --out {0}/report", dir.string()));

@@ -202,6 +202,45 @@ TEST(AnalyzeFile, OneSubjectDryRunGivesPilotReportWithPooledPercent) {
     fs::remove_all(dir);
 }
 
+TEST(AnalyzeFile, ConditionsListOrdersAndSelectsTheAnalysedConditions) {
+    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_order");
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    write_text_file(dir / "scores.csv",
+                    "subject,condition,keywords,correct,percent\n"
+                    "s01,rule,45,30,66.7\ns01,audio,45,20,44.4\ns01,face,45,25,55.6\n"
+                    "s02,rule,45,33,73.3\ns02,audio,45,18,40\ns02,face,45,27,60\n"
+                    "s03,rule,45,28,62.2\ns03,audio,45,24,53.3\ns03,face,45,22,48.9\n");
+    AnalyzeSettings s;
+    s.input = dir / "scores.csv";
+    s.out_dir = dir / "report";
+    const auto all = analyze_file(s);
+    ASSERT_TRUE(all.has_value());
+    EXPECT_EQ(all->data.conditions, (std::vector<std::string>{"rule", "audio", "face"}));  // file order
+
+    s.conditions = {"audio", "rule"};
+    const auto two = analyze_file(s);
+    ASSERT_TRUE(two.has_value());
+    EXPECT_EQ(two->data.conditions, (std::vector<std::string>{"audio", "rule"}));
+    ASSERT_EQ(two->descriptives.size(), 2u);
+    EXPECT_EQ(two->descriptives[0].condition, "audio");
+    EXPECT_NEAR(two->descriptives[0].mean, (44.4 + 40 + 53.3) / 3, 1e-9);
+    EXPECT_EQ(two->anova.df_conditions, 1.0);
+
+    s.conditions = {"audio", "rulle", "audio"};
+    s.conditions_source = "study.toml";
+    try {
+        analyze_file(s);
+        FAIL() << "expected InputError";
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("study.toml"), std::string::npos) << what;
+        EXPECT_NE(what.find("did you mean 'rule'"), std::string::npos) << what;
+        EXPECT_NE(what.find("'audio' is listed twice"), std::string::npos) << what;
+    }
+    fs::remove_all(dir);
+}
+
 TEST(AnalyzeFile, OneConditionIsStillAnError) {
     const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_onecond");
     fs::create_directories(dir);

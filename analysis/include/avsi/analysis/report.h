@@ -59,6 +59,11 @@ struct AnalyzeSettings {
     std::filesystem::path keywords_csv;
     double confidence = 0.95;
     std::string title = "Keyword intelligibility by condition";
+    // The conditions to analyse, in report order (select_conditions); empty:
+    // all, in their order in the file. `conditions_source` names where the
+    // list came from in errors (an option or a protocol file).
+    std::vector<std::string> conditions;
+    std::string conditions_source = "--conditions";
 };
 
 // The descriptive report of a dry run or pilot too small to test: fewer than
