@@ -58,11 +58,17 @@ public:
         if (a == b || b == c || a == c) return;
         m_groups[group].push_back({a, b, c});
     }
-    // Quad a-b-c-d counter-clockwise seen from outside.
+    // Quad a-b-c-d counter-clockwise seen from outside, split along a-c
+    // (or along b-d with `other_diagonal`, for mirror-symmetric meshes).
     void quad(const std::string& group, std::uint32_t a, std::uint32_t b, std::uint32_t c,
-              std::uint32_t d) {
-        triangle(group, a, b, c);
-        triangle(group, a, c, d);
+              std::uint32_t d, bool other_diagonal = false) {
+        if (other_diagonal) {
+            triangle(group, a, b, d);
+            triangle(group, b, c, d);
+        } else {
+            triangle(group, a, b, c);
+            triangle(group, a, c, d);
+        }
     }
     std::size_t triangles() const {
         std::size_t n = 0;
@@ -114,7 +120,11 @@ float nose_relief(float x, float y) {
     const float ax = std::abs(x);
     float h = 0.0f;
     float ridge = 0.0f;
-    if (y > nose_tip_y) ridge = 3.0f + 19.0f * std::pow(smoothstep(eye_y + 6.0f, nose_tip_y, y), 1.3f);
+    // The 3 mm base of the ridge ends at the nasion: continued up the
+    // forehead it showed as a lit/shaded crease down the midline.
+    if (y > nose_tip_y)
+        ridge = 3.0f * smoothstep(eye_y + 12.0f, eye_y + 2.0f, y) +
+                19.0f * std::pow(smoothstep(eye_y + 6.0f, nose_tip_y, y), 1.3f);
     else ridge = 22.0f * (1.0f - smoothstep(nose_tip_y, nose_base_y - 1.0f, y));
     const float width = 6.0f + 4.0f * smoothstep(eye_y, nose_tip_y, y);
     h += ridge * std::exp(-std::pow(x / width, 2.0f));
@@ -302,7 +312,10 @@ void build_skin(Generated& g, const HeadGeneratorSettings& settings) {
     for (std::size_t r = 0; r + 1 < grid.size(); ++r) {
         for (int j = 0; j < nu; ++j) {
             const auto jj = static_cast<std::size_t>(j), jn = static_cast<std::size_t>((j + 1) % nu);
-            g.mesh.quad(group_of(r + 1, j), grid[r][jj], grid[r + 1][jj], grid[r + 1][jn], grid[r][jn]);
+            // Diagonals mirrored across the midline (x = 0), so both halves of
+            // the face get the same vertex normals.
+            const bool right_half = std::cos(2.0f * pi * (float(j) + 0.5f) / float(nu)) < 0.0f;
+            g.mesh.quad(group_of(r + 1, j), grid[r][jj], grid[r + 1][jj], grid[r + 1][jn], grid[r][jn], right_half);
         }
     }
     for (int j = 0; j < nu; ++j) {
