@@ -105,6 +105,11 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
                              ? CorpusAudio::Recordings
                              : CorpusAudio::Tts;
         p.corpus.voice = corpus.get_string("voice", p.corpus.voice, problems);
+        p.corpus.level_dbfs = corpus.get_number("level_dbfs", p.corpus.level_dbfs, -60.0, -6.0, problems);
+        if (const ConfigValue* level = corpus.find("level_dbfs")) {
+            p.corpus.level_line = level->line;
+            p.corpus.level_column = level->column;
+        }
         corpus.check_unknown_keys(problems);
     } else {
         problems.add(file, 0, 0, "corpus", "missing required table [corpus]");

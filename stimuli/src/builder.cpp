@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <map>
 #include <mutex>
@@ -24,6 +25,7 @@
 #include "avsi/core/tts.h"
 #include "avsi/stimuli/animation.h"
 #include "avsi/synth/control_model.h"
+#include "avsi/vocoder/masking.h"
 #include "avsi/vocoder/vocoder.h"
 
 namespace avsi::stimuli {
@@ -166,6 +168,38 @@ struct Job {
     json entry;  // the manifest entry once built (or reused)
 };
 
+// The highest sample peak a stimulus may have after its level is set:
+// headroom for the AAC encoder's overshoot.
+constexpr double max_peak_dbfs = -1.0;
+
+struct Level {
+    double gain_db = 0.0;
+    double speech_dbfs = 0.0;  // active-speech RMS after the gain
+    double peak_dbfs = 0.0;    // highest |sample| after the gain
+};
+
+double to_dbfs(double amplitude) { return 20.0 * std::log10(std::max(amplitude, 1e-12)); }
+
+// Scales `audio` so that its active-speech RMS (20 ms frames within 40 dB of
+// the loudest, pauses left out: vocoder::speech_level_rms) is `level_dbfs`.
+Level set_speech_level(Audio& audio, double level_dbfs) {
+    const std::vector<double> samples(audio.samples.begin(), audio.samples.end());
+    const double rms =
+        vocoder::speech_level_rms(samples, audio.sample_rate_hz, vocoder::SnrReference::ActiveFrames);
+    Level level;
+    if (!(rms > 0.0)) return level;  // silence stays silent
+    const double gain = std::pow(10.0, level_dbfs / 20.0) / rms;
+    double peak = 0.0;
+    for (float& x : audio.samples) {
+        x = static_cast<float>(double(x) * gain);
+        peak = std::max(peak, std::fabs(double(x)));
+    }
+    level.gain_db = to_dbfs(gain);
+    level.speech_dbfs = level_dbfs;
+    level.peak_dbfs = to_dbfs(peak);
+    return level;
+}
+
 }  // namespace
 
 BuildReport build_stimuli(const BuildSettings& settings) {
@@ -204,7 +238,10 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                    {"preset", VideoSettings{}.preset}, {"audio", "aac"}}},
         {"vocoder", vocoder_json(vocoder_base)},
         {"head", {{"mesh_sha256", sha256_file(head.obj_path)}, {"rig_sha256", sha256_file(head.rig_path)}}},
-        {"tts", {{"voice", protocol.corpus.voice}}}};
+        {"tts", {{"voice", protocol.corpus.voice}}},
+        {"level", {{"speech_dbfs", protocol.corpus.level_dbfs},
+                   {"measure", "active-speech RMS: 20 ms frames within 40 dB of the loudest"},
+                   {"max_peak_dbfs", max_peak_dbfs}}}};
 
     // The previous manifest, for skipping unchanged stimuli.
     std::map<std::string, json> previous;
@@ -350,8 +387,19 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                 Job& job = jobs[todo[t]];
                 const auto& c = *job.condition;
                 Speech& sp = speech.at(job.sentence->id);
-                const Audio& audio = c.audio == ConditionAudio::Vocoded ? sp.vocoded(vocoder_base, job.vocoder_seed)
-                                                                        : sp.audio;
+                Audio audio = c.audio == ConditionAudio::Vocoded ? sp.vocoded(vocoder_base, job.vocoder_seed)
+                                                                 : sp.audio;
+                const Level level = set_speech_level(audio, protocol.corpus.level_dbfs);
+                if (level.peak_dbfs > max_peak_dbfs)
+                    throw InputError(
+                        protocol.path.string(), protocol.corpus.level_line, protocol.corpus.level_column,
+                        "corpus.level_dbfs",
+                        fmt::format("expected a speech level at which every stimulus peaks at or below {:.1f} dBFS; "
+                                    "at {:.1f} dBFS sentence '{}' ({} audio) peaks at {:.2f} dBFS: set level_dbfs "
+                                    "to {:.1f} or lower",
+                                    max_peak_dbfs, protocol.corpus.level_dbfs, job.sentence->id, to_string(c.audio),
+                                    level.peak_dbfs,
+                                    std::floor((protocol.corpus.level_dbfs - (level.peak_dbfs - max_peak_dbfs)) * 10.0) / 10.0));
                 synth::Trajectory trajectory;
                 if (c.face == FaceMode::Model) {
                     trajectory = models.at(c.name)->synthesize(sp.phones, fps);
@@ -392,6 +440,9 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                              {"wav", job.wav.generic_string()},
                              {"duration_s", trajectory.duration_s()},
                              {"audio_duration_s", audio.duration_s()},
+                             {"level", {{"gain_db", level.gain_db},
+                                        {"speech_dbfs", level.speech_dbfs},
+                                        {"peak_dbfs", level.peak_dbfs}}},
                              {"frames", trajectory.size()},
                              {"fps", fps},
                              {"face", to_string(c.face)},

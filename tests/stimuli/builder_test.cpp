@@ -4,17 +4,20 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
 
+#include "avsi/core/audio.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/stimuli/builder.h"
 #include "avsi/stimuli/head.h"
 #include "avsi/stimuli/video.h"
+#include "avsi/vocoder/masking.h"
 
 namespace avsi::stimuli {
 namespace {
@@ -73,6 +76,53 @@ TEST_F(BuilderFixture, BuildsEveryStimulusThenSkipsThemAndIsDeterministic) {
     build_stimuli(settings("d"));
     EXPECT_EQ(hashes(dir / "d" / "manifest.json"), hashes(dir / "b" / "manifest.json"));
     EXPECT_EQ(hashes(manifest), hashes(dir / "b" / "manifest.json"));
+}
+
+std::string build_error(const std::filesystem::path& protocol, const std::filesystem::path& out);
+
+// Every stimulus, clean or vocoded, gets the protocol's speech level
+// ([corpus] level_dbfs, default -26 dBFS active-speech RMS); a level at which
+// a stimulus would peak above -1 dBFS is refused at the key's line.
+TEST_F(BuilderFixture, SetsEveryStimulusToTheSpeechLevelAndRefusesALevelThatClips) {
+    build_stimuli(settings("a"));
+    const auto manifest = nlohmann::json::parse(read_text_file(dir / "a" / "manifest.json"));
+    EXPECT_EQ(manifest["settings"]["level"]["speech_dbfs"].get<double>(), -26.0);
+    for (const auto& e : manifest["stimuli"]) {
+        SCOPED_TRACE(e["path"].get<std::string>());
+        const Audio audio = read_audio(dir / "a" / e["wav"].get<std::string>());
+        const std::vector<double> x(audio.samples.begin(), audio.samples.end());
+        const double rms = vocoder::speech_level_rms(x, audio.sample_rate_hz, vocoder::SnrReference::ActiveFrames);
+        EXPECT_NEAR(20.0 * std::log10(rms), -26.0, 0.01);
+        double peak = 0.0;
+        for (const float v : audio.samples) peak = std::max(peak, double(std::fabs(v)));
+        EXPECT_NEAR(e["level"]["peak_dbfs"].get<double>(), 20.0 * std::log10(peak), 0.01);
+        EXPECT_LE(20.0 * std::log10(peak), -1.0);
+        // The decoded AAC track keeps the level (lossy coding moves it a little).
+        const DecodedVideo v = decode_video(dir / "a" / e["path"].get<std::string>());
+        const std::vector<double> decoded(v.audio.samples.begin(), v.audio.samples.end());
+        EXPECT_NEAR(20.0 * std::log10(vocoder::speech_level_rms(decoded, v.audio.sample_rate_hz,
+                                                                 vocoder::SnrReference::ActiveFrames)),
+                    -26.0, 0.5);
+    }
+
+    const std::filesystem::path data = std::filesystem::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build";
+    std::string text = read_text_file(data / "protocol.toml");
+    const std::string voice = "voice = \"en-us\"\n";
+    const auto at = text.find(voice);
+    ASSERT_NE(at, std::string::npos);
+    text.insert(at + voice.size(), "level_dbfs = -6\n");
+    const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + std::ptrdiff_t(at + voice.size()), '\n'));
+    const std::string rule = "../../../../protocols/models/rule.json";
+    text.replace(text.find(rule), rule.size(),
+                 (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json").generic_string());
+    std::filesystem::create_directories(dir / "loud");
+    write_text_file(dir / "loud" / "protocol.toml", text);
+    std::filesystem::copy_file(data / "corpus.csv", dir / "loud" / "corpus.csv");
+    const std::string error = build_error(dir / "loud" / "protocol.toml", dir / "loud" / "out");
+    EXPECT_NE(error.find("protocol.toml:" + std::to_string(line) + ":"), std::string::npos) << error;
+    EXPECT_NE(error.find("corpus.level_dbfs"), std::string::npos) << error;
+    EXPECT_NE(error.find("set level_dbfs to -"), std::string::npos) << error;
+    EXPECT_FALSE(std::filesystem::exists(dir / "loud" / "out" / "manifest.json"));
 }
 
 // With lists in the corpus, only what the design can show is built: test
