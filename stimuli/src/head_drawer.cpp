@@ -427,8 +427,8 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
     const glm::vec3 dirs[3] = {turn * glm::normalize(glm::vec3(-0.6f, 0.5f, 0.65f)),
                                turn * glm::normalize(glm::vec3(0.7f, 0.05f, 0.6f)),
                                turn * glm::normalize(glm::vec3(0.3f, 0.6f, -0.8f))};
-    const glm::vec3 colors[3] = {{0.92f, 0.86f, 0.78f}, {0.30f, 0.33f, 0.40f}, {0.45f, 0.45f, 0.50f}};
-    const glm::vec3 ambient{0.20f, 0.20f, 0.23f};
+    const glm::vec3 colors[3] = {{0.98f, 0.91f, 0.82f}, {0.20f, 0.22f, 0.27f}, {0.45f, 0.45f, 0.50f}};
+    const glm::vec3 ambient{0.16f, 0.16f, 0.18f};
 
     gl.glViewport(0, 0, width, height);
     gl.glEnable(GL_DEPTH_TEST);

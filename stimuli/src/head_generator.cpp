@@ -114,24 +114,45 @@ constexpr float nose_tip_y = -28.0f, nose_base_y = -38.0f;
 constexpr float mouth_tilt = 0.64f;
 constexpr float mouth_half_width = 23.0f;  // at the lip contact  // angle of the mouth axis below the horizontal (rad)
 
-// Forward relief of the nose (mm): a ridge from the bridge to the tip, a
-// rounded tip, the underside up to the subnasale, the alae with their creases.
+// Forward relief of the nose (mm). The dorsum rises from the nasion to the
+// tip with a flat-topped cross-section (steep side walls, so the key light
+// leaves one side in shade); a rounded lobule at the tip; the columella and
+// the underside fall back to the subnasale; the alae are rounded wings
+// beside the tip, ringed by the alar crease; the nostrils are hollows in the
+// underside either side of the columella.
 float nose_relief(float x, float y) {
     const float ax = std::abs(x);
     float h = 0.0f;
+    // Dorsum: height above the face and half-width along its length.
+    const float t = smoothstep(eye_y + 4.0f, nose_tip_y + 2.0f, y);
     float ridge = 0.0f;
-    // The 3 mm base of the ridge ends at the nasion: continued up the
-    // forehead it showed as a lit/shaded crease down the midline.
-    if (y > nose_tip_y)
-        ridge = 3.0f * smoothstep(eye_y + 12.0f, eye_y + 2.0f, y) +
-                19.0f * std::pow(smoothstep(eye_y + 6.0f, nose_tip_y, y), 1.3f);
-    else ridge = 22.0f * (1.0f - smoothstep(nose_tip_y, nose_base_y - 1.0f, y));
-    const float width = 6.0f + 4.0f * smoothstep(eye_y, nose_tip_y, y);
-    h += ridge * std::exp(-std::pow(x / width, 2.0f));
-    h += 4.0f * gauss2(x, 6.0f, y - (nose_tip_y - 1.0f), 5.0f);            // tip
-    h += 8.0f * gauss2(ax - 12.5f, 5.0f, y - (nose_base_y + 5.0f), 5.0f);  // alae
-    h -= 2.5f * gauss2(ax - 17.0f, 2.5f, y - (nose_base_y + 6.0f), 6.0f);  // alar crease
+    if (y > nose_tip_y) ridge = 1.5f * smoothstep(eye_y + 12.0f, eye_y + 3.0f, y) + 17.5f * std::pow(t, 1.15f);
+    else ridge = 19.0f * (1.0f - smoothstep(nose_tip_y, nose_base_y - 0.5f, y));
+    const float width = 6.5f + 3.5f * t + 2.0f * smoothstep(nose_tip_y, nose_base_y, y);
+    h += ridge * std::exp(-std::pow(ax / width, 2.6f));
+    // Tip lobule: two domes that merge into one rounded tip.
+    h += 5.5f * gauss2(ax - 2.5f, 6.5f, y - (nose_tip_y - 0.5f), 5.5f);
+    // Alae: wings beside the tip, behind it, ringed by the alar crease.
+    const float ala_x = 12.0f, ala_y = nose_base_y + 5.5f;
+    h += 7.5f * gauss2(ax - ala_x, 4.8f, y - ala_y, 4.6f);
+    const float r = std::sqrt((ax - ala_x + 1.5f) * (ax - ala_x + 1.5f) + (y - ala_y) * (y - ala_y) * 1.2f);
+    const float lateral = smoothstep(ala_x - 4.0f, ala_x + 2.0f, ax + 0.5f * (y - ala_y));
+    h -= 3.0f * std::exp(-std::pow((r - 7.0f) / 1.8f, 2.0f)) * lateral;
+    // Nostrils: hollows in the underside beside the columella.
+    h -= 3.0f * gauss2(ax - 6.0f, 2.4f, y - (nose_base_y + 2.0f), 2.0f);
     return h;
+}
+
+// How dark the nose's hollows look in the skin colour (0 none, 1 full):
+// nostrils, the shade under the tip, and the alar crease.
+float nose_shade(float x, float y) {
+    const float ax = std::abs(x);
+    const float ala_x = 12.0f, ala_y = nose_base_y + 5.5f;
+    const float r = std::sqrt((ax - ala_x + 1.5f) * (ax - ala_x + 1.5f) + (y - ala_y) * (y - ala_y) * 1.2f);
+    const float lateral = smoothstep(ala_x - 4.0f, ala_x + 2.0f, ax + 0.5f * (y - ala_y));
+    float s = 0.85f * gauss2(ax - 6.0f, 2.6f, y - (nose_base_y + 1.8f), 1.7f);
+    s = std::max(s, 0.15f * std::exp(-std::pow((r - 7.2f) / 1.4f, 2.0f)) * lateral);
+    return std::min(s, 1.0f);
 }
 
 // Forward relief of the face: nose, brows, eye sockets, cheeks, chin.
@@ -259,12 +280,16 @@ void build_skin(Generated& g, const HeadGeneratorSettings& settings) {
             glm::vec3 lip_ext{w * cu, mc.y + h * su, mc.z + zl - 1.5f * smoothstep(0.0f, 8.0f, grow)};
             // The skull point along the ring direction.
             const glm::vec3 d = glm::normalize(std::cos(alpha) * f + std::sin(alpha) * (cu * e1 + su * e2));
-            glm::vec3 skull = skull_radius(d) * d;
-            skull.z += face_relief(skull.x, skull.y, my) * smoothstep(0.05f, 0.45f, d.z);
+            const glm::vec3 skull = skull_radius(d) * d;
             glm::vec3 p = mix3(lip_ext, skull, blend);
-            // Near the mouth the surface follows the lip profile more than the
-            // skull; the nose keeps its full height there all the same.
-            p.z += (1.0f - blend) * nose_relief(p.x, p.y) * smoothstep(nose_base_y - 8.0f, nose_base_y - 2.0f, p.y);
+            // The relief, evaluated where the point lands (evaluated at the
+            // skull point instead, the nose was blended with copies of itself
+            // shifted sideways: a dark smear under it). Near the mouth the
+            // surface follows the lip profile more than the skull; the nose
+            // keeps its full height there all the same.
+            const float nose = nose_relief(p.x, p.y);
+            const float nose_weight = blend + (1.0f - blend) * smoothstep(nose_base_y - 8.0f, nose_base_y - 2.0f, p.y);
+            p.z += smoothstep(0.05f, 0.45f, d.z) * (blend * (face_relief(p.x, p.y, my) - nose) + nose_weight * nose);
             // Colour: skin, hair above the hairline, eyebrows.
             glm::vec3 color = skin_color;
             const float hairline = -55.0f + 115.0f * smoothstep(-40.0f, 75.0f, p.z) -
@@ -276,8 +301,9 @@ void build_skin(Generated& g, const HeadGeneratorSettings& settings) {
             color = mix3(color, brow_color, 0.85f * brow);
             color = mix3(color, hair_color, hair);
             // Slight redness on the cheeks and lips' surroundings.
-            color = mix3(color, glm::vec3(0.45f, 0.08f, 0.06f),
-                         0.6f * gauss2(std::abs(p.x) - 7.5f, 3.5f, p.y - (nose_base_y + 2.5f), 2.5f));  // nostrils
+            color = mix3(color, glm::vec3(0.12f, 0.035f, 0.03f), nose_shade(p.x, p.y));  // nostrils, alar crease
+            color = mix3(color, glm::vec3(0.70f, 0.38f, 0.30f),
+                         0.5f * gauss2(p.x, 9.0f, p.y - nose_tip_y, 7.0f));  // the tip slightly redder
             color = mix3(color, glm::vec3(0.68f, 0.36f, 0.28f),
                          0.35f * gauss2(std::abs(p.x) - 40.0f, 16.0f, p.y + 22.0f, 14.0f));
             if (hair > 0.0f) p += 3.0f * hair * glm::normalize(p - glm::vec3(0, -10, -5));
