@@ -3,6 +3,8 @@
 // manifest.json.
 #include <memory>
 
+#include <fmt/format.h>
+
 #include "avsi/stimuli/builder.h"
 #include "command.h"
 
@@ -24,9 +26,30 @@ const bool registered_build_stimuli = register_command({
                      "Build every sentence x condition; by default, when the corpus assigns lists, spare "
                      "sentences are skipped and warm-up/practice sentences are built only in the conditions "
                      "the design shows them in");
-        return [o] {
-            stimuli::build_stimuli(*o);
-            return 0;
+        auto verify = std::make_shared<bool>(false);
+        sub.add_flag("--verify", *verify,
+                     "Build nothing; check the set in --out against the protocol and manifest.json: every stimulus "
+                     "present, up to date, with the manifest's SHA-256, decoding to its frame count and rate with "
+                     "audio as long as the video. Exit status 1 if anything is wrong");
+        return [o, verify] {
+            if (!*verify) {
+                stimuli::build_stimuli(*o);
+                return 0;
+            }
+            const stimuli::VerifyReport r = stimuli::verify_stimuli(*o);
+            for (const auto& line : r.problems) fmt::print(stderr, "{}: {}\n", o->out_dir.string(), line);
+            if (!r.extra.empty())
+                fmt::print("note: {} more stimuli in the manifest that this protocol does not ask for (built with "
+                           "--all-sentences, or for an earlier protocol), e.g. {}\n",
+                           r.extra.size(), r.extra.front());
+            if (r.problems.empty()) {
+                fmt::print("verified {} stimuli in {}: all match the protocol and the manifest\n", r.total,
+                           o->out_dir.string());
+                return 0;
+            }
+            fmt::print(stderr, "{} of {} stimuli verified; {} problem(s) above\n", r.verified, r.total,
+                       r.problems.size());
+            return 1;
         };
     }});
 

@@ -24,6 +24,7 @@
 #include "avsi/core/rng.h"
 #include "avsi/core/tts.h"
 #include "avsi/stimuli/animation.h"
+#include "avsi/stimuli/video.h"
 #include "avsi/synth/control_model.h"
 #include "avsi/vocoder/masking.h"
 #include "avsi/vocoder/vocoder.h"
@@ -200,25 +201,40 @@ Level set_speech_level(Audio& audio, double level_dbfs) {
     return level;
 }
 
-}  // namespace
-
-BuildReport build_stimuli(const BuildSettings& settings) {
-    const auto start = std::chrono::steady_clock::now();
-    const Protocol protocol = load_protocol(settings.protocol_path);
-    const Corpus corpus = read_corpus(protocol.corpus.sentences);
-    const auto& pr = protocol.render;
+// What a protocol asks to be built: the loaded protocol, corpus, head and
+// models, the settings every stimulus shares, and one Job per sentence ×
+// condition the design shows, with the hash of everything it depends on.
+// Jobs point into the protocol and corpus, so a Plan stays where it is made.
+struct Plan {
+    Protocol protocol;
+    Corpus corpus;
     RenderSettings render;
+    double fps = 30.0;
+    vocoder::VocoderSettings vocoder_base;
+    Head head;
+    std::map<std::string, std::unique_ptr<synth::ControlModel>> models;
+    json settings_json;
+    std::vector<Job> jobs;
+    std::size_t not_needed = 0;  // pairs the design never shows
+
+    explicit Plan(const BuildSettings& settings);
+    Plan(const Plan&) = delete;
+    Plan& operator=(const Plan&) = delete;
+};
+
+Plan::Plan(const BuildSettings& settings)
+    : protocol(load_protocol(settings.protocol_path)), corpus(read_corpus(protocol.corpus.sentences)) {
+    const auto& pr = protocol.render;
     render.width = pr.width;
     render.height = pr.height;
     render.camera = camera_view_from_name(pr.camera);
     render.background = parse_colour(pr.background, protocol);
-    const double fps = pr.fps;
-    const vocoder::VocoderSettings vocoder_base = vocoder_settings(protocol);
+    fps = pr.fps;
+    vocoder_base = vocoder_settings(protocol);
     // The protocol's own head ([render] head_mesh + head_rig) or the built-in one.
-    const Head head = pr.head_mesh.empty() ? load_default_head() : load_head(pr.head_mesh, pr.head_rig);
+    head = pr.head_mesh.empty() ? load_default_head() : load_head(pr.head_mesh, pr.head_rig);
 
     // Models, loaded once per condition (synthesis is const).
-    std::map<std::string, std::unique_ptr<synth::ControlModel>> models;
     std::map<std::string, std::string> model_hash;
     for (const auto& c : protocol.conditions)
         if (c.face == FaceMode::Model) {
@@ -229,7 +245,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
             model_hash[c.name] = sha256_file(c.model);
         }
 
-    const json settings_json = {
+    settings_json = {
         {"builder", builder_version},
         {"render", {{"fps", fps}, {"width", pr.width}, {"height", pr.height}, {"camera", pr.camera},
                     {"background", pr.background}, {"samples", render.samples}, {"fxaa", render.fxaa},
@@ -243,20 +259,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                    {"measure", "active-speech RMS: 20 ms frames within 40 dB of the loudest"},
                    {"max_peak_dbfs", max_peak_dbfs}}}};
 
-    // The previous manifest, for skipping unchanged stimuli.
-    std::map<std::string, json> previous;
-    const auto manifest_path = settings.out_dir / "manifest.json";
-    if (!settings.force && std::filesystem::exists(manifest_path)) {
-        try {
-            const json old = json::parse(read_text_file(manifest_path));
-            for (const auto& e : old.at("stimuli")) previous[e.at("path").get<std::string>()] = e;
-        } catch (const std::exception&) {
-            log_warning("{}: unreadable manifest, rebuilding everything", manifest_path.string());
-        }
-    }
-
     // Every stimulus and the hash of everything it depends on.
-    std::vector<Job> jobs;
     const std::size_t n_sentences = settings.max_sentences ? std::min(settings.max_sentences, corpus.sentences.size())
                                                            : corpus.sentences.size();
     // What the design can show (see BuildSettings::all_sentences). Without
@@ -275,7 +278,6 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         if (s.list == "practice") return design.practice_condition.empty() || c.name == design.practice_condition;
         return true;
     };
-    std::size_t not_needed = 0;
     for (std::size_t si = 0; si < n_sentences; ++si) {
         const Sentence& s = corpus.sentences[si];
         const std::string audio_key = protocol.corpus.audio == CorpusAudio::Tts
@@ -301,6 +303,86 @@ BuildReport build_stimuli(const BuildSettings& settings) {
             job.input_hash = sha256_hex(key.dump());
             jobs.push_back(std::move(job));
         }
+    }
+}
+
+// The entries of an earlier build's manifest by path: none when there is no
+// manifest, none and `unreadable` set when it cannot be parsed.
+std::map<std::string, json> manifest_entries(const std::filesystem::path& manifest_path, bool& unreadable) {
+    std::map<std::string, json> entries;
+    unreadable = false;
+    if (!std::filesystem::exists(manifest_path)) return entries;
+    try {
+        const json old = json::parse(read_text_file(manifest_path));
+        for (const auto& e : old.at("stimuli")) entries[e.at("path").get<std::string>()] = e;
+    } catch (const std::exception&) {
+        entries.clear();
+        unreadable = true;
+    }
+    return entries;
+}
+
+// The checks of verify_stimuli for one stimulus; findings go to `out`.
+void verify_one(const Job& job, const std::map<std::string, json>& entries, const std::filesystem::path& out_dir,
+                std::vector<std::string>& out) {
+    const std::string path = job.video.generic_string();
+    const auto add = [&](const std::string& what) { out.push_back(path + ": " + what); };
+    const auto it = entries.find(path);
+    if (it == entries.end()) {
+        add("not in the manifest (not built)");
+        return;
+    }
+    const json& e = it->second;
+    if (e.value("input_sha256", "") != job.input_hash)
+        add("out of date: its inputs or settings changed since it was built (run build-stimuli)");
+    const auto video = out_dir / job.video;
+    const auto wav = out_dir / job.wav;
+    if (!std::filesystem::exists(video)) {
+        add("the MP4 is missing");
+        return;
+    }
+    if (sha256_file(video) != e.value("sha256", "")) add("the MP4 differs from the one built (SHA-256)");
+    if (!std::filesystem::exists(wav)) add("the WAV " + job.wav.generic_string() + " is missing");
+    else if (sha256_file(wav) != e.value("wav_sha256", ""))
+        add("the WAV " + job.wav.generic_string() + " differs from the one built (SHA-256)");
+    try {
+        const DecodedVideo v = decode_video(video);
+        const auto frames = e.value("frames", std::size_t{0});
+        const double fps = e.value("fps", 0.0);
+        if (v.frame_count != frames)
+            add(fmt::format("decodes to {} frames, the manifest says {}", v.frame_count, frames));
+        if (std::fabs(v.fps - fps) > 1e-9) add(fmt::format("plays at {} fps, the manifest says {}", v.fps, fps));
+        if (!v.has_audio) add("has no audio track");
+        else if (v.fps > 0 && std::fabs(v.audio.duration_s() - v.video_duration_s) > 1.0 / v.fps)
+            add(fmt::format("audio lasts {:.3f} s, video {:.3f} s: more than one frame apart",
+                            v.audio.duration_s(), v.video_duration_s));
+    } catch (const std::exception& error) {
+        add(std::string("cannot be decoded: ") + error.what());
+    }
+}
+
+}  // namespace
+
+BuildReport build_stimuli(const BuildSettings& settings) {
+    const auto start = std::chrono::steady_clock::now();
+    Plan plan(settings);
+    const Protocol& protocol = plan.protocol;
+    const RenderSettings& render = plan.render;
+    const double fps = plan.fps;
+    const vocoder::VocoderSettings& vocoder_base = plan.vocoder_base;
+    const Head& head = plan.head;
+    const json& settings_json = plan.settings_json;
+    auto& jobs = plan.jobs;
+    const auto& models = plan.models;
+    const std::size_t not_needed = plan.not_needed;
+
+    // The previous manifest, for skipping unchanged stimuli.
+    const auto manifest_path = settings.out_dir / "manifest.json";
+    std::map<std::string, json> previous;
+    if (!settings.force) {
+        bool unreadable = false;
+        previous = manifest_entries(manifest_path, unreadable);
+        if (unreadable) log_warning("{}: unreadable manifest, rebuilding everything", manifest_path.string());
     }
 
     // Which need building.
@@ -481,6 +563,48 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     report.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     log_info("build-stimuli: built {} stimuli ({} frames) in {:.1f} s, {} unchanged", report.rendered,
              report.frames_rendered, report.elapsed_s, report.skipped);
+    return report;
+}
+
+VerifyReport verify_stimuli(const BuildSettings& settings) {
+    Plan plan(settings);
+    const auto manifest_path = settings.out_dir / "manifest.json";
+    if (!std::filesystem::exists(manifest_path))
+        throw InputError(manifest_path, "no manifest.json: nothing was built in this folder (run build-stimuli first)");
+    bool unreadable = false;
+    std::map<std::string, json> entries = manifest_entries(manifest_path, unreadable);
+    if (unreadable) throw InputError(manifest_path, "cannot read the manifest: expected JSON with a \"stimuli\" array");
+
+    VerifyReport report;
+    report.total = plan.jobs.size();
+    std::vector<std::vector<std::string>> found(plan.jobs.size());  // per job, in plan order
+    Progress progress("verify-stimuli", plan.jobs.size());
+    std::atomic<std::size_t> next{0};
+    auto check = [&] {
+        while (true) {
+            const std::size_t i = next.fetch_add(1);
+            if (i >= plan.jobs.size()) break;
+            try {
+                verify_one(plan.jobs[i], entries, settings.out_dir, found[i]);
+            } catch (const std::exception& error) {  // an unreadable file
+                found[i].push_back(plan.jobs[i].video.generic_string() + ": cannot be checked: " + error.what());
+            }
+            progress.advance();
+        }
+    };
+    const int workers = std::max(1, settings.jobs > 0 ? settings.jobs
+                                                      : static_cast<int>(std::thread::hardware_concurrency()));
+    std::vector<std::thread> threads;
+    for (int w = 0; w < workers; ++w) threads.emplace_back(check);
+    for (auto& t : threads) t.join();
+    progress.finish();
+
+    for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
+        entries.erase(plan.jobs[i].video.generic_string());
+        if (found[i].empty()) ++report.verified;
+        for (auto& line : found[i]) report.problems.push_back(std::move(line));
+    }
+    for (const auto& [path, entry] : entries) report.extra.push_back(path);
     return report;
 }
 

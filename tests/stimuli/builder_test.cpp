@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 
 #include <gtest/gtest.h>
 
@@ -123,6 +124,36 @@ TEST_F(BuilderFixture, SetsEveryStimulusToTheSpeechLevelAndRefusesALevelThatClip
     EXPECT_NE(error.find("corpus.level_dbfs"), std::string::npos) << error;
     EXPECT_NE(error.find("set level_dbfs to -"), std::string::npos) << error;
     EXPECT_FALSE(std::filesystem::exists(dir / "loud" / "out" / "manifest.json"));
+}
+
+// `build-stimuli --verify`: a fresh set verifies; a changed MP4, a missing
+// WAV and a set without a manifest are reported.
+TEST_F(BuilderFixture, VerifyChecksEveryStimulusAgainstTheManifest) {
+    EXPECT_THROW(verify_stimuli(settings("a")), InputError);  // nothing built yet
+    build_stimuli(settings("a"));
+    const VerifyReport clean = verify_stimuli(settings("a"));
+    EXPECT_EQ(clean.total, 6u);
+    EXPECT_EQ(clean.verified, 6u);
+    EXPECT_TRUE(clean.problems.empty()) << clean.problems.front();
+    EXPECT_TRUE(clean.extra.empty());
+
+    {
+        std::ofstream mp4(dir / "a" / "s1" / "rule.mp4", std::ios::binary | std::ios::app);
+        mp4 << '\0';
+    }
+    std::filesystem::remove(dir / "a" / "s2" / "blank.wav");
+    const VerifyReport broken = verify_stimuli(settings("a"));
+    EXPECT_EQ(broken.verified, 4u);
+    ASSERT_EQ(broken.problems.size(), 2u);
+    EXPECT_EQ(broken.problems[0], "s1/rule.mp4: the MP4 differs from the one built (SHA-256)");
+    EXPECT_EQ(broken.problems[1], "s2/blank.mp4: the WAV s2/blank.wav is missing");
+
+    // A smaller selection leaves the other entries as extra, not as problems.
+    BuildSettings first = settings("a");
+    first.max_sentences = 1;
+    const VerifyReport part = verify_stimuli(first);
+    EXPECT_EQ(part.total, 3u);
+    EXPECT_EQ(part.extra, (std::vector<std::string>{"s2/audio-only.mp4", "s2/blank.mp4", "s2/rule.mp4"}));
 }
 
 // With lists in the corpus, only what the design can show is built: test

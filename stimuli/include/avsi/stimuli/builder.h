@@ -15,6 +15,8 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <string>
+#include <vector>
 
 namespace avsi::stimuli {
 
@@ -44,5 +46,25 @@ struct BuildReport {
 // Builds the stimulus set. Throws InputError for bad protocol, corpus, model
 // or audio inputs (all found in the protocol are reported at once).
 BuildReport build_stimuli(const BuildSettings& settings);
+
+struct VerifyReport {
+    std::size_t total = 0;     // stimuli the protocol asks for
+    std::size_t verified = 0;  // those that passed every check
+    std::vector<std::string> problems;  // "<path>: what is wrong", one per finding
+    // Manifest entries the protocol does not ask for (built with
+    // --all-sentences or for an earlier protocol): not a problem, listed.
+    std::vector<std::string> extra;
+};
+
+// Checks a built set against its protocol and manifest.json without building
+// anything (`avsi build-stimuli --verify`). For each stimulus the protocol
+// asks for (the same selection as build_stimuli): a manifest entry; inputs
+// and settings unchanged since it was built (else it is out of date); the MP4
+// and WAV with the manifest's SHA-256; the MP4 decoding to the manifest's
+// frame count at its frame rate, with an audio track as long as the video
+// within one frame. Manifest entries the protocol does not ask for are
+// listed apart. Decodes on `jobs` threads. Throws InputError for a bad
+// protocol, or a missing or unreadable manifest.
+VerifyReport verify_stimuli(const BuildSettings& settings);
 
 }  // namespace avsi::stimuli
