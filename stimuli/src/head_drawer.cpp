@@ -132,15 +132,17 @@ struct HeadDrawer::Impl {
         GLint u_view_proj = -1, u_eye = -1, u_light_dir = -1, u_light_color = -1, u_ambient = -1;
     };
     Lit lit[2];
-    GLuint vao = 0, vbo_dynamic = 0, vbo_static = 0, ebo = 0, region_program = 0;
-    // A second index buffer: the static triangles, then the moving ones
-    // (each part in mesh order); its triangle → group table for region renders.
+    GLuint vao = 0, vbo_dynamic = 0, vbo_static = 0, region_program = 0;
+    // The index buffer: the static triangles, then the moving ones (each part
+    // in mesh order), and its triangle → group table for region renders. The
+    // whole head is drawn in this order too, so a depth tie between a static
+    // and a moving triangle (where the opened jaw passes through the neck)
+    // resolves the same way with and without the static-part cache.
     GLuint ebo_split = 0, group_buffer_split = 0, group_texture_split = 0;
     GLsizei static_index_count = 0;
     GLsizei blink_index_count = 0;  // the blink-only clusters' triangles, after the static ones
     std::vector<std::vector<std::uint32_t>> moving_clusters;
     std::vector<bool> blink_only_clusters;
-    GLuint group_buffer = 0, group_texture = 0;
     GLsizei index_count = 0;
     std::size_t vertex_count = 0;
     std::vector<float> interleaved;
@@ -238,21 +240,11 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
                              reinterpret_cast<const void*>(3 * sizeof(float)));
     gl.glEnableVertexAttribArray(2);
     gl.glEnableVertexAttribArray(3);
-    gl.glGenBuffers(1, &d.ebo);
-    gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
-    gl.glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(mesh.indices.size() * sizeof(std::uint32_t)),
-                    mesh.indices.data(), GL_STATIC_DRAW);
     gl.glBindVertexArray(0);
 
     // Triangle → group, read by the region mode.
     std::vector<std::uint8_t> groups(mesh.triangle_group.size());
     for (std::size_t t = 0; t < groups.size(); ++t) groups[t] = static_cast<std::uint8_t>(mesh.triangle_group[t]);
-    gl.glGenBuffers(1, &d.group_buffer);
-    gl.glBindBuffer(GL_TEXTURE_BUFFER, d.group_buffer);
-    gl.glBufferData(GL_TEXTURE_BUFFER, static_cast<GLsizeiptr>(groups.size()), groups.data(), GL_STATIC_DRAW);
-    gl.glGenTextures(1, &d.group_texture);
-    gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture);
-    gl.glTexBuffer(GL_TEXTURE_BUFFER, GL_R8UI, d.group_buffer);
 
     d.lit[0].program = d.link(vertex_lit_shader, vertex_lit_fragment_shader);
     d.lit[1].program = d.link(vertex_shader, fragment_shader);
@@ -346,7 +338,6 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
     gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo_split);
     gl.glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(split.size() * sizeof(std::uint32_t)),
                     split.data(), GL_STATIC_DRAW);
-    gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
     gl.glBindVertexArray(0);
     gl.glGenBuffers(1, &d.group_buffer_split);
     gl.glBindBuffer(GL_TEXTURE_BUFFER, d.group_buffer_split);
@@ -362,10 +353,9 @@ HeadDrawer::~HeadDrawer() {
     auto& gl = d.gl;
     for (const auto& lit : d.lit) gl.glDeleteProgram(lit.program);
     gl.glDeleteProgram(d.region_program);
-    GLuint textures[] = {d.group_texture, d.group_texture_split};
-    gl.glDeleteTextures(2, textures);
-    GLuint buffers[] = {d.vbo_dynamic, d.vbo_static, d.ebo, d.group_buffer, d.ebo_split, d.group_buffer_split};
-    gl.glDeleteBuffers(6, buffers);
+    gl.glDeleteTextures(1, &d.group_texture_split);
+    GLuint buffers[] = {d.vbo_dynamic, d.vbo_static, d.ebo_split, d.group_buffer_split};
+    gl.glDeleteBuffers(4, buffers);
     gl.glDeleteVertexArrays(1, &d.vao);
 }
 
@@ -450,7 +440,7 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
         gl.glUseProgram(d.region_program);
         gl.glUniformMatrix4fv(d.u_region_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
         gl.glActiveTexture(GL_TEXTURE0);
-        gl.glBindTexture(GL_TEXTURE_BUFFER, part == DrawPart::All ? d.group_texture : d.group_texture_split);
+        gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture_split);
         gl.glUniform1i(d.u_groups, 0);
         gl.glUniform1i(d.u_first_triangle, part == DrawPart::Moving          ? d.static_index_count / 3
                                             : part == DrawPart::MovingButLids ? (d.static_index_count + d.blink_index_count) / 3
@@ -465,29 +455,16 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
         gl.glUniform3fv(lit.u_ambient, 1, glm::value_ptr(ambient));
     }
     gl.glBindVertexArray(d.vao);
-    switch (part) {
-        case DrawPart::All:
-            gl.glDrawElements(GL_TRIANGLES, d.index_count, GL_UNSIGNED_INT, nullptr);
-            break;
-        case DrawPart::Static:
-        case DrawPart::StaticAndLids: {
-            const GLsizei count = d.static_index_count + (part == DrawPart::StaticAndLids ? d.blink_index_count : 0);
-            gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo_split);
-            gl.glDrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT, nullptr);
-            gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
-            break;
-        }
-        case DrawPart::Moving:
-        case DrawPart::MovingButLids: {
-            const GLsizei first = d.static_index_count + (part == DrawPart::MovingButLids ? d.blink_index_count : 0);
-            gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo_split);
-            if (d.index_count > first)
-                gl.glDrawElements(GL_TRIANGLES, d.index_count - first, GL_UNSIGNED_INT,
-                                  reinterpret_cast<const void*>(std::size_t(first) * sizeof(std::uint32_t)));
-            gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo);
-            break;
-        }
-    }
+    // The VAO's index buffer is the split one: static, blink-only, moving.
+    GLsizei first = 0, count = d.index_count;
+    if (part == DrawPart::Static) count = d.static_index_count;
+    else if (part == DrawPart::StaticAndLids) count = d.static_index_count + d.blink_index_count;
+    else if (part == DrawPart::Moving) first = d.static_index_count;
+    else if (part == DrawPart::MovingButLids) first = d.static_index_count + d.blink_index_count;
+    if (part == DrawPart::Moving || part == DrawPart::MovingButLids) count = d.index_count - first;
+    if (count > 0)
+        gl.glDrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT,
+                          reinterpret_cast<const void*>(std::size_t(first) * sizeof(std::uint32_t)));
     gl.glBindVertexArray(0);
 }
 

@@ -99,7 +99,9 @@ private:
 
 // ---- The skull: a superellipsoid whose radii vary with direction. ----
 float skull_radius(glm::vec3 d) {
-    const float rx = 73.0f - 17.0f * smoothstep(-0.15f, -0.85f, d.y);
+    // Narrower toward the chin, but not to a point: the jaw keeps its width
+    // down to the gonial angles.
+    const float rx = 73.0f - 11.0f * smoothstep(-0.2f, -0.9f, d.y);
     float rz = d.z > 0 ? 93.0f : 101.0f;
     if (d.z > 0) rz *= 1.0f - 0.10f * smoothstep(-0.45f, -0.95f, d.y);
     const float ry = d.y > 0 ? 112.0f : 116.0f;
@@ -162,11 +164,20 @@ float face_relief(float x, float y, float mouth_y) {
     h -= 7.0f * gauss2(ax - eye_x, 16.0f, y - eye_y, 11.0f);             // eye sockets
     h += 4.0f * gauss2(ax - 27.0f, 22.0f, y - (eye_y + 16.0f), 7.0f);    // brow ridge
     h += 5.0f * gauss2(ax - 38.0f, 17.0f, y + 18.0f, 15.0f);             // cheeks
-    h += 5.0f * gauss2(x, 17.0f, y - (mouth_y - 34.0f), 11.0f);          // chin
+    h += 6.5f * gauss2(x, 21.0f, y - (mouth_y - 35.0f), 12.0f);          // chin
     h -= 2.5f * gauss2(x, 15.0f, y - (mouth_y - 17.0f), 5.0f);           // mentolabial sulcus
     h -= 1.2f * gauss2(ax - 5.0f, 2.0f, y - (mouth_y + 17.0f), 6.0f) *
          smoothstep(nose_base_y, nose_base_y - 4.0f, y);                 // philtrum ridges' groove
     return h;
+}
+
+// Fullness of the cheeks beside the mouth (mm forward), applied at full
+// height even near the lips: it fills the hollow where the protruding mouth
+// region meets the cheek, which read as a deep fold from nose to chin.
+float cheek_fill(float x, float y, float mouth_y) {
+    const float ax = std::abs(x);
+    return 4.5f * gauss2(ax - 34.0f, 9.0f, y - (mouth_y + 4.0f), 17.0f) +
+           2.5f * gauss2(ax - 27.0f, 8.0f, y - (mouth_y - 22.0f), 10.0f);
 }
 
 struct Generated {
@@ -289,7 +300,8 @@ void build_skin(Generated& g, const HeadGeneratorSettings& settings) {
             // keeps its full height there all the same.
             const float nose = nose_relief(p.x, p.y);
             const float nose_weight = blend + (1.0f - blend) * smoothstep(nose_base_y - 8.0f, nose_base_y - 2.0f, p.y);
-            p.z += smoothstep(0.05f, 0.45f, d.z) * (blend * (face_relief(p.x, p.y, my) - nose) + nose_weight * nose);
+            p.z += smoothstep(0.05f, 0.45f, d.z) *
+                   (blend * (face_relief(p.x, p.y, my) - nose) + nose_weight * nose + cheek_fill(p.x, p.y, my));
             // Colour: skin, hair above the hairline, eyebrows.
             glm::vec3 color = skin_color;
             const float hairline = -55.0f + 115.0f * smoothstep(-40.0f, 75.0f, p.z) -
@@ -573,17 +585,28 @@ void build_ears(Generated& g) {
     }
 }
 
+// The neck: an elliptic tube from inside the head down to the shoulders,
+// about as wide as the jaw (~116 mm, an adult's ~37 cm circumference), a
+// little narrower at mid-height, widening into the trapezius slope below.
 void build_neck(Generated& g) {
-    const int na = 56, nr = 10;
+    const int na = 56, nr = 14;
     std::vector<std::vector<glm::vec3>> rows, colors;
     for (int i = 0; i <= nr; ++i) {
         const float t = float(i) / float(nr);
-        const float y = -50.0f - 230.0f * t;
-        const float flare = 1.0f + 0.25f * smoothstep(0.6f, 1.0f, t);
         std::vector<glm::vec3> row, crow;
         for (int p = 0; p < na; ++p) {
             const float a = 2.0f * pi * float(p) / float(na);
-            row.push_back({50.0f * flare * std::cos(a), y, -18.0f + 46.0f * std::sin(a)});
+            // The top ends inside the head: at the back and sides high up, in
+            // front under the jaw, below the oral cavity even with the jaw
+            // open (a neck reaching higher showed through the open mouth).
+            const float y_top = -45.0f - 50.0f * smoothstep(0.72f, 0.97f, std::sin(a));
+            const float y = y_top + (-280.0f - y_top) * t;
+            const float half_width = 58.0f - 3.0f * smoothstep(-60.0f, -140.0f, y) +
+                                     95.0f * std::pow(smoothstep(-150.0f, -280.0f, y), 1.6f);
+            const float half_depth = 46.0f + 5.0f * smoothstep(-95.0f, -135.0f, y) +
+                                     6.0f * smoothstep(-170.0f, -280.0f, y);
+            const float zc = -18.0f + 4.0f * smoothstep(-95.0f, -170.0f, y);
+            row.push_back({half_width * std::cos(a), y, zc + half_depth * std::sin(a)});
             crow.push_back(skin_color * (0.97f - 0.05f * t));
         }
         rows.push_back(row);
