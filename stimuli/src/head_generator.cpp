@@ -176,7 +176,8 @@ float face_relief(float x, float y, float mouth_y) {
 // region meets the cheek, which read as a deep fold from nose to chin.
 float cheek_fill(float x, float y, float mouth_y) {
     const float ax = std::abs(x);
-    return 4.5f * gauss2(ax - 34.0f, 9.0f, y - (mouth_y + 4.0f), 17.0f) +
+    return 4.0f * gauss2(ax - 27.0f, 9.0f, y - (mouth_y + 9.0f), 14.0f) +
+           2.0f * gauss2(ax - 36.0f, 9.0f, y - (mouth_y + 2.0f), 16.0f) +
            2.5f * gauss2(ax - 27.0f, 8.0f, y - (mouth_y - 22.0f), 10.0f);
 }
 
