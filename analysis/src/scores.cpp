@@ -79,7 +79,7 @@ Scores read_scores(const std::filesystem::path& path) {
 }
 
 Scores select_conditions(const Scores& scores, const std::vector<std::string>& conditions,
-                         const std::string& source, const std::string& what) {
+                         const std::string& source) {
     if (conditions.empty()) return scores;
     std::vector<std::string> present;
     for (const auto& c : scores.cells)
@@ -88,10 +88,10 @@ Scores select_conditions(const Scores& scores, const std::vector<std::string>& c
     std::set<std::string> listed;
     for (const auto& name : conditions) {
         if (!listed.insert(name).second) {
-            problems.add(source, 0, 0, what, fmt::format("condition '{}' is listed twice", name));
+            problems.add(source, 0, 0, "conditions", fmt::format("condition '{}' is listed twice", name));
         } else if (std::find(present.begin(), present.end(), name) == present.end()) {
             const std::string near = closest_match(name, present);
-            problems.add(source, 0, 0, what,
+            problems.add(source, 0, 0, "conditions",
                          fmt::format("expected one of the conditions in the scores ({}), got '{}'{}",
                                      fmt::join(present, ", "), name,
                                      near.empty() ? "" : fmt::format(" (did you mean '{}'?)", near)));

@@ -175,8 +175,7 @@ constexpr double max_peak_dbfs = -1.0;
 
 struct Level {
     double gain_db = 0.0;
-    double speech_dbfs = 0.0;  // active-speech RMS after the gain
-    double peak_dbfs = 0.0;    // highest |sample| after the gain
+    double peak_dbfs = 0.0;  // highest |sample| after the gain
 };
 
 double to_dbfs(double amplitude) { return 20.0 * std::log10(std::max(amplitude, 1e-12)); }
@@ -196,7 +195,6 @@ Level set_speech_level(Audio& audio, double level_dbfs) {
         peak = std::max(peak, std::fabs(double(x)));
     }
     level.gain_db = to_dbfs(gain);
-    level.speech_dbfs = level_dbfs;
     level.peak_dbfs = to_dbfs(peak);
     return level;
 }
@@ -408,20 +406,34 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     }
 
     // Speech per sentence, made serially (espeak-ng is not thread-safe).
-    // The vocoded audio depends only on the sentence (its seed is derived
-    // from the sentence id), so it is made once and shared by the conditions.
+    // The audio a condition presents — clean or vocoded (the vocoder's seed
+    // is derived from the sentence id), at the speech level — depends only
+    // on the sentence and that kind, so each is made once and shared.
+    struct Presented {
+        Audio audio;
+        Level level;
+    };
     struct Speech {
         Audio audio;
         PhoneSequence phones;
-        std::once_flag vocoded_once;
-        Audio vocoded_audio;
-        const Audio& vocoded(const vocoder::VocoderSettings& base, std::uint64_t seed) {
-            std::call_once(vocoded_once, [&] {
-                vocoder::VocoderSettings v = base;
-                v.seed = seed;
-                vocoded_audio = vocoder::vocode(audio, v).audio;
+        std::once_flag once[2];
+        Presented presented[2];  // [0] clean, [1] vocoded
+        // The audio the conditions with `kind` present, at the protocol's speech level.
+        const Presented& as(ConditionAudio kind, const vocoder::VocoderSettings& base, std::uint64_t seed,
+                            double level_dbfs) {
+            const int k = kind == ConditionAudio::Vocoded ? 1 : 0;
+            std::call_once(once[k], [&] {
+                Presented& p = presented[k];
+                if (kind == ConditionAudio::Vocoded) {
+                    vocoder::VocoderSettings v = base;
+                    v.seed = seed;
+                    p.audio = vocoder::vocode(audio, v).audio;
+                } else {
+                    p.audio = audio;
+                }
+                p.level = set_speech_level(p.audio, level_dbfs);
             });
-            return vocoded_audio;
+            return presented[k];
         }
     };
     std::map<std::string, Speech> speech;
@@ -469,9 +481,10 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                 Job& job = jobs[todo[t]];
                 const auto& c = *job.condition;
                 Speech& sp = speech.at(job.sentence->id);
-                Audio audio = c.audio == ConditionAudio::Vocoded ? sp.vocoded(vocoder_base, job.vocoder_seed)
-                                                                 : sp.audio;
-                const Level level = set_speech_level(audio, protocol.corpus.level_dbfs);
+                const Presented& presented =
+                    sp.as(c.audio, vocoder_base, job.vocoder_seed, protocol.corpus.level_dbfs);
+                const Audio& audio = presented.audio;
+                const Level& level = presented.level;
                 if (level.peak_dbfs > max_peak_dbfs)
                     throw InputError(
                         protocol.path.string(), protocol.corpus.level_line, protocol.corpus.level_column,
@@ -522,9 +535,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                              {"wav", job.wav.generic_string()},
                              {"duration_s", trajectory.duration_s()},
                              {"audio_duration_s", audio.duration_s()},
-                             {"level", {{"gain_db", level.gain_db},
-                                        {"speech_dbfs", level.speech_dbfs},
-                                        {"peak_dbfs", level.peak_dbfs}}},
+                             {"level", {{"gain_db", level.gain_db}, {"peak_dbfs", level.peak_dbfs}}},
                              {"frames", trajectory.size()},
                              {"fps", fps},
                              {"face", to_string(c.face)},

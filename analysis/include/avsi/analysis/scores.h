@@ -35,10 +35,10 @@ Scores read_scores(const std::filesystem::path& path);
 // The cells of `conditions` only, grouped in that order (file order within a
 // condition), so every table, plot and contrast follows it. An empty list
 // keeps `scores` as they are. A listed condition the scores do not have, or
-// one listed twice, is an InputError naming `source` and the field `what`,
+// one listed twice, is an InputError naming `source` (field "conditions"),
 // with the conditions present (and "did you mean").
 Scores select_conditions(const Scores& scores, const std::vector<std::string>& conditions,
-                         const std::string& source, const std::string& what = "conditions");
+                         const std::string& source);
 
 // Writes scores.csv (atomically), percent with full precision.
 void write_scores(const std::filesystem::path& path, const Scores& scores);

@@ -28,9 +28,9 @@ struct CorpusSettings {
     std::filesystem::path sentences;  // resolved against the protocol folder
     CorpusAudio audio = CorpusAudio::Tts;
     std::string voice = "en-us";
-    // Every stimulus's speech level: RMS over the speech (first to last
-    // non-silence phone) in dBFS, 20·log10(RMS) with full scale 1.0, after
-    // the condition's processing (stimuli/level.h).
+    // Every stimulus's speech level after the condition's processing: the
+    // active-speech RMS (vocoder::speech_level_rms, ActiveFrames) in dBFS,
+    // 20·log10(RMS) with full scale 1.0; set by the stimulus builder.
     double level_dbfs = -26.0;
     int level_line = 0, level_column = 0;  // where level_dbfs is set (0: the default)
 };
