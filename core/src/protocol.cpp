@@ -153,6 +153,12 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         cond.audio = c->get_choice("audio", {"vocoded", "clean"}, "vocoded", problems) == "clean"
                          ? ConditionAudio::Clean
                          : ConditionAudio::Vocoded;
+        cond.closure_hold = c->get_choice("closure", {"off", "hold"}, "off", problems) == "hold";
+        cond.closure_transition_s = c->get_number("closure_transition_s", 0.025, 0.001, 0.2, problems);
+        if (c->has("closure") && cond.face != FaceMode::Model)
+            c->report("closure", "the closure mechanism acts on a control model: it needs face = \"model\"", problems);
+        if (c->has("closure_transition_s") && !cond.closure_hold)
+            c->report("closure_transition_s", "only used with closure = \"hold\"", problems);
         c->check_unknown_keys(problems);
         p.conditions.push_back(std::move(cond));
     }
@@ -224,6 +230,7 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         render.report(render.has("head_mesh") ? "head_mesh" : "head_rig",
                       "expected head_mesh and head_rig together (a rig belongs to its mesh), got only one",
                       problems);
+    p.render.check_articulation = render.get_bool("check_articulation", true, problems);
     render.check_unknown_keys(problems);
     p.render_section = render;
 

@@ -40,6 +40,11 @@ struct ProtocolCondition {
     std::filesystem::path model;  // control model file, resolved; empty when absent
     FaceMode face = FaceMode::Still;
     ConditionAudio audio = ConditionAudio::Vocoded;
+    // Closure mechanism (synth/target_hold.h): "hold" holds the /p b m f v/
+    // targets of protocols/rule_targets.tsv through their segments on this
+    // condition's model; "off" (default) leaves the model as published.
+    bool closure_hold = false;
+    double closure_transition_s = 0.025;  // the hold's fall-off outside the segment
     int line = 0;                 // where its [[condition]] table starts
 };
 
@@ -64,6 +69,10 @@ struct RenderSettings {
     // folder; both empty = the built-in head.
     std::filesystem::path head_mesh;
     std::filesystem::path head_rig;
+    // Measure every model stimulus's articulation (lip closure, labiodental
+    // contact, no interpenetration) into the manifest; needs the head's
+    // articulation landmarks. false only for a head without them.
+    bool check_articulation = true;
 };
 
 enum class ResponseMode { Subject, Experimenter };
