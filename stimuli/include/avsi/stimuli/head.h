@@ -7,6 +7,24 @@
 // with smooth falloff weights. The neutral geometry gives the MPEG-4 facial
 // animation parameter units (ISO/IEC 14496-2 Annex C; Charisma paper §3).
 //
+// The rig file (JSON, "format": "avsi-rig"):
+//   "landmarks"     neutral-face points for the FAPUs and the camera (Landmarks);
+//   "transforms"    the weighted transforms, applied in order (RigTransform):
+//                   {"channel": <parameter or "blink">, "rotate" | "translate" |
+//                    "scale": …, "region": {"groups": […], "smooth": n,
+//                    "falloff": [{"ellipsoid": …} | {"halfspace": …}]}};
+//   "articulation"  vertex indices of the landmarks the articulation measures
+//                   use (ArticulationLandmarks; articulation.h), needed by
+//                   `avsi measure` and the stimulus builder's checks:
+//                   {"upper_lip_contour": [i…], "lower_lip_contour": [i…],
+//                    "mouth_corners": [left, right], "upper_lip_point": i,
+//                    "lower_lip_point": i, "upper_incisor_edge": [i…],
+//                    "lower_incisor_edge": [i…], "lower_lip_surface": [i…],
+//                    "up": [x, y, z], "forward": [x, y, z]};
+//   "lip_contact"   optional, needs "articulation": the lips flatten against
+//                   each other instead of passing through (LipContact):
+//                   {"upper": <region>, "lower": <region>, "reach_mm": d}.
+//
 // Usage:
 //   auto head = avsi::stimuli::load_default_head();
 //   avsi::stimuli::Pose pose;                  // rest
