@@ -77,7 +77,7 @@ ArticulationMeter::ArticulationMeter(const Head& head) : m_head(head) {
             if (it == slots_of.end()) continue;
             for (auto s : it->second) {
                 sparse.slots.push_back(s);
-                sparse.weights.push_back(t.weights[k]);
+                sparse.entries.push_back(static_cast<std::uint32_t>(k));
             }
         }
         m_transforms.push_back(std::move(sparse));
@@ -127,11 +127,9 @@ void ArticulationMeter::pose_landmarks(const Pose& pose, std::vector<glm::vec3>&
         const RigTransform& t = m_head.transforms[ti];
         const Sparse& s = m_transforms[ti];
         if (s.slots.empty()) continue;
-        const double amount = static_cast<std::size_t>(t.channel_index) < synth::param_count
-                                  ? pose.params[static_cast<std::size_t>(t.channel_index)]
-                                  : pose.blink;
+        const double amount = channel_amount(t, pose);
         if (amount == 0.0) continue;
-        apply_transform(t, static_cast<float>(amount), s.slots, s.weights, out);
+        apply_transform(t, static_cast<float>(amount), s.entries, s.slots, out);
     }
     if (m_head.lip_contact) apply_lip_contact(*m_head.lip_contact, m_contact, out);
 }

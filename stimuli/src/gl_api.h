@@ -64,7 +64,13 @@ namespace avsi::stimuli::detail {
     X(PFNGLBINDTEXTUREPROC, glBindTexture)                                   \
     X(PFNGLDELETETEXTURESPROC, glDeleteTextures)                             \
     X(PFNGLACTIVETEXTUREPROC, glActiveTexture)                               \
-    X(PFNGLTEXBUFFERPROC, glTexBuffer)
+    X(PFNGLTEXBUFFERPROC, glTexBuffer)                                       \
+    X(PFNGLTEXIMAGE2DPROC, glTexImage2D)                                     \
+    X(PFNGLTEXPARAMETERIPROC, glTexParameteri)                               \
+    X(PFNGLGENERATEMIPMAPPROC, glGenerateMipmap)                             \
+    X(PFNGLBLENDFUNCPROC, glBlendFunc)                                       \
+    X(PFNGLDEPTHMASKPROC, glDepthMask)                                       \
+    X(PFNGLUNIFORM1FPROC, glUniform1f)
 
 struct Gl {
 #define AVSI_GL_MEMBER(type, name) type name = nullptr;

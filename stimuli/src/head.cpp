@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <numeric>
 #include <set>
+#include <span>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -15,6 +17,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/stimuli/image_io.h"
 #include "smoothstep.h"
 
 namespace avsi::stimuli {
@@ -37,7 +40,14 @@ Head load_default_head() { return load_head(default_head_obj(), default_head_rig
 
 namespace {
 
-HeadMesh read_obj(const std::filesystem::path& path) {
+// Texture coordinates per vertex, when every corner of a vertex has the same
+// one; `uv_conflict` names the first vertex with two.
+struct ObjRead {
+    HeadMesh mesh;
+    std::optional<std::size_t> uv_conflict;
+};
+
+ObjRead read_obj(const std::filesystem::path& path) {
     tinyobj::ObjReaderConfig config;
     config.triangulate = true;
     config.vertex_color = true;
@@ -77,7 +87,37 @@ HeadMesh read_obj(const std::filesystem::path& path) {
         }
     }
     if (mesh.indices.empty()) throw InputError(path, "the mesh has no faces");
-    return mesh;
+    ObjRead result;
+    // Texture coordinates, one per vertex (the head format's convention).
+    if (!attrib.texcoords.empty()) {
+        mesh.uvs.assign(n, glm::vec2(0.0f));
+        std::vector<char> seen(n, 0);
+        for (const auto& shape : reader.GetShapes())
+            for (const auto& idx : shape.mesh.indices) {
+                if (idx.texcoord_index < 0 || std::size_t(idx.texcoord_index) * 2 + 1 >= attrib.texcoords.size()) continue;
+                const glm::vec2 uv{attrib.texcoords[2 * std::size_t(idx.texcoord_index)],
+                                   attrib.texcoords[2 * std::size_t(idx.texcoord_index) + 1]};
+                const auto v = static_cast<std::size_t>(idx.vertex_index);
+                if (seen[v] && mesh.uvs[v] != uv && !result.uv_conflict) result.uv_conflict = v;
+                mesh.uvs[v] = uv;
+                seen[v] = 1;
+            }
+    }
+    result.mesh = std::move(mesh);
+    return result;
+}
+
+// A group's material when the rig names none: by its name (the procedural
+// heads' conventions: eyes glossy, teeth and lips moist, the cavity dark and matt).
+Material default_material(const std::string& g) {
+    Material m;
+    if (g == "eyes") m.specular = 0.6f, m.shininess = 90.0f;
+    else if (g.find("teeth") != std::string::npos) m.specular = 0.25f, m.shininess = 40.0f;
+    else if (g.find("lip") != std::string::npos && g.find("lids") == std::string::npos) m.specular = 0.18f, m.shininess = 30.0f;
+    else if (g.find("inner") != std::string::npos) m.specular = 0.2f, m.shininess = 30.0f;
+    else if (g.find("cavity") != std::string::npos) m.specular = 0.02f;
+    else if (g == "tongue") m.specular = 0.2f, m.shininess = 30.0f;
+    return m;
 }
 
 struct RigReader {
@@ -377,7 +417,8 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
     Head head;
     head.obj_path = obj_path;
     head.rig_path = rig_path;
-    head.mesh = read_obj(obj_path);
+    auto obj = read_obj(obj_path);
+    head.mesh = std::move(obj.mesh);
 
     json doc;
     try {
@@ -412,9 +453,55 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
         else if (rig.problems.empty()) head.lip_contact = read_lip_contact(doc["lip_contact"], head, rig);
     }
 
+    // The texture and the materials.
+    if (doc.contains("texture")) {
+        if (!doc["texture"].is_string()) rig.problem("texture", "expected a PNG file name, got " + doc["texture"].dump());
+        else if (head.mesh.uvs.empty()) rig.problem("texture", "the mesh " + obj_path.filename().string() + " has no texture coordinates (vt)");
+        else if (obj.uv_conflict)
+            rig.problem("texture", "vertex " + std::to_string(*obj.uv_conflict + 1) + " of " + obj_path.filename().string() +
+                                       " has two texture coordinates; a textured head needs one per vertex (split the vertex)");
+        else {
+            const auto path = rig_path.parent_path() / doc["texture"].get<std::string>();
+            if (!std::filesystem::exists(path)) rig.problem("texture", "no such file: " + path.string());
+            else head.texture = read_image_rgba(path);
+        }
+    }
+    head.materials.resize(head.mesh.group_names.size());
+    for (std::size_t g = 0; g < head.materials.size(); ++g) head.materials[g] = default_material(head.mesh.group_names[g]);
+    if (doc.contains("materials")) {
+        if (!doc["materials"].is_object()) rig.problem("materials", "expected an object of group materials");
+        else
+            for (const auto& [name, m] : doc["materials"].items()) {
+                const std::string field = "materials." + name;
+                const int g = head.mesh.group_index(name);
+                if (g < 0) {
+                    const auto hint = closest_match(name, head.mesh.group_names);
+                    rig.problem(field, "no group '" + name + "' in the mesh" + (hint.empty() ? "" : " (did you mean '" + hint + "'?)"));
+                    continue;
+                }
+                Material& mat = head.materials[static_cast<std::size_t>(g)];
+                for (const auto& [key, value] : m.items()) {
+                    if (key == "specular") mat.specular = rig.number(value, field + ".specular");
+                    else if (key == "shininess") mat.shininess = rig.number(value, field + ".shininess");
+                    else if (key == "wrap") mat.wrap = rig.number(value, field + ".wrap");
+                    else if (key == "blend") {
+                        if (!value.is_boolean()) rig.problem(field + "." + key, "expected true or false, got " + value.dump());
+                        else mat.blend = value.get<bool>();
+                    } else {
+                        const auto hint = closest_match(key, {"specular", "shininess", "wrap", "blend"});
+                        rig.problem(field + "." + key, "unknown field" + (hint.empty() ? "" : " (did you mean '" + hint + "'?)"));
+                    }
+                }
+                if (mat.specular < 0 || mat.shininess < 1 || mat.wrap < 0 || mat.wrap > 1)
+                    rig.problem(field, "expected specular >= 0, shininess >= 1 and wrap in [0, 1]");
+            }
+    }
+
     std::vector<std::string> channels;
     for (const auto& info : synth::params()) channels.emplace_back(info.name);
     channels.emplace_back("blink");
+    channels.emplace_back("tongue_tip");
+    AVSI_ASSERT(channels.size() == channel_count);
 
     int k = 0;
     for (const auto& t : doc.value("transforms", json::array())) {
@@ -424,12 +511,60 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
         const auto it = std::find(channels.begin(), channels.end(), rt.channel);
         if (it == channels.end()) {
             const auto hint = closest_match(rt.channel, channels);
-            rig.problem(field + ".channel", "expected a parameter name or \"blink\", got \"" +
+            rig.problem(field + ".channel", "expected a parameter name, \"blink\" or \"tongue_tip\", got \"" +
                                                 rt.channel + "\"" +
                                                 (hint.empty() ? "" : " (did you mean '" + hint + "'?)"));
             continue;
         }
         rt.channel_index = static_cast<int>(it - channels.begin());
+        if (t.contains("side")) {
+            const std::string side = t["side"].is_string() ? t["side"].get<std::string>() : t["side"].dump();
+            if (side == "positive") rt.side = ChannelSide::Positive;
+            else if (side == "negative") rt.side = ChannelSide::Negative;
+            else rig.problem(field + ".side", "expected \"positive\" or \"negative\", got " + t["side"].dump());
+        }
+        const std::size_t n = head.mesh.positions.size();
+        // Explicit sparse entries: "weights" of a transform, the vertices of a blendshape.
+        auto vertex_list = [&](const json& j, const std::string& f) {
+            std::vector<std::uint32_t> out;
+            if (!j.is_array()) {
+                rig.problem(f, "expected an array of vertex indices");
+                return out;
+            }
+            for (const auto& v : j) {
+                if (!v.is_number_unsigned() || v.get<std::uint64_t>() >= n) {
+                    rig.problem(f, "expected vertex indices in [0, " + std::to_string(n) + "), got " + v.dump());
+                    return std::vector<std::uint32_t>{};
+                }
+                out.push_back(static_cast<std::uint32_t>(v.get<std::uint64_t>()));
+            }
+            return out;
+        };
+        if (t.contains("blendshape")) {
+            rt.kind = TransformKind::Blendshape;
+            const json& b = t["blendshape"];
+            rt.vertices = vertex_list(b.value("vertices", json()), field + ".blendshape.vertices");
+            const json& o = b.value("offsets", json());
+            if (!o.is_array() || o.size() != 3 * rt.vertices.size()) {
+                rig.problem(field + ".blendshape.offsets", "expected 3 numbers per vertex (" + std::to_string(3 * rt.vertices.size()) +
+                                                                "), got " + (o.is_array() ? std::to_string(o.size()) : o.dump().substr(0, 40)));
+                continue;
+            }
+            for (std::size_t k = 0; k < rt.vertices.size(); ++k) {
+                if (!o[3 * k].is_number() || !o[3 * k + 1].is_number() || !o[3 * k + 2].is_number()) {
+                    rig.problem(field + ".blendshape.offsets", "expected numbers, got " + o[3 * k].dump());
+                    break;
+                }
+                rt.offsets.push_back({o[3 * k].get<float>(), o[3 * k + 1].get<float>(), o[3 * k + 2].get<float>()});
+            }
+            rt.weights.assign(rt.vertices.size(), 1.0f);
+            if (t.contains("region")) {
+                const auto w = region_weights(head.mesh, t["region"], field + ".region", rig);
+                for (std::size_t k = 0; k < rt.vertices.size(); ++k) rt.weights[k] = std::min(w[rt.vertices[k]], 1.0f);
+            }
+            head.transforms.push_back(std::move(rt));
+            continue;
+        }
         if (t.contains("rotate")) {
             rt.kind = TransformKind::Rotate;
             rt.pivot = rig.vec3(t["rotate"].value("pivot", json()), field + ".rotate.pivot");
@@ -445,15 +580,34 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
             rt.pivot = rig.vec3(t["scale"].value("pivot", json()), field + ".scale.pivot");
             rt.scale = rig.vec3(t["scale"].value("factor", json()), field + ".scale.factor");
         } else {
-            rig.problem(field, "expected one of 'rotate', 'translate', 'scale'");
+            rig.problem(field, "expected one of 'rotate', 'translate', 'scale', 'blendshape'");
             continue;
         }
-        const auto w = region_weights(head.mesh, t.contains("region") ? t["region"] : json::object(), field + ".region", rig);
-        for (std::size_t i = 0; i < w.size(); ++i)
-            if (w[i] > 1e-4f) {
-                rt.vertices.push_back(static_cast<std::uint32_t>(i));
-                rt.weights.push_back(std::min(w[i], 1.0f));
+        if (t.contains("weights")) {
+            if (t.contains("region")) rig.problem(field, "expected one of 'region' and 'weights', got both");
+            const json& w = t["weights"];
+            rt.vertices = vertex_list(w.value("vertices", json()), field + ".weights.vertices");
+            const json& values = w.value("values", json());
+            if (!values.is_array() || values.size() != rt.vertices.size()) {
+                rig.problem(field + ".weights.values", "expected one weight per vertex (" + std::to_string(rt.vertices.size()) + ")");
+                continue;
             }
+            for (const auto& v : values) {
+                const float x = rig.number(v, field + ".weights.values");
+                if (!(x >= 0.0f && x <= 1.0f)) {
+                    rig.problem(field + ".weights.values", "expected weights in [0, 1], got " + v.dump());
+                    break;
+                }
+                rt.weights.push_back(x);
+            }
+        } else {
+            const auto w = region_weights(head.mesh, t.contains("region") ? t["region"] : json::object(), field + ".region", rig);
+            for (std::size_t i = 0; i < w.size(); ++i)
+                if (w[i] > 1e-4f) {
+                    rt.vertices.push_back(static_cast<std::uint32_t>(i));
+                    rt.weights.push_back(std::min(w[i], 1.0f));
+                }
+        }
         head.transforms.push_back(std::move(rt));
     }
     rig.problems.throw_if_any();
@@ -488,23 +642,39 @@ void compute_normals(const std::vector<glm::vec3>& positions, const std::vector<
     }
 }
 
-void apply_transform(const RigTransform& t, float amount, const std::vector<std::uint32_t>& targets,
-                     const std::vector<float>& weights, std::vector<glm::vec3>& positions) {
+double channel_amount(const RigTransform& t, const Pose& pose) {
+    const auto c = static_cast<std::size_t>(t.channel_index);
+    const double value = c < synth::param_count ? pose.params[c] : c == blink_channel ? pose.blink : pose.tongue_tip;
+    switch (t.side) {
+        case ChannelSide::Positive: return std::max(value, 0.0);
+        case ChannelSide::Negative: return std::min(value, 0.0);
+        case ChannelSide::Both: break;
+    }
+    return value;
+}
+
+void apply_transform(const RigTransform& t, float amount, std::span<const std::uint32_t> entries,
+                     std::span<const std::uint32_t> targets, std::vector<glm::vec3>& positions) {
+    AVSI_ASSERT(entries.size() == targets.size());
     switch (t.kind) {
         case TransformKind::Translate:
-            for (std::size_t k = 0; k < targets.size(); ++k) positions[targets[k]] += t.offset * (amount * weights[k]);
+            for (std::size_t j = 0; j < entries.size(); ++j) positions[targets[j]] += t.offset * (amount * t.weights[entries[j]]);
+            break;
+        case TransformKind::Blendshape:
+            for (std::size_t j = 0; j < entries.size(); ++j)
+                positions[targets[j]] += t.offsets[entries[j]] * (amount * t.weights[entries[j]]);
             break;
         case TransformKind::Scale:
-            for (std::size_t k = 0; k < targets.size(); ++k) {
-                auto& p = positions[targets[k]];
-                p = t.pivot + (p - t.pivot) * (glm::vec3(1.0f) + t.scale * (amount * weights[k]));
+            for (std::size_t j = 0; j < entries.size(); ++j) {
+                auto& p = positions[targets[j]];
+                p = t.pivot + (p - t.pivot) * (glm::vec3(1.0f) + t.scale * (amount * t.weights[entries[j]]));
             }
             break;
         case TransformKind::Rotate: {
             const float full = glm::radians(t.angle_deg) * amount;
-            for (std::size_t k = 0; k < targets.size(); ++k) {
-                auto& p = positions[targets[k]];
-                const glm::quat q = glm::angleAxis(full * weights[k], t.axis);
+            for (std::size_t j = 0; j < entries.size(); ++j) {
+                auto& p = positions[targets[j]];
+                const glm::quat q = glm::angleAxis(full * t.weights[entries[j]], t.axis);
                 p = t.pivot + q * (p - t.pivot);
             }
             break;
@@ -514,12 +684,18 @@ void apply_transform(const RigTransform& t, float amount, const std::vector<std:
 
 void pose_positions(const Head& head, const Pose& pose, std::vector<glm::vec3>& positions) {
     positions = head.mesh.positions;
+    thread_local std::vector<std::uint32_t> identity;
     for (const auto& t : head.transforms) {
-        const double amount = static_cast<std::size_t>(t.channel_index) < synth::param_count
-                                  ? pose.params[static_cast<std::size_t>(t.channel_index)]
-                                  : pose.blink;
+        const double amount = channel_amount(t, pose);
         if (amount == 0.0) continue;
-        apply_transform(t, static_cast<float>(amount), t.vertices, t.weights, positions);
+        if (identity.size() < t.vertices.size()) {
+            const auto old = identity.size();
+            identity.resize(t.vertices.size());
+            std::iota(identity.begin() + std::ptrdiff_t(old), identity.end(), static_cast<std::uint32_t>(old));
+        }
+        // Every entry onto its own vertex.
+        apply_transform(t, static_cast<float>(amount), std::span(identity.data(), t.vertices.size()), t.vertices,
+                        positions);
     }
     if (head.lip_contact) apply_lip_contact(*head.lip_contact, head.lip_contact->mesh, positions);
 }

@@ -1,8 +1,16 @@
 // The GL drawing of the head: one vertex buffer (positions and normals
-// updated per frame, colours and materials static), Blinn-Phong shading
-// (Blinn 1977) with three directional lights — key, fill and rim — evaluated
-// per vertex (default, fast on llvmpipe) or per pixel, and a region mode that writes the mesh group of each
-// triangle (gl_PrimitiveID into a texture buffer) for tests.
+// updated per frame; colours, materials and texture coordinates static), a
+// texture (the rig's, or white), and a lighting model for skin: three
+// directional lights (key, fill, rim) and a sky/ground ambient; diffuse
+// light wrapped past the terminator with the wrapped part tinted red, as
+// light scattered under the skin shows (the "wrap lighting" approximation
+// of subsurface scattering, Green 2004, GPU Gems ch. 16); a soft Blinn-Phong
+// highlight (Blinn 1977) with Schlick's Fresnel term. Evaluated per vertex
+// (default, fast on llvmpipe) or per pixel; glossy materials (the eyes'
+// cornea highlight) always per pixel. Alpha-blended materials (hair, brows,
+// lashes) are drawn after the opaque ones, back to front, without depth
+// writes. A region mode writes the mesh group of each triangle
+// (gl_PrimitiveID into a texture buffer) for tests.
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
@@ -38,115 +46,161 @@ CameraView camera_view_from_name(const std::string& name) {
 
 namespace {
 
-// Per-pixel lighting: the vertex stage passes position, normal and material
-// on, the fragment stage evaluates the lights.
-const char* vertex_shader = R"(#version 330 core
-layout(location = 0) in vec3 a_position;
-layout(location = 1) in vec3 a_normal;
-layout(location = 2) in vec3 a_color;
-layout(location = 3) in vec3 a_material;
-uniform mat4 u_view_proj;
-out vec3 v_position;
-out vec3 v_normal;
-out vec3 v_color;
-out vec3 v_material;
-void main() {
-    v_position = a_position;
-    v_normal = a_normal;
-    v_color = a_color;
-    v_material = a_material;
-    gl_Position = u_view_proj * vec4(a_position, 1.0);
-}
-)";
+// Attributes: position, normal (per frame); colour (texture multiplier),
+// material (specular, shininess, wrap), texture coordinates (static).
+#define AVSI_ATTRIBUTES                                                               \
+    "layout(location = 0) in vec3 a_position;\n"                                      \
+    "layout(location = 1) in vec3 a_normal;\n"                                        \
+    "layout(location = 2) in vec3 a_color;\n"                                         \
+    "layout(location = 3) in vec3 a_material;\n"                                      \
+    "layout(location = 4) in vec2 a_uv;\n"                                            \
+    "uniform mat4 u_view_proj;\n"
 
-// Blinn-Phong: c = ka·albedo + Σ_lights L·(albedo·max(n·l, 0) + ks·max(n·h, 0)^shininess),
-// then the sRGB-like display gamma 1/2.2. Shared by both shading rates.
-#define AVSI_BLINN_PHONG                                                              \
+// The lighting (see the file comment): diffuse and specular light at a point.
+#define AVSI_LIGHTING                                                                 \
     "uniform vec3 u_eye;\n"                                                           \
     "uniform vec3 u_light_dir[3];\n"                                                  \
     "uniform vec3 u_light_color[3];\n"                                                \
-    "uniform vec3 u_ambient;\n"                                                       \
-    "vec3 shade(vec3 p, vec3 n_in, vec3 albedo, vec3 material) {\n"                   \
+    "uniform vec3 u_sky;\n"                                                           \
+    "uniform vec3 u_ground;\n"                                                        \
+    "uniform vec3 u_scatter;\n"                                                       \
+    "void light(vec3 p, vec3 n_in, vec3 material, out vec3 diffuse, out vec3 specular) {\n" \
     "    vec3 n = normalize(n_in);\n"                                                 \
     "    vec3 v = normalize(u_eye - p);\n"                                            \
-    "    vec3 c = u_ambient * albedo * material.z;\n"                                 \
+    "    diffuse = mix(u_ground, u_sky, 0.5 + 0.5 * n.y);\n"                          \
+    "    specular = vec3(0.0);\n"                                                     \
     "    for (int i = 0; i < 3; ++i) {\n"                                             \
     "        vec3 l = u_light_dir[i];\n"                                              \
-    "        float diffuse = max(dot(n, l), 0.0);\n"                                  \
-    "        vec3 h = normalize(l + v);\n"                                            \
-    "        float specular = diffuse > 0.0 ? material.x * pow(max(dot(n, h), 0.0), material.y) : 0.0;\n" \
-    "        c += u_light_color[i] * (albedo * diffuse + vec3(specular)) * material.z;\n" \
+    "        float ndl = dot(n, l);\n"                                                \
+    "        float lambert = max(ndl, 0.0);\n"                                        \
+    "        float wrapped = max((ndl + material.z) / (1.0 + material.z), 0.0);\n"    \
+    "        diffuse += u_light_color[i] * (vec3(lambert) + u_scatter * (wrapped - lambert));\n" \
+    "        if (ndl > 0.0) {\n"                                                      \
+    "            vec3 h = normalize(l + v);\n"                                        \
+    "            float fresnel = 0.04 + 0.96 * pow(1.0 - max(dot(v, h), 0.0), 5.0);\n" \
+    "            specular += u_light_color[i] * (material.x * (0.6 + 0.4 * fresnel) *\n" \
+    "                        pow(max(dot(n, h), 0.0), material.y) * lambert);\n"     \
+    "        }\n"                                                                     \
     "    }\n"                                                                         \
-    "    return pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2));\n"                          \
     "}\n"
+
+// Texture (sRGB, made linear) times the vertex colour; the display gamma 1/2.2.
+#define AVSI_SURFACE                                                                  \
+    "uniform sampler2D u_texture;\n"                                                  \
+    "uniform float u_alpha_cut;\n"                                                    \
+    "vec4 surface(vec2 uv, vec3 color, vec3 diffuse, vec3 specular) {\n"              \
+    "    vec4 t = texture(u_texture, uv);\n"                                          \
+    "    if (t.a < u_alpha_cut) discard;\n"                                           \
+    "    vec3 albedo = pow(t.rgb, vec3(2.2)) * color;\n"                              \
+    "    vec3 c = albedo * diffuse + specular * color;\n"                             \
+    "    float gloss = min(dot(specular, vec3(0.3333)), 1.0);\n"                       \
+    "    return vec4(pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)), max(t.a, gloss));\n"   \
+    "}\n"
+
+// Per-pixel lighting: the vertex stage passes position, normal, material on.
+const char* vertex_shader = "#version 330 core\n" AVSI_ATTRIBUTES
+                            "out vec3 v_position;\n"
+                            "out vec3 v_normal;\n"
+                            "out vec3 v_color;\n"
+                            "out vec3 v_material;\n"
+                            "out vec2 v_uv;\n"
+                            "void main() {\n"
+                            "    v_position = a_position;\n"
+                            "    v_normal = a_normal;\n"
+                            "    v_color = a_color;\n"
+                            "    v_material = a_material;\n"
+                            "    v_uv = a_uv;\n"
+                            "    gl_Position = u_view_proj * vec4(a_position, 1.0);\n"
+                            "}\n";
 
 const char* fragment_shader = "#version 330 core\n"
                               "in vec3 v_position;\n"
                               "in vec3 v_normal;\n"
                               "in vec3 v_color;\n"
-                              "in vec3 v_material;   // specular strength, shininess, ambient occlusion\n"
-                              "out vec4 o_color;\n" AVSI_BLINN_PHONG
-                              "void main() { o_color = vec4(shade(v_position, v_normal, v_color, v_material), 1.0); }\n";
+                              "in vec3 v_material;\n"
+                              "in vec2 v_uv;\n"
+                              "out vec4 o_color;\n" AVSI_LIGHTING AVSI_SURFACE
+                              "void main() {\n"
+                              "    vec3 diffuse, specular;\n"
+                              "    light(v_position, v_normal, v_material, diffuse, specular);\n"
+                              "    o_color = surface(v_uv, v_color, diffuse, specular);\n"
+                              "}\n";
 
-// Per-vertex lighting (Gouraud interpolation of the Blinn-Phong colour): the
-// lights are evaluated at the ~17k vertices instead of every covered pixel,
-// and one varying instead of four is interpolated — on llvmpipe this is
-// about 3x faster per frame than per-pixel lighting at 640x480, and on this
-// dense a mesh the difference is confined to the width of specular highlights.
-const char* vertex_lit_shader = "#version 330 core\n"
-                                "layout(location = 0) in vec3 a_position;\n"
-                                "layout(location = 1) in vec3 a_normal;\n"
-                                "layout(location = 2) in vec3 a_color;\n"
-                                "layout(location = 3) in vec3 a_material;\n"
-                                "uniform mat4 u_view_proj;\n"
-                                "out vec3 v_shaded;\n" AVSI_BLINN_PHONG
+// Per-vertex lighting (Gouraud interpolation of the diffuse and specular
+// light; the texture per pixel): the lights are evaluated at the vertices
+// instead of every covered pixel — on llvmpipe about 3x faster per frame at
+// 640x480, and on this dense a mesh the difference is confined to the width
+// of specular highlights.
+const char* vertex_lit_shader = "#version 330 core\n" AVSI_ATTRIBUTES
+                                "out vec3 v_diffuse;\n"
+                                "out vec3 v_specular;\n"
+                                "out vec3 v_color;\n"
+                                "out vec2 v_uv;\n" AVSI_LIGHTING
                                 "void main() {\n"
-                                "    v_shaded = shade(a_position, a_normal, a_color, a_material);\n"
+                                "    light(a_position, a_normal, a_material, v_diffuse, v_specular);\n"
+                                "    v_color = a_color;\n"
+                                "    v_uv = a_uv;\n"
                                 "    gl_Position = u_view_proj * vec4(a_position, 1.0);\n"
                                 "}\n";
 
-const char* vertex_lit_fragment_shader = R"(#version 330 core
-in vec3 v_shaded;
-out vec4 o_color;
-void main() { o_color = vec4(v_shaded, 1.0); }
-)";
+const char* vertex_lit_fragment_shader = "#version 330 core\n"
+                                         "in vec3 v_diffuse;\n"
+                                         "in vec3 v_specular;\n"
+                                         "in vec3 v_color;\n"
+                                         "in vec2 v_uv;\n"
+                                         "out vec4 o_color;\n" AVSI_SURFACE
+                                         "void main() { o_color = surface(v_uv, v_color, v_diffuse, v_specular); }\n";
 
-// Region mode: the mesh group of each triangle, looked up by gl_PrimitiveID.
+// Region mode: the mesh group of each triangle, looked up by gl_PrimitiveID
+// (alpha-textured surfaces count where they are opaque enough).
 const char* region_shader = R"(#version 330 core
 uniform usamplerBuffer u_groups;
 uniform int u_first_triangle;
+uniform sampler2D u_texture;
+uniform float u_alpha_cut;
+in vec2 v_uv;
 out vec4 o_color;
 void main() {
+    if (texture(u_texture, v_uv).a < u_alpha_cut) discard;
     uint g = texelFetch(u_groups, gl_PrimitiveID + u_first_triangle).r;
     o_color = vec4(float(g + 1u) / 255.0, 0.0, 0.0, 1.0);
 }
 )";
 
+// How a range of triangles is drawn.
+enum class Pass { Opaque, Glossy, Blend };
+constexpr int pass_count = 3;
+// Materials at least this shiny are lit per pixel (a highlight narrower than the triangles).
+constexpr float glossy_shininess = 60.0f;
+
 }  // namespace
 
 struct HeadDrawer::Impl {
     detail::Gl gl;
-    // A lit program and its uniforms; [0] lights per vertex, [1] per pixel.
-    struct Lit {
+    // A lit program and its uniforms; [0] lights per vertex, [1] per pixel, [2] regions.
+    struct Program {
         GLuint program = 0;
-        GLint u_view_proj = -1, u_eye = -1, u_light_dir = -1, u_light_color = -1, u_ambient = -1;
+        GLint u_view_proj = -1, u_eye = -1, u_light_dir = -1, u_light_color = -1, u_sky = -1, u_ground = -1,
+              u_scatter = -1, u_texture = -1, u_alpha_cut = -1, u_groups = -1, u_first_triangle = -1;
     };
-    Lit lit[2];
-    GLuint vao = 0, vbo_dynamic = 0, vbo_static = 0, region_program = 0;
-    // The index buffer: the static triangles, then the moving ones (each part
-    // in mesh order), and its triangle → group table for region renders. The
-    // whole head is drawn in this order too, so a depth tie between a static
-    // and a moving triangle (where the opened jaw passes through the neck)
-    // resolves the same way with and without the static-part cache.
+    Program programs[3];
+    GLuint vao = 0, vbo_dynamic = 0, vbo_static = 0, texture = 0;
+    // The index buffer: the static triangles, then those of the clusters
+    // only the blink moves, then the other moving ones; each part split by
+    // pass (opaque, glossy, blended back to front); and its triangle → group
+    // table for region renders. The whole head is drawn in this order too,
+    // so a depth tie between a static and a moving triangle (where the
+    // opened jaw passes through the neck) resolves the same way with and
+    // without the static-part cache.
     GLuint ebo_split = 0, group_buffer_split = 0, group_texture_split = 0;
-    GLsizei static_index_count = 0;
-    GLsizei blink_index_count = 0;  // the blink-only clusters' triangles, after the static ones
+    struct Range {
+        GLsizei first = 0, count = 0;
+    };
+    Range ranges[3][pass_count];  // [part: static, blink-only, moving][pass]
     std::vector<std::vector<std::uint32_t>> moving_clusters;
     std::vector<bool> blink_only_clusters;
-    GLsizei index_count = 0;
     std::size_t vertex_count = 0;
     std::vector<float> interleaved;
-    GLint u_region_view_proj = -1, u_groups = -1, u_first_triangle = -1;
     glm::vec3 target{0.0f};
 
     GLuint compile(GLenum type, const char* source) {
@@ -163,23 +217,36 @@ struct HeadDrawer::Impl {
         return s;
     }
 
-    GLuint link(const char* vs_source, const char* fs_source) {
+    Program link(const char* vs_source, const char* fs_source) {
         const GLuint vs = compile(GL_VERTEX_SHADER, vs_source);
         const GLuint fs = compile(GL_FRAGMENT_SHADER, fs_source);
-        const GLuint program = gl.glCreateProgram();
-        gl.glAttachShader(program, vs);
-        gl.glAttachShader(program, fs);
-        gl.glLinkProgram(program);
+        Program p;
+        p.program = gl.glCreateProgram();
+        gl.glAttachShader(p.program, vs);
+        gl.glAttachShader(p.program, fs);
+        gl.glLinkProgram(p.program);
         gl.glDeleteShader(vs);
         gl.glDeleteShader(fs);
         GLint ok = 0;
-        gl.glGetProgramiv(program, GL_LINK_STATUS, &ok);
+        gl.glGetProgramiv(p.program, GL_LINK_STATUS, &ok);
         if (!ok) {
             char log[2048];
-            gl.glGetProgramInfoLog(program, sizeof log, nullptr, log);
+            gl.glGetProgramInfoLog(p.program, sizeof log, nullptr, log);
             throw std::runtime_error(std::string("shader link failed: ") + log);
         }
-        return program;
+        const auto at = [&](const char* name) { return gl.glGetUniformLocation(p.program, name); };
+        p.u_view_proj = at("u_view_proj");
+        p.u_eye = at("u_eye");
+        p.u_light_dir = at("u_light_dir");
+        p.u_light_color = at("u_light_color");
+        p.u_sky = at("u_sky");
+        p.u_ground = at("u_ground");
+        p.u_scatter = at("u_scatter");
+        p.u_texture = at("u_texture");
+        p.u_alpha_cut = at("u_alpha_cut");
+        p.u_groups = at("u_groups");
+        p.u_first_triangle = at("u_first_triangle");
+        return p;
     }
 };
 
@@ -189,34 +256,27 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
     gl.load(loader);
     const auto& mesh = head.mesh;
     d.vertex_count = mesh.positions.size();
-    d.index_count = static_cast<GLsizei>(mesh.indices.size());
     d.target = head.landmarks.head_center;
 
-    // Per-vertex material from the group of its triangles: specular strength,
-    // shininess, ambient occlusion (darkens the oral cavity).
-    std::vector<float> statics(d.vertex_count * 6, 0.0f);
+    // Per-vertex colour, material (from the group of its triangles) and
+    // texture coordinates.
+    const bool textured = head.texture.has_value() && mesh.uvs.size() == d.vertex_count;
+    std::vector<float> statics(d.vertex_count * 8, 0.0f);
+    const Material plain;
     for (std::size_t i = 0; i < d.vertex_count; ++i) {
-        statics[6 * i + 0] = mesh.colors[i].r;
-        statics[6 * i + 1] = mesh.colors[i].g;
-        statics[6 * i + 2] = mesh.colors[i].b;
-        statics[6 * i + 3] = 0.06f;
-        statics[6 * i + 4] = 18.0f;
-        statics[6 * i + 5] = 1.0f;
+        float* v = &statics[8 * i];
+        v[0] = mesh.colors[i].r, v[1] = mesh.colors[i].g, v[2] = mesh.colors[i].b;
+        v[3] = plain.specular, v[4] = plain.shininess, v[5] = plain.wrap;
+        if (textured) v[6] = mesh.uvs[i].x, v[7] = mesh.uvs[i].y;
     }
-    for (std::size_t t = 0; t < mesh.triangle_group.size(); ++t) {
-        const std::string& g = mesh.group_names[static_cast<std::size_t>(mesh.triangle_group[t])];
-        float spec = 0.06f, shin = 18.0f, occlusion = 1.0f;
-        if (g == "eyes") spec = 0.6f, shin = 90.0f;
-        else if (g.find("teeth") != std::string::npos) spec = 0.25f, shin = 40.0f, occlusion = 0.85f;
-        else if (g.find("lip") != std::string::npos && g.find("lids") == std::string::npos) spec = 0.18f, shin = 30.0f;
-        else if (g.find("inner") != std::string::npos) spec = 0.2f, shin = 30.0f, occlusion = 0.7f;
-        else if (g.find("cavity") != std::string::npos) spec = 0.02f, occlusion = 0.35f;
-        else if (g == "tongue") spec = 0.2f, shin = 30.0f, occlusion = 0.6f;
+    const std::size_t triangle_count = mesh.indices.size() / 3;
+    std::vector<int> pass_of(triangle_count, int(Pass::Opaque));
+    for (std::size_t t = 0; t < triangle_count; ++t) {
+        const Material& m = head.materials.at(static_cast<std::size_t>(mesh.triangle_group[t]));
+        pass_of[t] = int(m.blend ? Pass::Blend : m.shininess >= glossy_shininess ? Pass::Glossy : Pass::Opaque);
         for (int k = 0; k < 3; ++k) {
-            const std::size_t v = mesh.indices[3 * t + static_cast<std::size_t>(k)];
-            statics[6 * v + 3] = spec;
-            statics[6 * v + 4] = shin;
-            statics[6 * v + 5] = occlusion;
+            float* v = &statics[8 * mesh.indices[3 * t + static_cast<std::size_t>(k)]];
+            v[3] = m.specular, v[4] = m.shininess, v[5] = m.wrap;
         }
     }
 
@@ -235,41 +295,53 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
     gl.glBindBuffer(GL_ARRAY_BUFFER, d.vbo_static);
     gl.glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(statics.size() * sizeof(float)), statics.data(),
                     GL_STATIC_DRAW);
-    gl.glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
-    gl.glVertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+    gl.glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float), nullptr);
+    gl.glVertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float),
                              reinterpret_cast<const void*>(3 * sizeof(float)));
+    gl.glVertexAttribPointer(4, 2, GL_FLOAT, GL_FALSE, 8 * sizeof(float),
+                             reinterpret_cast<const void*>(6 * sizeof(float)));
     gl.glEnableVertexAttribArray(2);
     gl.glEnableVertexAttribArray(3);
+    gl.glEnableVertexAttribArray(4);
     gl.glBindVertexArray(0);
 
+    // The texture (mipmapped, trilinear), or one white texel.
+    gl.glGenTextures(1, &d.texture);
+    gl.glBindTexture(GL_TEXTURE_2D, d.texture);
+    const std::uint8_t white[4] = {255, 255, 255, 255};
+    if (textured) {
+        // GL's first row is v = 0, the image's last (OBJ texture coordinates count from the bottom).
+        const auto& tex = *head.texture;
+        const std::size_t row = std::size_t(tex.width) * 4;
+        std::vector<std::uint8_t> flipped(tex.rgba.size());
+        for (int y = 0; y < tex.height; ++y)
+            std::memcpy(&flipped[std::size_t(y) * row], &tex.rgba[std::size_t(tex.height - 1 - y) * row], row);
+        gl.glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex.width, tex.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, flipped.data());
+    } else
+        gl.glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 1, 1, 0, GL_RGBA, GL_UNSIGNED_BYTE, white);
+    gl.glGenerateMipmap(GL_TEXTURE_2D);
+    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+
     // Triangle → group, read by the region mode.
-    std::vector<std::uint8_t> groups(mesh.triangle_group.size());
+    std::vector<std::uint8_t> groups(triangle_count);
     for (std::size_t t = 0; t < groups.size(); ++t) groups[t] = static_cast<std::uint8_t>(mesh.triangle_group[t]);
 
-    d.lit[0].program = d.link(vertex_lit_shader, vertex_lit_fragment_shader);
-    d.lit[1].program = d.link(vertex_shader, fragment_shader);
-    for (auto& lit : d.lit) {
-        lit.u_view_proj = gl.glGetUniformLocation(lit.program, "u_view_proj");
-        lit.u_eye = gl.glGetUniformLocation(lit.program, "u_eye");
-        lit.u_light_dir = gl.glGetUniformLocation(lit.program, "u_light_dir");
-        lit.u_light_color = gl.glGetUniformLocation(lit.program, "u_light_color");
-        lit.u_ambient = gl.glGetUniformLocation(lit.program, "u_ambient");
-    }
-    d.region_program = d.link(vertex_shader, region_shader);
-    d.u_region_view_proj = gl.glGetUniformLocation(d.region_program, "u_view_proj");
-    d.u_groups = gl.glGetUniformLocation(d.region_program, "u_groups");
-    d.u_first_triangle = gl.glGetUniformLocation(d.region_program, "u_first_triangle");
+    d.programs[0] = d.link(vertex_lit_shader, vertex_lit_fragment_shader);
+    d.programs[1] = d.link(vertex_shader, fragment_shader);
+    d.programs[2] = d.link(vertex_shader, region_shader);
     d.interleaved.resize(d.vertex_count * 6);
 
     // The static / moving split. A vertex moves when a rig transform weights
     // it; its normal (area-weighted over its triangles) changes when one of its
     // triangles has a moving vertex; a triangle's pixels change when one of its
     // vertices moves or changes normal.
-    const std::size_t triangle_count = mesh.indices.size() / 3;
-    // moves: bit 1 = moved by a speech parameter, bit 2 = moved by the blink.
+    // moves: bit 1 = moved by a speech channel, bit 2 = moved by the blink.
     std::vector<char> moves(d.vertex_count, 0), reshaded(d.vertex_count, 0), moving_triangle(triangle_count, 0);
     for (const auto& t : head.transforms) {
-        const char bit = static_cast<std::size_t>(t.channel_index) < synth::param_count ? 1 : 2;
+        const char bit = static_cast<std::size_t>(t.channel_index) == blink_channel ? 2 : 1;
         for (std::size_t k = 0; k < t.vertices.size(); ++k)
             if (t.weights[k] != 0.0f) moves[t.vertices[k]] |= bit;
     }
@@ -317,23 +389,41 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
     // every frame without a blink: it can be cached with the static part.
     d.blink_only_clusters.resize(d.moving_clusters.size());
     for (std::size_t c = 0; c < d.moving_clusters.size(); ++c) d.blink_only_clusters[c] = cluster_moves[c] == 2;
-    // The split index buffer: static triangles, the blink-only clusters' ones,
-    // the other moving ones (each part in mesh order).
+    std::vector<int> part_of(triangle_count, 0);
+    for (std::size_t t = 0; t < triangle_count; ++t) {
+        const std::uint32_t* v = &mesh.indices[3 * t];
+        part_of[t] = !moving_triangle[t] ? 0
+                     : d.blink_only_clusters[static_cast<std::size_t>(cluster_of_root[find(v[0])])] ? 1
+                                                                                                   : 2;
+    }
+    // Blended triangles back to front as the frontal camera sees them (by
+    // their centroids' depth; the camera looks along −z).
+    std::vector<std::size_t> order(triangle_count);
+    for (std::size_t t = 0; t < triangle_count; ++t) order[t] = t;
+    std::vector<float> depth(triangle_count);
+    for (std::size_t t = 0; t < triangle_count; ++t)
+        depth[t] = mesh.positions[mesh.indices[3 * t]].z + mesh.positions[mesh.indices[3 * t + 1]].z +
+                   mesh.positions[mesh.indices[3 * t + 2]].z;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        const bool blend_a = pass_of[a] == int(Pass::Blend), blend_b = pass_of[b] == int(Pass::Blend);
+        return blend_a && blend_b && depth[a] < depth[b];
+    });
+    // The split index buffer: parts in order, passes in order within a part.
     std::vector<std::uint32_t> split;
     split.reserve(mesh.indices.size());
     std::vector<std::uint8_t> split_groups;
     split_groups.reserve(triangle_count);
     for (int part = 0; part < 3; ++part)
-        for (std::size_t t = 0; t < triangle_count; ++t) {
-            const std::uint32_t* v = &mesh.indices[3 * t];
-            const int p = !moving_triangle[t]
-                              ? 0
-                              : d.blink_only_clusters[static_cast<std::size_t>(cluster_of_root[find(v[0])])] ? 1 : 2;
-            if (p != part) continue;
-            split.insert(split.end(), v, v + 3);
-            split_groups.push_back(groups[t]);
-            if (p == 0) d.static_index_count += 3;
-            if (p == 1) d.blink_index_count += 3;
+        for (int pass = 0; pass < pass_count; ++pass) {
+            auto& r = d.ranges[part][pass];
+            r.first = static_cast<GLsizei>(split.size());
+            for (const std::size_t t : order) {
+                if (part_of[t] != part || pass_of[t] != pass) continue;
+                const std::uint32_t* v = &mesh.indices[3 * t];
+                split.insert(split.end(), v, v + 3);
+                split_groups.push_back(groups[t]);
+            }
+            r.count = static_cast<GLsizei>(split.size()) - r.first;
         }
 
     gl.glBindVertexArray(d.vao);
@@ -354,9 +444,9 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
 HeadDrawer::~HeadDrawer() {
     auto& d = *m_impl;
     auto& gl = d.gl;
-    for (const auto& lit : d.lit) gl.glDeleteProgram(lit.program);
-    gl.glDeleteProgram(d.region_program);
-    gl.glDeleteTextures(1, &d.group_texture_split);
+    for (const auto& p : d.programs) gl.glDeleteProgram(p.program);
+    GLuint textures[] = {d.group_texture_split, d.texture};
+    gl.glDeleteTextures(2, textures);
     GLuint buffers[] = {d.vbo_dynamic, d.vbo_static, d.ebo_split, d.group_buffer_split};
     gl.glDeleteBuffers(4, buffers);
     gl.glDeleteVertexArrays(1, &d.vao);
@@ -414,21 +504,18 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
     const float yaw = camera.yaw;
     const glm::mat4& view_proj = camera.view_proj;
 
-    // Lights in world space, turning with the camera: key from upper left
-    // front (warm), fill from the right (cool, dim), rim from behind above.
+    // Lights in world space, turning with the camera: a warm key from the
+    // upper left front, a cool dim fill from the right, a rim from behind
+    // above; a sky/ground ambient. The wrapped diffuse light is tinted red.
     const glm::mat3 turn = glm::mat3(glm::rotate(glm::mat4(1.0f), yaw, glm::vec3(0, 1, 0)));
-    const glm::vec3 dirs[3] = {turn * glm::normalize(glm::vec3(-0.6f, 0.5f, 0.65f)),
-                               turn * glm::normalize(glm::vec3(0.7f, 0.05f, 0.6f)),
+    const glm::vec3 dirs[3] = {turn * glm::normalize(glm::vec3(-0.55f, 0.55f, 0.65f)),
+                               turn * glm::normalize(glm::vec3(0.75f, 0.1f, 0.55f)),
                                turn * glm::normalize(glm::vec3(0.3f, 0.6f, -0.8f))};
-    const glm::vec3 colors[3] = {{0.98f, 0.91f, 0.82f}, {0.20f, 0.22f, 0.27f}, {0.45f, 0.45f, 0.50f}};
-    const glm::vec3 ambient{0.16f, 0.16f, 0.18f};
+    const glm::vec3 colors[3] = {{0.95f, 0.88f, 0.80f}, {0.26f, 0.28f, 0.33f}, {0.30f, 0.30f, 0.34f}};
+    const glm::vec3 sky{0.30f, 0.31f, 0.34f}, ground{0.14f, 0.12f, 0.11f}, scatter{0.9f, 0.45f, 0.32f};
 
     gl.glViewport(0, 0, width, height);
     gl.glEnable(GL_DEPTH_TEST);
-    // Every part is a consistently wound surface seen from its outside (the
-    // oral cavity is the outside of the skin surface folded in), so back
-    // faces are never visible: culling them halves the rasteriser's work.
-    gl.glEnable(GL_CULL_FACE);
     if (mode == RenderMode::Regions) {
         gl.glDisable(GL_MULTISAMPLE);
         gl.glClearColor(0.0f, 0.0f, 0.0f, 1.0f);
@@ -439,35 +526,65 @@ void HeadDrawer::draw(const PosedMesh& posed, const RenderSettings& settings, in
     }
     const bool over = part == DrawPart::Moving || part == DrawPart::MovingButLids;
     if (!over) gl.glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    if (mode == RenderMode::Regions) {
-        gl.glUseProgram(d.region_program);
-        gl.glUniformMatrix4fv(d.u_region_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
-        gl.glActiveTexture(GL_TEXTURE0);
-        gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture_split);
-        gl.glUniform1i(d.u_groups, 0);
-        gl.glUniform1i(d.u_first_triangle, part == DrawPart::Moving          ? d.static_index_count / 3
-                                            : part == DrawPart::MovingButLids ? (d.static_index_count + d.blink_index_count) / 3
-                                                                              : 0);
-    } else {
-        const auto& lit = d.lit[settings.per_pixel_lighting ? 1 : 0];
-        gl.glUseProgram(lit.program);
-        gl.glUniformMatrix4fv(lit.u_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
-        gl.glUniform3fv(lit.u_eye, 1, glm::value_ptr(eye));
-        gl.glUniform3fv(lit.u_light_dir, 3, glm::value_ptr(dirs[0]));
-        gl.glUniform3fv(lit.u_light_color, 3, glm::value_ptr(colors[0]));
-        gl.glUniform3fv(lit.u_ambient, 1, glm::value_ptr(ambient));
-    }
+
+    gl.glActiveTexture(GL_TEXTURE0);
+    gl.glBindTexture(GL_TEXTURE_2D, d.texture);
+    gl.glActiveTexture(GL_TEXTURE1);
+    gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture_split);
+    gl.glActiveTexture(GL_TEXTURE0);
+    auto use = [&](const Impl::Program& p, float alpha_cut) {
+        gl.glUseProgram(p.program);
+        gl.glUniformMatrix4fv(p.u_view_proj, 1, GL_FALSE, glm::value_ptr(view_proj));
+        gl.glUniform3fv(p.u_eye, 1, glm::value_ptr(eye));
+        gl.glUniform3fv(p.u_light_dir, 3, glm::value_ptr(dirs[0]));
+        gl.glUniform3fv(p.u_light_color, 3, glm::value_ptr(colors[0]));
+        gl.glUniform3fv(p.u_sky, 1, glm::value_ptr(sky));
+        gl.glUniform3fv(p.u_ground, 1, glm::value_ptr(ground));
+        gl.glUniform3fv(p.u_scatter, 1, glm::value_ptr(scatter));
+        gl.glUniform1i(p.u_texture, 0);
+        gl.glUniform1i(p.u_groups, 1);
+        gl.glUniform1f(p.u_alpha_cut, alpha_cut);
+    };
+    // Parts in index-buffer order.
+    int first_part = 0, last_part = 2;
+    if (part == DrawPart::Static) last_part = 0;
+    else if (part == DrawPart::StaticAndLids) last_part = 1;
+    else if (part == DrawPart::Moving) first_part = 1;
+    else if (part == DrawPart::MovingButLids) first_part = 2;
     gl.glBindVertexArray(d.vao);
-    // The VAO's index buffer is the split one: static, blink-only, moving.
-    GLsizei first = 0, count = d.index_count;
-    if (part == DrawPart::Static) count = d.static_index_count;
-    else if (part == DrawPart::StaticAndLids) count = d.static_index_count + d.blink_index_count;
-    else if (part == DrawPart::Moving) first = d.static_index_count;
-    else if (part == DrawPart::MovingButLids) first = d.static_index_count + d.blink_index_count;
-    if (part == DrawPart::Moving || part == DrawPart::MovingButLids) count = d.index_count - first;
-    if (count > 0)
-        gl.glDrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT,
-                          reinterpret_cast<const void*>(std::size_t(first) * sizeof(std::uint32_t)));
+    for (int p = first_part; p <= last_part; ++p)
+        for (int pass = 0; pass < pass_count; ++pass) {
+            const auto& r = d.ranges[p][pass];
+            if (r.count == 0) continue;
+            const bool blend = pass == int(Pass::Blend);
+            if (mode == RenderMode::Regions) {
+                use(d.programs[2], blend ? 0.5f : -1.0f);
+                gl.glUniform1i(d.programs[2].u_first_triangle, r.first / 3);
+            } else {
+                const bool per_pixel = pass != int(Pass::Opaque) || settings.per_pixel_lighting;
+                use(d.programs[per_pixel ? 1 : 0], blend ? 0.02f : -1.0f);
+            }
+            // Every opaque part is a consistently wound surface seen from its
+            // outside (the oral cavity is the outside of the skin surface
+            // folded in), so back faces are never visible: culling them halves
+            // the rasteriser's work. Blended cards (hair, lashes) show both sides.
+            if (blend) {
+                gl.glDisable(GL_CULL_FACE);
+                if (mode == RenderMode::Shaded) {
+                    gl.glEnable(GL_BLEND);
+                    gl.glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+                    gl.glDepthMask(GL_FALSE);
+                }
+            } else {
+                gl.glEnable(GL_CULL_FACE);
+            }
+            gl.glDrawElements(GL_TRIANGLES, r.count, GL_UNSIGNED_INT,
+                              reinterpret_cast<const void*>(std::size_t(r.first) * sizeof(std::uint32_t)));
+            if (blend) {
+                gl.glDisable(GL_BLEND);
+                gl.glDepthMask(GL_TRUE);
+            }
+        }
     gl.glBindVertexArray(0);
 }
 

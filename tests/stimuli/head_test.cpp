@@ -10,7 +10,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/stimuli/head.h"
-#include "avsi/stimuli/head_generator.h"
+#include "avsi/stimuli/head_builder.h"
 
 namespace avsi::stimuli {
 namespace {
@@ -35,19 +35,48 @@ float mean_y(const PosedMesh& posed, const Head& h, const std::string& group) {
 
 TEST(Head, DefaultMeshHasTheFaceRegionsAndEnoughTriangles) {
     EXPECT_GE(head().mesh.triangle_count(), 8000u);
-    for (const char* g : {"skin", "upper_lip", "lower_lip", "upper_cavity", "lower_cavity", "upper_teeth",
-                          "lower_teeth", "tongue", "eyes", "upper_lids", "neck"})
+    for (const char* g : {"skin", "upper_lip", "lower_lip", "upper_inner", "lower_inner", "upper_cavity", "lower_cavity",
+                          "upper_teeth", "lower_teeth", "tongue", "eyes", "cornea", "brows", "lashes", "hair"})
         EXPECT_GE(head().mesh.group_index(g), 0) << g;
     EXPECT_LT(std::filesystem::file_size(default_head_obj()), 5u * 1024 * 1024);
 }
 
-TEST(Head, GeneratorReproducesTheCommittedFiles) {
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_head_gen_test");
-    generate_head(dir / "head.obj", dir / "head.rig.json");
-    EXPECT_EQ(sha256_file(dir / "head.obj"), sha256_file(default_head_obj()))
-        << "protocols/head/head.obj is out of date: run scripts/make-head";
-    EXPECT_EQ(sha256_file(dir / "head.rig.json"), sha256_file(default_head_rig()));
+// The head tool rebuilds every committed variant byte for byte from the
+// MakeHuman assets in ../shared (skipped, saying so, only where that folder
+// is absent: it is always there in CI).
+TEST(Head, ToolRegeneratesTheCommittedHeadsByteIdentically) {
+    const auto assets = std::filesystem::path(AVSI_SHARED_DIR) / "assets" / "makehuman";
+    if (!std::filesystem::exists(assets / "mesh" / "base.obj"))
+        GTEST_SKIP() << "no MakeHuman assets at " << assets << ": cannot check protocols/head/ against its source";
+    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_head_tool_test");
+    for (const auto variant : {HeadVariant::Male, HeadVariant::Female, HeadVariant::DarkMale}) {
+        HeadBuildSettings settings;
+        settings.assets_dir = assets;
+        settings.out_dir = dir;
+        settings.variant = variant;
+        build_head(settings);
+        const std::string stem = head_variant_stem(variant);
+        for (const char* ext : {".obj", ".rig.json", ".png"}) {
+            const auto committed = default_head_obj().parent_path() / (stem + ext);
+            ASSERT_TRUE(std::filesystem::exists(committed)) << committed;
+            EXPECT_EQ(sha256_file(dir / (stem + ext)), sha256_file(committed))
+                << committed << " is out of date: run scripts/make-head";
+            EXPECT_LT(std::filesystem::file_size(committed), 5u * 1024 * 1024) << committed;
+        }
+    }
     std::filesystem::remove_all(dir);
+}
+
+TEST(Head, ToolRefusesAMissingAssetsFolderNamingIt) {
+    HeadBuildSettings settings;
+    settings.assets_dir = "/nonexistent/makehuman";
+    settings.out_dir = std::filesystem::temp_directory_path();
+    try {
+        build_head(settings);
+        FAIL() << "expected an InputError";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("/nonexistent/makehuman"), std::string::npos) << e.what();
+    }
 }
 
 TEST(Head, FapusAreAdultProportions) {

@@ -67,8 +67,8 @@ public:
 
 private:
     struct Sparse {
-        std::vector<std::uint32_t> slots;  // into m_rest
-        std::vector<float> weights;
+        std::vector<std::uint32_t> slots;    // into m_rest
+        std::vector<std::uint32_t> entries;  // the transform's entries (RigTransform::vertices) that move them
     };
     void pose_landmarks(const Pose& pose, std::vector<glm::vec3>& out) const;
 

@@ -1,18 +1,34 @@
-// The talking head: a triangle mesh with per-vertex colours and named face
-// groups (loaded from OBJ through tinyobjloader), and a rig that defines each
-// of the 10 articulatory parameters (synth/parameters.h) as weighted geometric
-// transforms of vertex regions, in the manner of Parke's parametric face
-// (Parke 1982; Beskow 1995 §2): jaw opening is a rotation about the condylar
-// hinge axis, lip gestures are translations and scalings of lip regions, each
-// with smooth falloff weights. The neutral geometry gives the MPEG-4 facial
-// animation parameter units (ISO/IEC 14496-2 Annex C; Charisma paper §3).
+// The talking head: a triangle mesh with per-vertex colours, optional
+// texture coordinates and named face groups (loaded from OBJ through
+// tinyobjloader), and a rig that defines each of the 10 articulatory
+// parameters (synth/parameters.h) as weighted transforms of the vertices:
+// rotations, translations and scalings of weighted regions in the manner of
+// Parke's parametric face (Parke 1982; Beskow 1995 §2), or baked per-vertex
+// displacements ("blendshapes", as the built-in head's pose units give them;
+// head_builder.h). The neutral geometry gives the MPEG-4 facial animation
+// parameter units (ISO/IEC 14496-2 Annex C; Charisma paper §3).
 //
 // The rig file (JSON, "format": "avsi-rig"):
+//   "texture"       optional: a PNG beside the rig file, sampled with the
+//                   OBJ's texture coordinates (one per vertex) and multiplied
+//                   by the vertex colours;
+//   "materials"     optional, per group: {"specular": s, "shininess": n,
+//                   "wrap": w (diffuse light wrapping round the terminator,
+//                   0 = Lambert), "blend": true (alpha-blended, drawn after
+//                   the opaque surfaces, back to front, both sides)}
+//                   (Material; groups not named get defaults by their name);
 //   "landmarks"     neutral-face points for the FAPUs and the camera (Landmarks);
 //   "transforms"    the weighted transforms, applied in order (RigTransform):
-//                   {"channel": <parameter or "blink">, "rotate" | "translate" |
-//                    "scale": …, "region": {"groups": […], "smooth": n,
-//                    "falloff": [{"ellipsoid": …} | {"halfspace": …}]}};
+//                   {"channel": <parameter, "blink" or "tongue_tip">,
+//                    "side": "positive" | "negative" (optional: the transform
+//                    acts only on that side of the channel's value),
+//                    "rotate" | "translate" | "scale": …,
+//                    "region": {"groups": […], "smooth": n,
+//                    "falloff": [{"ellipsoid": …} | {"halfspace": …}]}
+//                    or "weights": {"vertices": [i…], "values": [w…]}} or
+//                   {"channel": …, "blendshape": {"vertices": [i…],
+//                    "offsets": [dx, dy, dz, …]}} (mesh units per unit of the
+//                   channel, optionally times a "region"'s weights);
 //   "articulation"  vertex indices of the landmarks the articulation measures
 //                   use (ArticulationLandmarks; articulation.h), needed by
 //                   `avsi measure` and the stimulus builder's checks:
@@ -36,9 +52,11 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "avsi/synth/parameters.h"
@@ -51,6 +69,7 @@ namespace avsi::stimuli {
 struct HeadMesh {
     std::vector<glm::vec3> positions;
     std::vector<glm::vec3> colors;        // linear RGB in [0, 1]
+    std::vector<glm::vec2> uvs;           // per vertex; empty when the head has no texture
     std::vector<std::uint32_t> indices;   // triangles, counter-clockwise from outside
     std::vector<std::string> group_names; // OBJ groups ("o"/"g" names)
     std::vector<int> triangle_group;      // per triangle, index into group_names
@@ -60,13 +79,36 @@ struct HeadMesh {
     int group_index(const std::string& name) const;
 };
 
-enum class TransformKind { Rotate, Translate, Scale };
+// An 8-bit RGBA image, rows top to bottom (a head's texture).
+struct ImageRgba {
+    int width = 0;
+    int height = 0;
+    std::vector<std::uint8_t> rgba;
+};
 
-// One weighted transform of the rig, driven by one channel (a parameter name
-// or "blink") at `amount` per unit of the channel.
+// How a group's surface is shaded (the rig's "materials").
+struct Material {
+    float specular = 0.06f;   // strength of the soft highlight
+    float shininess = 18.0f;  // Blinn-Phong exponent
+    float wrap = 0.0f;        // diffuse wrap: light reaches (wrap) past the terminator, as in skin
+    bool blend = false;       // alpha-blended (hair, brows, lashes): drawn after the opaque parts, two-sided
+};
+
+enum class TransformKind { Rotate, Translate, Scale, Blendshape };
+// Which values of its channel a transform follows.
+enum class ChannelSide { Both, Positive, Negative };
+
+// The channels beyond the 10 parameters, in channel-index order after them.
+inline constexpr std::size_t blink_channel = synth::param_count;
+inline constexpr std::size_t tongue_tip_channel = synth::param_count + 1;
+inline constexpr std::size_t channel_count = synth::param_count + 2;
+
+// One weighted transform of the rig, driven by one channel (a parameter name,
+// "blink" or "tongue_tip") at `amount` per unit of the channel.
 struct RigTransform {
     std::string channel;
     TransformKind kind = TransformKind::Translate;
+    ChannelSide side = ChannelSide::Both;
     glm::vec3 pivot{0.0f};     // Rotate and Scale: centre
     glm::vec3 axis{1, 0, 0};   // Rotate: unit axis
     float angle_deg = 0.0f;    // Rotate: degrees per unit
@@ -75,7 +117,8 @@ struct RigTransform {
     // Sparse weights in (0, 1]: vertex index and weight.
     std::vector<std::uint32_t> vertices;
     std::vector<float> weights;
-    int channel_index = -1;    // resolved: parameter index, or param_count for blink
+    std::vector<glm::vec3> offsets;  // Blendshape: per entry of `vertices`, mesh units per unit
+    int channel_index = -1;    // resolved: parameter index, blink_channel or tongue_tip_channel
 };
 
 // Landmarks of the neutral head (mesh units), for the FAPUs and the camera.
@@ -152,6 +195,8 @@ const std::vector<std::string>& articulation_landmark_names();
 
 struct Head {
     HeadMesh mesh;
+    std::vector<Material> materials;  // per group of the mesh
+    std::optional<ImageRgba> texture; // the rig's "texture" (needs mesh.uvs)
     std::vector<RigTransform> transforms;  // applied in order
     Landmarks landmarks;
     std::optional<ArticulationLandmarks> articulation;  // absent when the rig has no such section
@@ -160,11 +205,17 @@ struct Head {
     std::filesystem::path rig_path;
 };
 
-// The channels a pose sets: the 10 parameters and the eyelid closure.
+// The channels a pose sets: the 10 parameters, the eyelid closure and the
+// tongue tip.
 struct Pose {
     synth::Frame params{};   // normalised units, 0 = rest
     double blink = 0.0;      // 0 = eyes open, 1 = closed
+    double tongue_tip = 0.0; // 0 = at rest, 1 = raised to the teeth / alveolar ridge
 };
+
+// The value of a transform's channel in a pose, with its side applied (the
+// amount pose_head moves the transform by).
+double channel_amount(const RigTransform& t, const Pose& pose);
 
 struct PosedMesh {
     std::vector<glm::vec3> positions;
@@ -183,9 +234,12 @@ std::filesystem::path default_head_rig();
 Fapu fapu(const Head& head);
 
 // Applies one rig transform at `amount` (units of its channel) to
-// positions[targets[k]] with weights[k]: the arithmetic pose_head uses.
-void apply_transform(const RigTransform& t, float amount, const std::vector<std::uint32_t>& targets,
-                     const std::vector<float>& weights, std::vector<glm::vec3>& positions);
+// positions[targets[j]] for the transform's entries entries[j] (indices into
+// t.vertices, t.weights, t.offsets): the one arithmetic of the rig, used by
+// pose_head (every entry onto its own vertex) and by the articulation meter
+// (the landmark entries onto landmark slots).
+void apply_transform(const RigTransform& t, float amount, std::span<const std::uint32_t> entries,
+                     std::span<const std::uint32_t> targets, std::vector<glm::vec3>& positions);
 
 // The posed vertex positions (no normals).
 void pose_positions(const Head& head, const Pose& pose, std::vector<glm::vec3>& positions);

@@ -46,7 +46,7 @@ struct RenderSettings {
     int width = 640;
     int height = 480;
     CameraView camera = CameraView::Front;
-    std::array<float, 3> background{0.30f, 0.34f, 0.40f};  // sRGB in [0, 1]
+    std::array<float, 3> background{0.44f, 0.46f, 0.49f};  // sRGB in [0, 1]: a neutral grey
     // Anti-aliasing. On llvmpipe 4x MSAA costs ~3x the whole frame, so the
     // default is FXAA, a post-process pass over the finished image.
     int samples = 1;                 // MSAA samples per pixel (1 = off)
@@ -59,9 +59,10 @@ struct RenderSettings {
     // triangle); ~3x faster. Not used with MSAA (samples > 1) or region renders.
     bool cache_static = true;
     float field_of_view_deg = 18.0f; // vertical
-    // Height of the world shown at the target's depth: the default shows the
-    // face from the hairline to the neck below the chin, the mouth ~100 px wide at 480 px.
-    float framing_mm = 230.0f;
+    // Height of the world shown at the target's depth: the default frames
+    // head and shoulders as audiovisual speech corpora do, the face (brow to
+    // chin) about half the frame height.
+    float framing_mm = 380.0f;
     // The point the camera looks at (mesh units); default: the head's head_center landmark.
     std::optional<glm::vec3> target;
 };
