@@ -110,6 +110,7 @@ ArticulationMeter::ArticulationMeter(const Head& head) : m_head(head) {
                 m_contact.moved.push_back(s);
                 m_contact.sign_weight.push_back(c.sign_weight[k]);
                 m_contact.lateral.push_back(c.lateral[k]);
+                m_contact.pair.push_back(c.pair[k]);
             }
         }
     }

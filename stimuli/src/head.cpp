@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <numeric>
 #include <set>
 #include <span>
@@ -354,15 +355,25 @@ LipContact read_lip_contact(const json& c, const Head& head, RigReader& rig) {
         }
         const auto w = region_weights(head.mesh, c[name], std::string("lip_contact.") + name, rig);
         const auto& contour = side > 0 ? a.upper_lip_contour : a.lower_lip_contour;
+        // The contour points themselves move by their own pair's full half
+        // overlap, so the measured pairs meet exactly.
+        // The other lip's contour points are that lip's alone.
+        std::map<std::uint32_t, int> pair_of;
+        for (std::size_t i = 0; i < contour.size(); ++i) pair_of.emplace(contour[i], static_cast<int>(i));
+        const auto& other = side > 0 ? a.lower_lip_contour : a.upper_lip_contour;
+        const std::set<std::uint32_t> others(other.begin(), other.end());
         for (std::size_t v = 0; v < w.size(); ++v) {
-            if (w[v] <= 1e-4f) continue;
+            const auto own = pair_of.find(static_cast<std::uint32_t>(v));
+            if ((w[v] <= 1e-4f && own == pair_of.end()) || (own == pair_of.end() && others.count(static_cast<std::uint32_t>(v))))
+                continue;
             const float x = glm::dot(pos[v], lateral);
             const float d = std::abs(glm::dot(pos[v], a.up) - edge_height(contour, x));
-            const float weight = std::min(w[v], 1.0f) * (1.0f - smoothstep(0.0f, reach, d));
+            const float weight = own != pair_of.end() ? 1.0f : std::min(w[v], 1.0f) * (1.0f - smoothstep(0.0f, reach, d));
             if (weight <= 1e-4f) continue;
             contact.mesh.moved.push_back(static_cast<std::uint32_t>(v));
             contact.mesh.sign_weight.push_back(float(side) * weight);
             contact.mesh.lateral.push_back(x);
+            contact.mesh.pair.push_back(own != pair_of.end() ? own->second : -1);
         }
     }
     return contact;
@@ -401,9 +412,12 @@ void apply_lip_contact(const LipContact& contact, const LipContactPoints& points
         any = any || o > 0.0f;
     }
     if (!any) return;
-    for (std::size_t k = 0; k < points.moved.size(); ++k)
-        positions[points.moved[k]] +=
-            contact.up * (points.sign_weight[k] * contact_offset(contact, half_overlap, points.lateral[k]));
+    for (std::size_t k = 0; k < points.moved.size(); ++k) {
+        const int pair = points.pair[k];
+        const float offset = pair >= 0 ? half_overlap[static_cast<std::size_t>(pair)]
+                                       : contact_offset(contact, half_overlap, points.lateral[k]);
+        positions[points.moved[k]] += contact.up * (points.sign_weight[k] * offset);
+    }
 }
 
 const std::vector<std::string>& articulation_landmark_names() {

@@ -335,6 +335,23 @@ void build_head(const HeadBuildSettings& settings) {
     for (const auto& [file, weight] : variant.targets) apply_target(read_target(dir / "targets" / file), weight, shaped);
 
     const MhSkeleton skeleton = read_skeleton(dir / "rig" / "default.mhskel", dir / "rig" / "default_weights.mhw");
+    // The shape targets part the lips slightly; at rest they just meet: the
+    // lower lip's bones' region is raised until the midline gap is 0.1 mm.
+    {
+        const int lip = skeleton.bone_index("special04");
+        if (lip < 0) throw InputError(dir / "rig" / "default.mhskel", "no bone \"special04\" (the lower lip's)");
+        std::vector<float> in(shaped.size(), 0.0f), total(shaped.size(), 0.0f);
+        for (std::size_t b = 0; b < skeleton.bones.size(); ++b)
+            for (const auto& [v, w] : skeleton.weights[b]) {
+                if (v >= in.size()) continue;
+                total[v] += w;
+                if (skeleton.descends_from(int(b), lip)) in[v] += w;
+            }
+        const float gap = shaped[upper_lip_edge_vertex].y - shaped[lower_lip_inner_vertex].y - 0.1f / mm_per_unit;
+        if (gap > 0)
+            for (std::size_t v = 0; v < shaped.size(); ++v)
+                if (total[v] > 0) shaped[v].y += gap * in[v] / total[v];
+    }
     const auto rest = rest_frames(skeleton, shaped);
     const auto units = read_pose_units(dir / "poses" / "face-poseunits.bvh", dir / "poses" / "face-poseunits.json");
     auto unit = [&](const std::string& name) -> const MhPose& {
@@ -502,9 +519,43 @@ void build_head(const HeadBuildSettings& settings) {
     std::vector<std::string> face_group;
     // JawDrop at full weight tells the lower jaw's parts from the upper ones.
     const auto jaw_drop_base = skin(skeleton, skinning_matrices(skeleton, rest, unit("JawDrop")), shaped);
+    // Upper or lower: by the hop distance to the lip line's upper and lower
+    // arcs (loop A split at its corners), ties by whether JawDrop moves the face.
+    std::vector<int> hops_upper(base.positions.size(), 1 << 20), hops_lower(base.positions.size(), 1 << 20);
+    {
+        std::size_t left = 0, right = 0;
+        for (std::size_t k = 0; k < loop_a.size(); ++k) {
+            if (shaped[loop_a[k]].x > shaped[loop_a[left]].x) left = k;
+            if (shaped[loop_a[k]].x < shaped[loop_a[right]].x) right = k;
+        }
+        const bool upper_first = [&] {
+            for (std::size_t k = (left + 1) % loop_a.size(); k != right; k = (k + 1) % loop_a.size())
+                if (loop_a[k] == upper_lip_edge_vertex) return true;
+            return false;
+        }();
+        for (int side = 0; side < 2; ++side) {
+            auto& hops = side == 0 ? hops_upper : hops_lower;
+            std::vector<std::uint32_t> frontier;
+            const bool first_arc = (side == 0) == upper_first;
+            const std::size_t from = first_arc ? left : right, to = first_arc ? right : left;
+            for (std::size_t k = (from + 1) % loop_a.size(); k != to; k = (k + 1) % loop_a.size()) {
+                hops[loop_a[k]] = 0;
+                frontier.push_back(loop_a[k]);
+            }
+            for (int h = 1; !frontier.empty() && h < 400; ++h) {
+                std::vector<std::uint32_t> next;
+                for (auto v : frontier)
+                    for (auto w : topo.neighbours[v])
+                        if (hops[w] > h) hops[w] = h, next.push_back(w);
+                frontier.swap(next);
+            }
+        }
+    }
     auto lower_part = [&](const std::vector<std::uint32_t>& v) {
+        int up = 0, low = 0;
         float dy = 0;
-        for (auto i : v) dy += jaw_drop_base[i].y - shaped[i].y;
+        for (auto i : v) up += hops_upper[i], low += hops_lower[i], dy += jaw_drop_base[i].y - shaped[i].y;
+        if (up != low) return low < up;
         return dy / float(v.size()) * mm_per_unit < -4.0f;
     };
     for (std::size_t f = 0; f < base.faces.size(); ++f) {
@@ -563,12 +614,21 @@ void build_head(const HeadBuildSettings& settings) {
         }
     }
     const std::size_t n = out.vertices.size();
+    // The teeth proxy sits high and deep behind the lips of these shapes:
+    // the upper incisal edge 5 mm above the lip line and 10 mm behind it.
+    // Both rows move forward and the upper one down, so the upper incisors'
+    // edge sits about 2 mm above the lip line as in a young adult at rest.
+    const glm::vec3 upper_teeth_shift(0.0f, -3.0f, 3.5f), lower_teeth_shift(0.0f, -1.0f, 3.5f);
+    constexpr int teeth_proxy = 3;
     auto positions_of = [&](const std::vector<glm::vec3>& b) {
         const auto px = fitted(b);
         std::vector<glm::vec3> pos(n);
         for (std::size_t i = 0; i < n; ++i) {
             const auto& o = out.vertices[i];
             pos[i] = to_mm(o.proxy < 0 ? b[o.v] : px[static_cast<std::size_t>(o.proxy)][o.v]);
+            if (o.proxy == teeth_proxy)
+                pos[i] += upper_teeth_helper.count(proxies[teeth_proxy].proxy.refs[o.v][0]) ? upper_teeth_shift
+                                                                                             : lower_teeth_shift;
         }
         return pos;
     };
@@ -636,10 +696,13 @@ void build_head(const HeadBuildSettings& settings) {
     const auto [upper_arc, corner_left, corner_right] = halves(loop_a, upper_lip_edge_vertex);
     const auto [lower_arc, corner_left_b, corner_right_b] = halves(loop_b, lower_lip_inner_vertex);
     std::vector<std::uint32_t> upper_contour, lower_contour;
+    std::set<std::uint32_t> used;
     for (auto v : lower_arc) {
         std::uint32_t best = upper_arc[0];
         for (auto u : upper_arc)
             if (std::abs(shaped[u].x - shaped[v].x) < std::abs(shaped[best].x - shaped[v].x)) best = u;
+        // Distinct points; pairs near the corners whose edges already meet at rest measure nothing.
+        if (!used.insert(best).second || (shaped[best].y - shaped[v].y) * mm_per_unit < 0.05f) continue;
         upper_contour.push_back(out.of_base(best));
         lower_contour.push_back(out.of_base(v));
     }
@@ -691,7 +754,7 @@ void build_head(const HeadBuildSettings& settings) {
             for (auto i : out.triangles[t]) {
                 const auto& o = out.vertices[i];
                 if (o.proxy >= 0 || std::abs(rest_pos[i].x) > 12.0f) continue;
-                if (g == "lower_lip" && ring[o.v] > 2) continue;
+                if (g == "lower_lip" && ring[o.v] > 4) continue;
                 if (out.first.at({-1, o.v}) == i) s.insert(i);
             }
         }
@@ -712,14 +775,22 @@ void build_head(const HeadBuildSettings& settings) {
             nose_bottom = p;
         if (p.z > mouth_middle.z - 25.0f && p.y < chin.y && p.y > mouth_middle.y - 70.0f) chin = p;
     }
-    // The iris: the cornea's width (its shell spans the iris).
+    // The iris: the width of the left eye's dark (iris-textured) front.
     float iris = 0;
     {
+        const auto& img = atlas.sources[static_cast<std::size_t>(atlas.rects[static_cast<std::size_t>(proxies[0].atlas_rect)].source)].image;
         float lo = 1e9f, hi = -1e9f;
-        for (std::size_t t = 0; t < out.triangles.size(); ++t)
-            if (out.triangle_group[t] == "cornea")
-                for (auto i : out.triangles[t])
-                    if (rest_pos[i].x > 0) lo = std::min(lo, rest_pos[i].x), hi = std::max(hi, rest_pos[i].x);
+        for (const auto& face : proxies[0].proxy.mesh.faces)
+            for (std::size_t k = 0; k < face.v.size(); ++k) {
+                const glm::vec3 p = to_mm(rest_proxies[0][face.v[k]]);
+                if (p.x <= 0) continue;
+                const glm::vec2 uv = proxies[0].proxy.mesh.uvs[face.vt[k]];
+                const int x = std::clamp(int(uv.x * float(img.width)), 0, img.width - 1);
+                const int y = std::clamp(int((1.0f - uv.y) * float(img.height)), 0, img.height - 1);
+                const std::uint8_t* c = &img.rgba[(std::size_t(y) * std::size_t(img.width) + std::size_t(x)) * 4];
+                if (c[3] < 128 || 0.3f * c[0] + 0.59f * c[1] + 0.11f * c[2] > 110.0f) continue;  // sclera or shell
+                lo = std::min(lo, p.x), hi = std::max(hi, p.x);
+            }
         if (hi > lo) iris = hi - lo;
     }
 
@@ -787,43 +858,71 @@ void build_head(const HeadBuildSettings& settings) {
     }
     rotation_and_rest("jaw_rotation", "JawDrop", "jaw", jaw_per_unit,
                       "JawDrop: the jaw about its hinge, 1 = ~20 mm incisor gap");
+    // Unit weights above 1 turn the unit's bones further (a larger natural
+    // movement, not a linear extrapolation); the lip units leave the jaw bone
+    // to jaw_rotation.
     struct Mapping {
         const char* channel;
         std::vector<std::pair<const char*, float>> positive;
         std::vector<std::pair<const char*, float>> negative;  // empty: the positive shape extends
         const char* note;
+        bool with_jaw = false;
+        // A translation (mm) of the lower lip's bones (special04's subtree,
+        // weighted by their skinning) added to the negative or positive end:
+        // where the units cannot press the lips together or tuck the lower
+        // lip under the upper teeth on their own.
+        glm::vec3 lower_lip_lift_positive{0.0f}, lower_lip_lift_negative{0.0f};
+        // Bones of the units left out: the corner pulls keep to the corners
+        // (their midline lip bones would move the whole lips back and forth).
+        std::set<std::string> without;
     };
+    const std::set<std::string> midline_lip_bones = {"special04", "oris01", "oris02", "oris05", "oris06"};
     const std::vector<Mapping> mappings = {
         {"lip_rounding", {{"LipsKiss", 1.0f}}, {{"MouthLeftPullSide", 0.5f}, {"MouthRightPullSide", 0.5f}},
          "LipsKiss; negative: both corners pulled half way to the side (the corner stretches add the rest)"},
         {"upper_lip_retraction", {{"UpperLipBackward", 1.0f}}, {{"UpperLipForward", 1.0f}},
          "UpperLipBackward; negative: UpperLipForward"},
-        {"upper_lip_raise", {{"UpperLipUp", 1.0f}}, {}, "UpperLipUp; negative: pressed down (the shape reversed)"},
-        {"lower_lip_retraction", {{"lowerLipBackward", 1.0f}}, {{"lowerLipForward", 1.0f}},
-         "lowerLipBackward; negative: lowerLipForward"},
-        {"lower_lip_depression", {{"lowerLipDown", 1.0f}}, {{"lowerLipUp", 1.0f}}, "lowerLipDown; negative: lowerLipUp"},
-        {"mouth_corner_stretch_left", {{"MouthLeftPullSide", 1.0f}}, {}, "MouthLeftPullSide; negative: inward"},
-        {"mouth_corner_stretch_right", {{"MouthRightPullSide", 1.0f}}, {}, "MouthRightPullSide; negative: inward"},
-        {"jaw_thrust", {{"ChinForward", 1.0f}}, {}, "ChinForward; negative: back"},
-        {"jaw_shift", {{"ChinLeft", 1.0f}}, {{"ChinRight", 1.0f}}, "ChinLeft; negative: ChinRight"},
+        {"upper_lip_raise", {{"UpperLipUp", 1.6f}}, {}, "UpperLipUp; negative: pressed down (the shape reversed)"},
+        {"lower_lip_retraction", {{"lowerLipBackward", 0.3f}}, {{"lowerLipForward", 0.5f}},
+         "lowerLipBackward and the lower lip lifted under the upper teeth; negative: lowerLipForward", false,
+         glm::vec3(0.0f, 6.0f, -3.0f), glm::vec3(0.0f)},
+        {"lower_lip_depression", {{"lowerLipDown", 1.0f}}, {{"lowerLipUp", 1.0f}},
+         "lowerLipDown; negative: lowerLipUp and the lower lip lifted against the upper", false, glm::vec3(0.0f),
+         glm::vec3(0.0f, 10.0f, 0.0f)},
+        {"mouth_corner_stretch_left", {{"MouthLeftPullSide", 1.0f}}, {}, "MouthLeftPullSide (corner bones); negative: inward",
+         false, glm::vec3(0.0f), glm::vec3(0.0f), midline_lip_bones},
+        {"mouth_corner_stretch_right", {{"MouthRightPullSide", 1.0f}}, {}, "MouthRightPullSide (corner bones); negative: inward",
+         false, glm::vec3(0.0f), glm::vec3(0.0f), midline_lip_bones},
+        {"jaw_thrust", {{"ChinForward", 1.0f}}, {}, "ChinForward; negative: back", true},
+        {"jaw_shift", {{"ChinLeft", 1.0f}}, {{"ChinRight", 1.0f}}, "ChinLeft; negative: ChinRight", true},
     };
+    const auto lower_lip_share = subtree_weight("special04");
     for (const auto& m : mappings) {
         const auto param = synth::param_from_name(m.channel);
         AVSI_ASSERT(param.has_value());
         const auto& info = synth::param_info(*param);
-        MhPose pos;
-        for (const auto& [name, w] : m.positive)
-            for (const auto& [bone, r] : unit(name)) pos[bone] = scaled_rotation(r, w) * (pos.count(bone) ? pos[bone] : glm::mat3(1.0f));
-        const auto d = displacement(pos);
+        auto combine = [&](const std::vector<std::pair<const char*, float>>& parts) {
+            MhPose pose;
+            for (const auto& [name, w] : parts)
+                for (const auto& [bone, r] : unit(name))
+                    if ((m.with_jaw || bone != "jaw") && !m.without.count(bone))
+                        pose[bone] = scaled_rotation(r, w) * (pose.count(bone) ? pose[bone] : glm::mat3(1.0f));
+            return pose;
+        };
+        const MhPose pos = combine(m.positive);
+        auto with_lift = [&](std::vector<glm::vec3> d, glm::vec3 lift) {
+            if (lift != glm::vec3(0.0f))
+                for (std::size_t i = 0; i < n; ++i) d[i] += lift * lower_lip_share[i];
+            return d;
+        };
+        const auto d = with_lift(displacement(pos), m.lower_lip_lift_positive);
         if (m.negative.empty()) {
             blendshape(m.channel, d, float(1.0 / info.max), nullptr, m.note);
         } else {
             blendshape(m.channel, d, float(1.0 / info.max), "positive", m.note);
-            MhPose neg;
-            for (const auto& [name, w] : m.negative)
-                for (const auto& [bone, r] : unit(name)) neg[bone] = scaled_rotation(r, w) * (neg.count(bone) ? neg[bone] : glm::mat3(1.0f));
-            // The range's negative end is the opposite unit at full weight.
-            blendshape(m.channel, displacement(neg), float(1.0 / info.min), "negative", m.note);
+            // The range's negative end is the opposite unit at its weight.
+            blendshape(m.channel, with_lift(displacement(combine(m.negative)), m.lower_lip_lift_negative),
+                       float(1.0 / info.min), "negative", m.note);
         }
     }
     // Eyelids and the tongue tip.
@@ -923,8 +1022,8 @@ void build_head(const HeadBuildSettings& settings) {
         {"up", json::array({0, 1, 0})},
         {"forward", json::array({0, 0, 1})},
     };
-    rig["lip_contact"] = {{"upper", {{"groups", {"upper_lip", "upper_inner"}}}},
-                          {"lower", {{"groups", {"lower_lip", "lower_inner"}}}},
+    rig["lip_contact"] = {{"upper", {{"groups", {"upper_lip", "upper_inner", "upper_cavity"}}}},
+                          {"lower", {{"groups", {"lower_lip", "lower_inner", "lower_cavity"}}}},
                           {"reach_mm", 6.0}};
     rig["materials"] = {
         {"skin", {{"specular", 0.10}, {"shininess", 14.0}, {"wrap", 0.35}}},

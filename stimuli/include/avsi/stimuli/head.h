@@ -169,7 +169,9 @@ struct ArticulationLandmarks {
 // between the contour pairs, zero at the corners). Weights are the region's
 // times a falloff with the vertex's vertical distance from its lip's edge at
 // rest (1 at the edge, 0 at reach_mm), so the lips flatten against each
-// other as pressed lips do instead of passing through each other.
+// other as pressed lips do instead of passing through each other. The
+// contour points themselves move by their own pair's half overlap (weight 1),
+// so every measured pair meets exactly (contour points should be distinct).
 //
 // The points the step reads and moves, as indices into a position array
 // (mesh vertices for pose_head; landmark slots for the articulation meter).
@@ -178,6 +180,7 @@ struct LipContactPoints {
     std::vector<std::uint32_t> moved;         // points moved
     std::vector<float> sign_weight;           // +weight upper lip (moves up), −weight lower lip
     std::vector<float> lateral;               // rest lateral position of each moved point
+    std::vector<int> pair;                    // the contour pair a moved contour point belongs to, or −1
 };
 struct LipContact {
     std::vector<float> pair_lateral;     // rest lateral position of each contour pair, ascending
