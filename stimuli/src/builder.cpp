@@ -201,6 +201,13 @@ Level set_speech_level(Audio& audio, double level_dbfs) {
     return level;
 }
 
+// The head's files as the manifest records them (a change to any rebuilds every stimulus).
+nlohmann::json head_hashes(const Head& head) {
+    nlohmann::json j = {{"mesh_sha256", sha256_file(head.obj_path)}, {"rig_sha256", sha256_file(head.rig_path)}};
+    if (!head.texture_path.empty()) j["texture_sha256"] = sha256_file(head.texture_path);
+    return j;
+}
+
 // What a protocol asks to be built: the loaded protocol, corpus, head and
 // models, the settings every stimulus shares, and one Job per sentence ×
 // condition the design shows, with the hash of everything it depends on.
@@ -280,7 +287,7 @@ Plan::Plan(const BuildSettings& settings)
         {"video", {{"codec", "h264 (libx264)"}, {"pixel_format", "yuv420p"}, {"crf", VideoSettings{}.crf},
                    {"preset", VideoSettings{}.preset}, {"audio", "aac"}}},
         {"vocoder", vocoder_json(vocoder_base)},
-        {"head", {{"mesh_sha256", sha256_file(head.obj_path)}, {"rig_sha256", sha256_file(head.rig_path)}}},
+        {"head", head_hashes(head)},
         {"tts", {{"voice", protocol.corpus.voice}}},
         {"level", {{"speech_dbfs", protocol.corpus.level_dbfs},
                    {"measure", "active-speech RMS: 20 ms frames within 40 dB of the loudest"},

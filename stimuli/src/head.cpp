@@ -477,7 +477,10 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
         else {
             const auto path = rig_path.parent_path() / doc["texture"].get<std::string>();
             if (!std::filesystem::exists(path)) rig.problem("texture", "no such file: " + path.string());
-            else head.texture = read_image_rgba(path);
+            else {
+                head.texture = read_image_rgba(path);
+                head.texture_path = path;
+            }
         }
     }
     head.materials.resize(head.mesh.group_names.size());

@@ -58,8 +58,14 @@ constexpr std::uint32_t mouth_floor_vertex = 659;      // inside the mouth bag
 
 // The cut: body faces wholly above this height (decimetres) and within this
 // distance of the midline make head, neck and shoulders.
-constexpr float cut_height = 4.75f;
-constexpr float cut_half_width = 1.85f;
+constexpr float cut_height = 4.3f;
+constexpr float cut_half_width = 2.7f;
+// A plain crew-neck shirt covers the body below the neck (a talker in the
+// corpora is dressed): its neckline, decimetres below the neck's base at the
+// midline, rising toward the shoulders; its colour (linear RGB).
+constexpr float neckline_drop = 0.45f;
+constexpr float neckline_rise = 0.7f;  // per decimetre² of lateral distance
+const glm::vec3 shirt_color{0.055f, 0.075f, 0.11f};
 
 struct Variant {
     std::vector<std::pair<const char*, float>> targets;  // targets/ file, weight
@@ -270,6 +276,7 @@ struct OutVertex {
     int proxy = -1;
     std::uint32_t v = 0;
     glm::vec2 uv{0.0f};
+    int part = 0;  // teeth: 1 upper row, 2 lower row (a vertex the proxy shares between rows is split)
 };
 
 struct Assembled {
@@ -279,12 +286,12 @@ struct Assembled {
     std::map<std::pair<int, std::uint64_t>, std::uint32_t> index;  // (proxy, v << 32 | vt) → out
     std::map<std::pair<int, std::uint32_t>, std::uint32_t> first;  // (proxy, v) → first out vertex
 
-    std::uint32_t vertex(int proxy, std::uint32_t v, std::uint32_t vt, glm::vec2 uv) {
-        const auto key = std::make_pair(proxy, (std::uint64_t(v) << 32) | vt);
+    std::uint32_t vertex(int proxy, std::uint32_t v, std::uint32_t vt, glm::vec2 uv, int part = 0) {
+        const auto key = std::make_pair(proxy * 4 + part, (std::uint64_t(v) << 32) | vt);
         const auto it = index.find(key);
         if (it != index.end()) return it->second;
         const auto i = static_cast<std::uint32_t>(vertices.size());
-        vertices.push_back({proxy, v, uv});
+        vertices.push_back({proxy, v, uv, part});
         index[key] = i;
         first.emplace(std::make_pair(proxy, v), i);
         return i;
@@ -428,7 +435,7 @@ void build_head(const HeadBuildSettings& settings) {
             }
         }
     }
-    std::set<std::uint32_t> on_loop_a(loop_a.begin(), loop_a.end());
+    std::set<std::uint32_t> on_loop_a(loop_a.begin(), loop_a.end()), on_loop_b(loop_b.begin(), loop_b.end());
     // Lips: faces within a few rings of the lip line, outside the mouth.
     std::vector<int> ring(base.positions.size(), 1 << 20);
     {
@@ -513,7 +520,21 @@ void build_head(const HeadBuildSettings& settings) {
         const int s = atlas.add_source(img, proxy_scales[p], proxy_alpha[p]);
         proxies[p].atlas_rect = atlas.add_rect(s, 0, 0, img.width, img.height);
     }
+    // A white patch the shirt samples (its colour is the vertex colour).
+    int white_rect = -1;
+    {
+        ImageRgba white;
+        white.width = white.height = 8;
+        white.rgba.assign(8 * 8 * 4, 255);
+        white_rect = atlas.add_rect(atlas.add_source(white, 1.0f, false), 0, 0, 8, 8);
+    }
     atlas.pack();
+    const glm::vec2 white_uv = atlas.map(white_rect, glm::vec2(0.5f, 0.5f));
+    const glm::vec3 neck_base =
+        joint_position(skeleton, skeleton.bones[static_cast<std::size_t>(skeleton.bone_index("neck01"))].head_joint, shaped);
+    auto under_shirt = [&](glm::vec3 p) {
+        return p.y < neck_base.y - neckline_drop + neckline_rise * p.x * p.x + (p.z < neck_base.z ? 0.25f : 0.0f);
+    };
 
     Assembled out;
     std::vector<std::string> face_group;
@@ -563,9 +584,22 @@ void build_head(const HeadBuildSettings& settings) {
         const auto& face = base.faces[f];
         std::string group = "skin";
         const bool lower = lower_part(face.v);
+        glm::vec3 centroid(0.0f);
+        for (auto v : face.v) centroid += shaped[v];
+        const bool shirt = !cavity[f] && under_shirt(centroid / float(face.v.size()));
+        if (shirt) {
+            std::vector<std::uint32_t> corners;
+            for (std::size_t k = 0; k < face.v.size(); ++k) corners.push_back(out.vertex(-1, face.v[k], 0, white_uv, 3));
+            for (std::size_t k = 1; k + 1 < corners.size(); ++k) {
+                out.triangles.push_back({corners[0], corners[k], corners[k + 1]});
+                out.triangle_group.push_back("shirt");
+            }
+            continue;
+        }
         if (cavity[f]) {
+            // The lips' inner surfaces: the faces on either of the two loops.
             bool band = false;
-            for (auto v : face.v) band = band || on_loop_a.count(v);
+            for (auto v : face.v) band = band || on_loop_a.count(v) || on_loop_b.count(v);
             group = std::string(lower ? "lower" : "upper") + (band ? "_inner" : "_cavity");
         } else {
             int far = 0;
@@ -606,7 +640,8 @@ void build_head(const HeadBuildSettings& settings) {
                 group = upper_teeth_helper.count(proxies[p].proxy.refs[face.v[0]][0]) ? "upper_teeth" : "lower_teeth";
             std::vector<std::uint32_t> corners;
             for (std::size_t k = 0; k < face.v.size(); ++k)
-                corners.push_back(out.vertex(int(p), face.v[k], face.vt[k], atlas.map(proxies[p].atlas_rect, m.uvs[face.vt[k]])));
+                corners.push_back(out.vertex(int(p), face.v[k], face.vt[k], atlas.map(proxies[p].atlas_rect, m.uvs[face.vt[k]]),
+                                             group == "upper_teeth" ? 1 : group == "lower_teeth" ? 2 : 0));
             for (std::size_t k = 1; k + 1 < corners.size(); ++k) {
                 out.triangles.push_back({corners[0], corners[k], corners[k + 1]});
                 out.triangle_group.push_back(group);
@@ -614,6 +649,11 @@ void build_head(const HeadBuildSettings& settings) {
         }
     }
     const std::size_t n = out.vertices.size();
+    // The teeth are rigid: the upper row stays with the skull, the lower
+    // row follows the jaw bone only (the skinning spreads lip bones' weights
+    // onto the teeth helpers).
+    std::vector<int> teeth_row(n, 0);  // 1 upper, 2 lower
+    for (std::size_t i = 0; i < n; ++i) teeth_row[i] = out.vertices[i].part;
     // The teeth proxy sits high and deep behind the lips of these shapes:
     // the upper incisal edge 5 mm above the lip line and 10 mm behind it.
     // Both rows move forward and the upper one down, so the upper incisors'
@@ -626,9 +666,7 @@ void build_head(const HeadBuildSettings& settings) {
         for (std::size_t i = 0; i < n; ++i) {
             const auto& o = out.vertices[i];
             pos[i] = to_mm(o.proxy < 0 ? b[o.v] : px[static_cast<std::size_t>(o.proxy)][o.v]);
-            if (o.proxy == teeth_proxy)
-                pos[i] += upper_teeth_helper.count(proxies[teeth_proxy].proxy.refs[o.v][0]) ? upper_teeth_shift
-                                                                                             : lower_teeth_shift;
+            if (o.proxy == teeth_proxy) pos[i] += teeth_row[i] == 1 ? upper_teeth_shift : lower_teeth_shift;
         }
         return pos;
     };
@@ -646,6 +684,9 @@ void build_head(const HeadBuildSettings& settings) {
     auto displacement = [&](const MhPose& pose) {
         auto pos = positions_of(skin(skeleton, skinning_matrices(skeleton, rest, pose), shaped));
         for (std::size_t i = 0; i < n; ++i) pos[i] -= rest_pos[i];
+        const bool jaw_moves = pose.count("jaw") > 0;
+        for (std::size_t i = 0; i < n; ++i)
+            if (teeth_row[i] == 1 || (teeth_row[i] == 2 && !jaw_moves)) pos[i] = glm::vec3(0.0f);
         return pos;
     };
     // A bone subtree's share of each output vertex's skinning weights.
@@ -798,11 +839,23 @@ void build_head(const HeadBuildSettings& settings) {
     json transforms = json::array();
     const double offset_step = 0.001;  // mm
     const float keep_offset_mm = 0.02f;
+    // The speech channels move the lower face only: the units' small
+    // motions above the cheekbones (temples, under the hair and brows) fade
+    // out between 40 and 25 mm below the eyes; eyes, brows, lashes and hair
+    // keep still. Static hair and brows then stay static for the renderer.
+    std::vector<float> speech_mask(n, 1.0f);
+    for (std::size_t i = 0; i < n; ++i) {
+        const int proxy = out.vertices[i].proxy;
+        speech_mask[i] = proxy >= 0 && proxy != teeth_proxy && proxies[static_cast<std::size_t>(proxy)].group != "tongue"
+                             ? 0.0f
+                             : 1.0f - smoothstep(-40.0f, -25.0f, rest_pos[i].y);
+    }
     auto blendshape = [&](const std::string& channel, const std::vector<glm::vec3>& d, float per_unit,
                           const char* side, const std::string& note) {
         json vertices = json::array(), offsets = json::array();
+        const bool speech = channel != "blink";
         for (std::size_t i = 0; i < n; ++i) {
-            const glm::vec3 o = d[i] * per_unit;
+            const glm::vec3 o = d[i] * per_unit * (speech ? speech_mask[i] : 1.0f);
             if (glm::length(o) < keep_offset_mm) continue;
             vertices.push_back(i);
             for (int c = 0; c < 3; ++c) offsets.push_back(round_to(o[c], offset_step));
@@ -813,6 +866,9 @@ void build_head(const HeadBuildSettings& settings) {
     };
     // A bone's rotation in a unit as a weighted rotation transform, and the
     // rest of the unit's motion as a blendshape on the same channel.
+    auto pivot_of = [&](const std::string& bone) {
+        return to_mm(glm::vec3(rest[static_cast<std::size_t>(skeleton.bone_index(bone))][3]));
+    };
     auto rotation_and_rest = [&](const std::string& channel, const std::string& unit_name, const std::string& bone,
                                  float per_unit, const std::string& note) {
         const MhPose& pose = unit(unit_name);
@@ -821,11 +877,21 @@ void build_head(const HeadBuildSettings& settings) {
         const glm::vec3 axis = glm::axis(q);
         const int b = skeleton.bone_index(bone);
         const glm::vec3 pivot = to_mm(glm::vec3(rest[static_cast<std::size_t>(b)][3]));
-        const auto weights = subtree_weight(bone);
+        auto weights = subtree_weight(bone);
         auto d = displacement(pose);
+        if (bone == "jaw")
+            for (std::size_t i = 0; i < n; ++i)
+                if (teeth_row[i] != 0) {
+                    weights[i] = teeth_row[i] == 2 ? 1.0f : 0.0f;
+                    // The lower row turns with the jaw and nothing else.
+                    const glm::quat r = glm::angleAxis(glm::angle(glm::quat_cast(pose.at(bone))) * weights[i],
+                                                       glm::axis(glm::quat_cast(pose.at(bone))));
+                    d[i] = teeth_row[i] == 2 ? (pivot_of(bone) + r * (rest_pos[i] - pivot_of(bone))) - rest_pos[i]
+                                             : glm::vec3(0.0f);
+                }
         json vertices = json::array(), w = json::array();
         for (std::size_t i = 0; i < n; ++i) {
-            const float wi = float(round_to(weights[i], 0.0001));
+            const float wi = float(round_to(weights[i] * (channel != "blink" ? speech_mask[i] : 1.0f), 0.0001));
             if (wi <= 0.0f) continue;
             vertices.push_back(i);
             w.push_back(wi);
@@ -878,7 +944,7 @@ void build_head(const HeadBuildSettings& settings) {
     };
     const std::set<std::string> midline_lip_bones = {"special04", "oris01", "oris02", "oris05", "oris06"};
     const std::vector<Mapping> mappings = {
-        {"lip_rounding", {{"LipsKiss", 1.0f}}, {{"MouthLeftPullSide", 0.5f}, {"MouthRightPullSide", 0.5f}},
+        {"lip_rounding", {{"LipsKiss", 1.0f}}, {{"MouthLeftPullSide", 0.6f}, {"MouthRightPullSide", 0.6f}},
          "LipsKiss; negative: both corners pulled half way to the side (the corner stretches add the rest)"},
         {"upper_lip_retraction", {{"UpperLipBackward", 1.0f}}, {{"UpperLipForward", 1.0f}},
          "UpperLipBackward; negative: UpperLipForward"},
@@ -940,17 +1006,17 @@ void build_head(const HeadBuildSettings& settings) {
         for (std::size_t t = 0; t < out.triangles.size(); ++t) {
             const auto& g = out.triangle_group[t];
             float near = 1.0f, far = 1.0f, reach = 1.0f;
-            if (g.find("cavity") != std::string::npos) near = 0.55f, far = 0.12f, reach = 28.0f;
+            if (g.find("cavity") != std::string::npos) near = 0.4f, far = 0.08f, reach = 25.0f;
             else if (g.find("inner") != std::string::npos) near = 1.0f, far = 0.55f, reach = 10.0f;
             else if (g.find("teeth") != std::string::npos) near = 1.0f, far = 0.30f, reach = 30.0f;
-            else if (g == "tongue") near = 0.85f, far = 0.25f, reach = 35.0f;
+            else if (g == "tongue") near = 0.6f, far = 0.18f, reach = 30.0f;
             else continue;
             for (auto i : out.triangles[t]) {
                 const float depth = std::max(0.0f, front - rest_pos[i].z);
                 shade[i] = std::min(shade[i], near + (far - near) * smoothstep(0.0f, reach, depth));
             }
         }
-        for (std::size_t i = 0; i < n; ++i) colors[i] = glm::vec3(shade[i]);
+        for (std::size_t i = 0; i < n; ++i) colors[i] = out.vertices[i].part == 3 ? shirt_color : glm::vec3(shade[i]);
     }
 
     // 9. Write.
@@ -972,7 +1038,7 @@ void build_head(const HeadBuildSettings& settings) {
     for (std::size_t i = 0; i < n; ++i)
         obj += fmt::format("vt {:.6f} {:.6f}\n", out.vertices[i].uv.x, out.vertices[i].uv.y);
     // Faces by group, groups in a fixed order.
-    const std::vector<std::string> group_order = {"skin",        "upper_lip",   "lower_lip",   "upper_inner", "lower_inner",
+    const std::vector<std::string> group_order = {"shirt", "skin",        "upper_lip",   "lower_lip",   "upper_inner", "lower_inner",
                                                   "upper_cavity", "lower_cavity", "upper_teeth", "lower_teeth", "tongue",
                                                   "eyes",        "cornea",      "brows",       "lashes",      "hair"};
     for (const auto& g : group_order) {
@@ -995,7 +1061,7 @@ void build_head(const HeadBuildSettings& settings) {
     rig["variant"] = variant.label;
     rig["generator"] = "avsi::stimuli::build_head (stimuli/src/head_builder.cpp), scripts/make-head";
     rig["source"] = "MakeHuman assets, CC0 1.0 (../shared/assets/makehuman/README.md)";
-    const float head_top = crown + 25.0f;
+    const float head_top = crown + 20.0f;
     rig["landmarks"] = {
         {"left_eye", vec3_json(to_mm(eye_left))},
         {"right_eye", vec3_json(to_mm(eye_right))},
@@ -1005,8 +1071,8 @@ void build_head(const HeadBuildSettings& settings) {
         {"mouth_middle", vec3_json(mouth_middle)},
         {"iris_diameter", round_to(iris, 0.001)},
         // The frame's centre for head-and-shoulders framing (RenderSettings):
-        // the crown 25 mm below the top of a 380 mm-high view.
-        {"head_center", vec3_json(glm::vec3(0.0f, head_top - 190.0f, 0.0f))},
+        // the crown 20 mm below the top of a 340 mm-high view.
+        {"head_center", vec3_json(glm::vec3(0.0f, head_top - 170.0f, 0.0f))},
         {"head_height", round_to(crown - chin.y, 0.001)},
     };
     auto ids = [](const std::vector<std::uint32_t>& v) { return json(v); };
@@ -1027,6 +1093,7 @@ void build_head(const HeadBuildSettings& settings) {
                           {"reach_mm", 6.0}};
     rig["materials"] = {
         {"skin", {{"specular", 0.10}, {"shininess", 14.0}, {"wrap", 0.35}}},
+        {"shirt", {{"specular", 0.03}, {"shininess", 6.0}, {"wrap", 0.5}}},
         {"upper_lip", {{"specular", 0.16}, {"shininess", 22.0}, {"wrap", 0.35}}},
         {"lower_lip", {{"specular", 0.16}, {"shininess", 22.0}, {"wrap", 0.35}}},
         {"upper_inner", {{"specular", 0.14}, {"shininess", 24.0}, {"wrap", 0.5}}},

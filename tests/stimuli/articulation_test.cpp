@@ -302,6 +302,30 @@ TEST(ArticulationRunningSpeech, EveryDefaultModelMeetsTheConstraintsAt25_30And60
     EXPECT_TRUE(failures.empty()) << failures.size() << " violations:\n" << all;
 }
 
+// The rule model (the study's most intelligible condition) articulates every
+// segment clearly on the built-in head: every bilabial closes, every
+// labiodental reaches the upper teeth, no frame interpenetrates, rounding
+// holds, at every frame rate.
+TEST(ArticulationRunningSpeech, RuleModelMeetsEveryConstraintOnTheBuiltInHead) {
+    const ArticulationMeter meter(head());
+    const std::shared_ptr<const synth::ControlModel> rule =
+        synth::load_model(std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json");
+    for (double fps : {25.0, 30.0, 60.0}) {
+        std::size_t bilabials = 0, labiodentals = 0;
+        for (const auto& u : utterances()) {
+            const auto trajectory = rule->synthesize(u.phones, fps);
+            const auto summary = check_articulation(u.phones, fps, meter.measure(trajectory));
+            bilabials += summary.bilabials;
+            labiodentals += summary.labiodentals;
+            EXPECT_EQ(summary.bilabials_closed, summary.bilabials) << fps << " fps, \"" << u.text << "\"";
+            EXPECT_EQ(summary.labiodentals_reached, summary.labiodentals) << fps << " fps, \"" << u.text << "\"";
+            for (const auto& p : summary.problems()) ADD_FAILURE() << fps << " fps, \"" << u.text << "\": " << p;
+        }
+        EXPECT_GT(bilabials, 80u);
+        EXPECT_GT(labiodentals, 30u);
+    }
+}
+
 TEST(ArticulationRunningSpeech, HoldIsOffByDefaultAndExactWhenOn) {
     // Off (strength 0) reproduces the model exactly; on, every frame inside
     // a /p b m/ segment has the table's closure targets.

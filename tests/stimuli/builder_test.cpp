@@ -222,6 +222,7 @@ TEST_F(BuilderFixture, BuildsWithTheHeadTheProtocolNames) {
     std::filesystem::create_directories(dir / "lab" / "heads");
     std::filesystem::copy_file(default_head_obj(), dir / "lab" / "heads" / "head.obj");
     std::filesystem::copy_file(default_head_rig(), dir / "lab" / "heads" / "head.rig.json");
+    std::filesystem::copy_file(default_head_obj().parent_path() / "head.png", dir / "lab" / "heads" / "head.png");
     write_text_file(dir / "lab" / "protocol.toml",
                     text + "head_mesh = \"heads/head.obj\"\nhead_rig = \"heads/head.rig.json\"\n");
     BuildSettings s = settings("own-head");
@@ -232,6 +233,7 @@ TEST_F(BuilderFixture, BuildsWithTheHeadTheProtocolNames) {
     const auto manifest = nlohmann::json::parse(read_text_file(s.out_dir / "manifest.json"));
     EXPECT_EQ(manifest["settings"]["head"]["mesh_sha256"], sha256_file(dir / "lab" / "heads" / "head.obj"));
     EXPECT_EQ(manifest["settings"]["head"]["rig_sha256"], sha256_file(dir / "lab" / "heads" / "head.rig.json"));
+    EXPECT_EQ(manifest["settings"]["head"]["texture_sha256"], sha256_file(dir / "lab" / "heads" / "head.png"));
     for (const auto& e : manifest["stimuli"])
         EXPECT_EQ(decode_video(s.out_dir / e["path"].get<std::string>()).frame_count, e["frames"].get<std::size_t>());
 

@@ -105,7 +105,8 @@ TEST(Head, JawRotationLowersTheLowerTeethAndLipButNotTheUpperTeeth) {
     EXPECT_GT(lower_drop, 10.0f);  // the row's mean: ~20 mm at the incisors, less at the back
     EXPECT_LT(lower_drop, 25.0f);
     EXPECT_FLOAT_EQ(mean_y(rest, head(), "upper_teeth"), mean_y(open, head(), "upper_teeth"));
-    EXPECT_GT(mean_y(rest, head(), "lower_lip") - mean_y(open, head(), "lower_lip"), 12.0f);
+    // The lower lip's mean over its whole width: the corners move little.
+    EXPECT_GT(mean_y(rest, head(), "lower_lip") - mean_y(open, head(), "lower_lip"), 8.0f);
 }
 
 TEST(Head, RoundingNarrowsTheMouthAndSpreadingWidensIt) {

@@ -206,6 +206,7 @@ struct Head {
     std::optional<LipContact> lip_contact;              // absent: no contact step (needs articulation)
     std::filesystem::path obj_path;
     std::filesystem::path rig_path;
+    std::filesystem::path texture_path;  // empty without a texture
 };
 
 // The channels a pose sets: the 10 parameters, the eyelid closure and the

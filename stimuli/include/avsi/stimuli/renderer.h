@@ -62,7 +62,7 @@ struct RenderSettings {
     // Height of the world shown at the target's depth: the default frames
     // head and shoulders as audiovisual speech corpora do, the face (brow to
     // chin) about half the frame height.
-    float framing_mm = 380.0f;
+    float framing_mm = 340.0f;
     // The point the camera looks at (mesh units); default: the head's head_center landmark.
     std::optional<glm::vec3> target;
 };
