@@ -38,6 +38,11 @@ const bool registered_measure = register_command({
         sub.add_option("--plot", o->plot_path, "SVG plot of the lip aperture over time with the phone labels");
         sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ)")->capture_default_str();
         sub.add_option("--rig", o->head.rig, "Head rig (JSON) with an \"articulation\" section")->capture_default_str();
+        sub.add_option("--head", o->head.gltf, "A glTF head (.glb/.gltf) with ARKit-named morph targets, instead of --mesh/--rig")
+            ->excludes(sub.get_option("--mesh"))
+            ->excludes(sub.get_option("--rig"));
+        sub.add_option("--mapping", o->head.mapping,
+                       "Blendshape mapping of a --head glTF (default: protocols/head/arkit_mapping.json)");
         sub.add_option("--closure-mm", o->limits.closure_mm, "Largest aperture that counts as closed")
             ->capture_default_str();
         sub.add_option("--labiodental-mm", o->limits.labiodental_mm,

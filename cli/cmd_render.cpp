@@ -17,8 +17,13 @@ const bool registered_render = register_command({
         sub.add_option("--fap", o->fap_path, "MPEG-4 FAP v2.1 file (instead of --traj)")->capture_default_str();
         sub.add_option("--audio", o->audio_path, "Audio (WAV/FLAC) muxed into the MP4")->capture_default_str();
         sub.add_option("--out", o->out_path, "Output: x.mp4, or a folder for PNG frames")->required();
-        sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ with vertex colours)")->capture_default_str();
+        sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ with vertex colours and texture coordinates)")->capture_default_str();
         sub.add_option("--rig", o->head.rig, "Head rig (JSON)")->capture_default_str();
+        sub.add_option("--head", o->head.gltf, "A glTF head (.glb/.gltf) with ARKit-named morph targets, instead of --mesh/--rig")
+            ->excludes(sub.get_option("--mesh"))
+            ->excludes(sub.get_option("--rig"));
+        sub.add_option("--mapping", o->head.mapping,
+                       "Blendshape mapping of a --head glTF (default: protocols/head/arkit_mapping.json)");
         sub.add_option("--width", o->render.width, "Frame width in pixels")->capture_default_str();
         sub.add_option("--height", o->render.height, "Frame height in pixels")->capture_default_str();
         sub.add_option("--camera", o->camera, "Camera: front or three-quarter")->capture_default_str();

@@ -216,7 +216,9 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
     p.render.background = render.get_string("background", p.render.background, problems);
     // head_mesh and head_rig: a lab's own head, given together (the rig names mesh vertices).
     for (const auto& [key, target] : {std::pair<const char*, fs::path*>{"head_mesh", &p.render.head_mesh},
-                                      std::pair<const char*, fs::path*>{"head_rig", &p.render.head_rig}}) {
+                                      std::pair<const char*, fs::path*>{"head_rig", &p.render.head_rig},
+                                      std::pair<const char*, fs::path*>{"head_gltf", &p.render.head_gltf},
+                                      std::pair<const char*, fs::path*>{"head_mapping", &p.render.head_mapping}}) {
         const std::string file = render.get_string(key, "", problems);
         if (file.empty()) continue;
         *target = resolve(path, file);
@@ -230,6 +232,10 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         render.report(render.has("head_mesh") ? "head_mesh" : "head_rig",
                       "expected head_mesh and head_rig together (a rig belongs to its mesh), got only one",
                       problems);
+    if (render.has("head_gltf") && render.has("head_mesh"))
+        render.report("head_gltf", "expected either head_gltf or head_mesh + head_rig, got both", problems);
+    if (render.has("head_mapping") && !render.has("head_gltf"))
+        render.report("head_mapping", "expected head_gltf with it (the mapping drives a glTF head's blendshapes)", problems);
     p.render.check_articulation = render.get_bool("check_articulation", true, problems);
     render.check_unknown_keys(problems);
     p.render_section = render;

@@ -1,5 +1,6 @@
 // The stimulus-set builder (see builder.h).
 #include "avsi/stimuli/builder.h"
+#include "avsi/stimuli/gltf_head.h"
 
 #include <algorithm>
 #include <atomic>
@@ -202,7 +203,10 @@ Level set_speech_level(Audio& audio, double level_dbfs) {
 }
 
 // The head's files as the manifest records them (a change to any rebuilds every stimulus).
-nlohmann::json head_hashes(const Head& head) {
+nlohmann::json head_hashes(const Head& head, const std::filesystem::path& mapping) {
+    if (head.obj_path.extension() == ".glb" || head.obj_path.extension() == ".gltf")
+        return {{"gltf_sha256", sha256_file(head.obj_path)},
+                {"mapping_sha256", sha256_file(mapping.empty() ? default_blendshape_mapping() : mapping)}};
     nlohmann::json j = {{"mesh_sha256", sha256_file(head.obj_path)}, {"rig_sha256", sha256_file(head.rig_path)}};
     if (!head.texture_path.empty()) j["texture_sha256"] = sha256_file(head.texture_path);
     return j;
@@ -244,8 +248,10 @@ Plan::Plan(const BuildSettings& settings)
     render.background = parse_colour(pr.background, protocol);
     fps = pr.fps;
     vocoder_base = vocoder_settings(protocol);
-    // The protocol's own head ([render] head_mesh + head_rig) or the built-in one.
-    head = pr.head_mesh.empty() ? load_default_head() : load_head(pr.head_mesh, pr.head_rig);
+    // The protocol's own head ([render] head_gltf, or head_mesh + head_rig) or the built-in one.
+    if (!pr.head_gltf.empty())
+        head = load_gltf_head(pr.head_gltf, pr.head_mapping.empty() ? default_blendshape_mapping() : pr.head_mapping);
+    else head = pr.head_mesh.empty() ? load_default_head() : load_head(pr.head_mesh, pr.head_rig);
     if (pr.check_articulation) {
         try {
             meter.emplace(head);
@@ -287,7 +293,7 @@ Plan::Plan(const BuildSettings& settings)
         {"video", {{"codec", "h264 (libx264)"}, {"pixel_format", "yuv420p"}, {"crf", VideoSettings{}.crf},
                    {"preset", VideoSettings{}.preset}, {"audio", "aac"}}},
         {"vocoder", vocoder_json(vocoder_base)},
-        {"head", head_hashes(head)},
+        {"head", head_hashes(head, pr.head_mapping)},
         {"tts", {{"voice", protocol.corpus.voice}}},
         {"level", {{"speech_dbfs", protocol.corpus.level_dbfs},
                    {"measure", "active-speech RMS: 20 ms frames within 40 dB of the loudest"},

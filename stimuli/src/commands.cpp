@@ -5,11 +5,26 @@
 #include "avsi/core/labels.h"
 #include "avsi/core/tts.h"
 #include "avsi/core/log.h"
+#include "avsi/stimuli/gltf_head.h"
 #include "avsi/stimuli/image_io.h"
 #include "avsi/synth/control_model.h"
 #include "avsi/synth/fap.h"
 
 namespace avsi::stimuli {
+
+Head load_head_files(const HeadFiles& files) {
+    if (files.gltf.empty()) return load_head(files.obj, files.rig);
+    return load_gltf_head(files.gltf, files.mapping.empty() ? default_blendshape_mapping() : files.mapping);
+}
+
+void run_export_head(const ExportHeadSettings& s) {
+    if (s.out_path.empty()) throw UsageError("--out is required");
+    if (s.out_path.extension() != ".glb" && s.out_path.extension() != ".gltf")
+        throw UsageError("--out: expected a .glb or .gltf file, got '" + s.out_path.string() + "'");
+    const Head head = load_head_files(s.head);
+    export_gltf_head(head, s.out_path, s.head.mapping.empty() ? default_blendshape_mapping() : s.head.mapping);
+    log_info("wrote {}", s.out_path.string());
+}
 
 void run_render(const RenderJobSettings& s) {
     if (s.trajectory_path.empty() == s.fap_path.empty())
@@ -20,7 +35,7 @@ void run_render(const RenderJobSettings& s) {
                                              : synth::fap_to_trajectory(synth::read_fap(s.fap_path));
     Audio audio;
     if (!s.audio_path.empty()) audio = read_audio(s.audio_path);
-    const Head head = load_head(s.head.obj, s.head.rig);
+    const Head head = load_head_files(s.head);
     RenderSettings rs = s.render;
     rs.camera = camera_view_from_name(s.camera);
     OffscreenRenderer renderer(head, rs);
@@ -48,7 +63,7 @@ MeasureResult run_measure(const MeasureJobSettings& s) {
         throw UsageError("--model needs exactly one of --phones and --text");
     if (!s.text.empty() && s.model_path.empty()) throw UsageError("--text needs --model");
     if (!(s.fps > 0 && s.fps <= 1000)) throw UsageError("--fps: expected a frame rate in (0, 1000]");
-    const Head head = load_head(s.head.obj, s.head.rig);
+    const Head head = load_head_files(s.head);
     const ArticulationMeter meter(head);  // fails early, naming missing landmarks
 
     PhoneSequence phones;
@@ -74,7 +89,7 @@ MeasureResult run_measure(const MeasureJobSettings& s) {
 
 void run_contact_sheet(const ContactSheetJobSettings& s) {
     if (s.out_path.empty()) throw UsageError("--out is required");
-    const Head head = load_head(s.head.obj, s.head.rig);
+    const Head head = load_head_files(s.head);
     ContactSheetSettings sheet = s.sheet;
     sheet.camera = camera_view_from_name(s.camera);
     write_png(s.out_path, render_contact_sheet(head, read_sheet_targets(s.targets_path), sheet));

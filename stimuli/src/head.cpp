@@ -19,6 +19,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/stimuli/image_io.h"
+#include "rig_reader.h"
 #include "smoothstep.h"
 
 namespace avsi::stimuli {
@@ -440,8 +441,20 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
     } catch (const json::parse_error& e) {
         throw InputError(rig_path, std::string("not valid JSON: ") + e.what());
     }
+    detail::read_rig(head, doc, obj.uv_conflict, true);
+    return head;
+}
+
+namespace detail {
+
+void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> uv_conflict, bool check_format) {
+    const auto& rig_path = head.rig_path;
+    const auto& obj_path = head.obj_path;
+    struct {
+        std::optional<std::size_t> uv_conflict;
+    } obj{uv_conflict};
     RigReader rig{rig_path, {}};
-    if (doc.value("format", "") != "avsi-rig")
+    if (check_format && doc.value("format", "") != "avsi-rig")
         rig.problem("format", "expected \"avsi-rig\", got " + doc.value("format", json()).dump());
 
     const json lm = doc.value("landmarks", json::object());
@@ -628,8 +641,9 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
         head.transforms.push_back(std::move(rt));
     }
     rig.problems.throw_if_any();
-    return head;
 }
+
+}  // namespace detail
 
 Fapu fapu(const Head& head) {
     const auto& L = head.landmarks;

@@ -69,6 +69,10 @@ struct RenderSettings {
     // folder; both empty = the built-in head.
     std::filesystem::path head_mesh;
     std::filesystem::path head_rig;
+    // Or a glTF head with ARKit-named morph targets and its blendshape
+    // mapping (empty: protocols/head/arkit_mapping.json).
+    std::filesystem::path head_gltf;
+    std::filesystem::path head_mapping;
     // Measure every model stimulus's articulation (lip closure, labiodental
     // contact, no interpenetration) into the manifest; needs the head's
     // articulation landmarks. false only for a head without them.

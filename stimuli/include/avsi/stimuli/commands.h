@@ -15,7 +15,20 @@ namespace avsi::stimuli {
 struct HeadFiles {
     std::filesystem::path obj = default_head_obj();
     std::filesystem::path rig = default_head_rig();
+    std::filesystem::path gltf;     // a glTF head instead of obj + rig
+    std::filesystem::path mapping;  // its blendshape mapping (empty: the default)
 };
+
+// The head the files name: the glTF head when given, else OBJ + rig.
+Head load_head_files(const HeadFiles& files);
+
+struct ExportHeadSettings {
+    std::filesystem::path out_path;  // .glb (or .gltf)
+    HeadFiles head;
+};
+
+// `avsi export-head`: the head as glTF with the mapping's ARKit-named targets.
+void run_export_head(const ExportHeadSettings& settings);
 
 struct RenderJobSettings {
     std::filesystem::path trajectory_path;  // CSV trajectory, or

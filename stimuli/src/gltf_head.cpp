@@ -1,0 +1,687 @@
+// glTF heads with ARKit-named morph targets (gltf_head.h), through tinygltf
+// (Debian's libtinygltf-dev, a shared library: no TINYGLTF_IMPLEMENTATION
+// here). The loaded head becomes the same Head as an OBJ + rig: its morph
+// targets become blendshape transforms by the mapping, and the rig document
+// assembled from the asset's avsi extras goes through the one rig reader.
+#include "avsi/stimuli/gltf_head.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <set>
+#include <tuple>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
+#include <tiny_gltf.h>
+
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/synth/parameters.h"
+#include "rig_reader.h"
+#include "smoothstep.h"
+
+namespace avsi::stimuli {
+
+using nlohmann::json;
+
+namespace {
+
+constexpr float mm_per_metre = 1000.0f;
+
+std::vector<std::string> channel_names() {
+    std::vector<std::string> names;
+    for (const auto& info : synth::params()) names.emplace_back(info.name);
+    names.emplace_back("blink");
+    names.emplace_back("tongue_tip");
+    return names;
+}
+
+// The channel's range ends (blink and tongue tip: 0 to 1).
+std::pair<double, double> channel_range(const std::string& channel) {
+    if (const auto p = synth::param_from_name(channel)) return {synth::param_info(*p).min, synth::param_info(*p).max};
+    return {0.0, 1.0};
+}
+
+// ---- Reading accessors ------------------------------------------------------
+
+// Accessor `index` as floats, `components` per element (normalized integer
+// types scaled to [0, 1]); sparse accessors applied.
+std::vector<float> read_floats(const tinygltf::Model& model, int index, int components, const std::filesystem::path& path) {
+    if (index < 0 || static_cast<std::size_t>(index) >= model.accessors.size())
+        throw InputError(path, "an accessor index is out of range");
+    const auto& a = model.accessors[static_cast<std::size_t>(index)];
+    const int have = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type));
+    if (have < components)
+        throw InputError(path, "accessor " + std::to_string(index) + ": expected " + std::to_string(components) +
+                                   " components, got " + std::to_string(have));
+    std::vector<float> out(a.count * static_cast<std::size_t>(components), 0.0f);
+    auto element = [&](const unsigned char* p, int c) -> float {
+        switch (a.componentType) {
+            case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+                float f;
+                std::memcpy(&f, p + 4 * c, 4);
+                return f;
+            }
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[c] / (a.normalized ? 255.0f : 1.0f);
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+                std::uint16_t v;
+                std::memcpy(&v, p + 2 * c, 2);
+                return v / (a.normalized ? 65535.0f : 1.0f);
+            }
+            default:
+                throw InputError(path, "accessor " + std::to_string(index) + ": unsupported component type " +
+                                           std::to_string(a.componentType));
+        }
+    };
+    const int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
+    if (a.bufferView >= 0) {
+        const auto& view = model.bufferViews.at(static_cast<std::size_t>(a.bufferView));
+        const auto& buffer = model.buffers.at(static_cast<std::size_t>(view.buffer));
+        const std::size_t stride = view.byteStride ? view.byteStride : std::size_t(size * have);
+        const std::size_t start = view.byteOffset + a.byteOffset;
+        if (a.count > 0 && start + stride * (a.count - 1) + std::size_t(size * have) > buffer.data.size())
+            throw InputError(path, "accessor " + std::to_string(index) + " reaches beyond its buffer");
+        for (std::size_t i = 0; i < a.count; ++i)
+            for (int c = 0; c < components; ++c)
+                out[i * std::size_t(components) + std::size_t(c)] = element(buffer.data.data() + start + i * stride, c);
+    }
+    if (a.sparse.isSparse) {
+        const auto& iv = model.bufferViews.at(static_cast<std::size_t>(a.sparse.indices.bufferView));
+        const auto& vv = model.bufferViews.at(static_cast<std::size_t>(a.sparse.values.bufferView));
+        const auto& ib = model.buffers.at(static_cast<std::size_t>(iv.buffer));
+        const auto& vb = model.buffers.at(static_cast<std::size_t>(vv.buffer));
+        const int isize = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.sparse.indices.componentType));
+        for (int k = 0; k < a.sparse.count; ++k) {
+            const unsigned char* ip = ib.data.data() + iv.byteOffset + a.sparse.indices.byteOffset + std::size_t(k * isize);
+            std::uint32_t target = 0;
+            if (isize == 1) target = *ip;
+            else if (isize == 2) { std::uint16_t v; std::memcpy(&v, ip, 2); target = v; }
+            else std::memcpy(&target, ip, 4);
+            if (target >= a.count) throw InputError(path, "a sparse accessor index is out of range");
+            const unsigned char* vp = vb.data.data() + vv.byteOffset + a.sparse.values.byteOffset + std::size_t(k) * std::size_t(size * have);
+            for (int c = 0; c < components; ++c) out[target * std::size_t(components) + std::size_t(c)] = element(vp, c);
+        }
+    }
+    return out;
+}
+
+std::vector<std::uint32_t> read_indices(const tinygltf::Model& model, int index, const std::filesystem::path& path) {
+    const auto& a = model.accessors.at(static_cast<std::size_t>(index));
+    const auto& view = model.bufferViews.at(static_cast<std::size_t>(a.bufferView));
+    const auto& buffer = model.buffers.at(static_cast<std::size_t>(view.buffer));
+    const int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
+    const std::size_t stride = view.byteStride ? view.byteStride : std::size_t(size);
+    const std::size_t start = view.byteOffset + a.byteOffset;
+    if (a.count > 0 && start + stride * (a.count - 1) + std::size_t(size) > buffer.data.size())
+        throw InputError(path, "an index accessor reaches beyond its buffer");
+    std::vector<std::uint32_t> out(a.count);
+    for (std::size_t i = 0; i < a.count; ++i) {
+        const unsigned char* p = buffer.data.data() + start + i * stride;
+        if (size == 1) out[i] = *p;
+        else if (size == 2) { std::uint16_t v; std::memcpy(&v, p, 2); out[i] = v; }
+        else std::memcpy(&out[i], p, 4);
+    }
+    return out;
+}
+
+glm::mat4 node_matrix(const tinygltf::Node& node) {
+    if (node.matrix.size() == 16) {
+        glm::dmat4 m;
+        std::memcpy(glm::value_ptr(m), node.matrix.data(), 16 * sizeof(double));
+        return glm::mat4(m);
+    }
+    glm::mat4 m(1.0f);
+    if (node.translation.size() == 3)
+        m = glm::translate(m, glm::vec3(float(node.translation[0]), float(node.translation[1]), float(node.translation[2])));
+    if (node.rotation.size() == 4)
+        m *= glm::mat4_cast(glm::quat(float(node.rotation[3]), float(node.rotation[0]), float(node.rotation[1]), float(node.rotation[2])));
+    if (node.scale.size() == 3) m = glm::scale(m, glm::vec3(float(node.scale[0]), float(node.scale[1]), float(node.scale[2])));
+    return m;
+}
+
+// tinygltf value → nlohmann JSON.
+json from_value(const tinygltf::Value& v) {
+    if (v.IsObject()) {
+        json o = json::object();
+        for (const auto& key : v.Keys()) o[key] = from_value(v.Get(key));
+        return o;
+    }
+    if (v.IsArray()) {
+        json a = json::array();
+        for (std::size_t i = 0; i < v.ArrayLen(); ++i) a.push_back(from_value(v.Get(static_cast<int>(i))));
+        return a;
+    }
+    if (v.IsBool()) return v.Get<bool>();
+    if (v.IsInt()) return v.Get<int>();
+    if (v.IsNumber()) return v.GetNumberAsDouble();
+    if (v.IsString()) return v.Get<std::string>();
+    return json();
+}
+
+// An object's extras: from the original JSON text when tinygltf kept it, else its parsed value.
+json extras_of(const std::string& text, const tinygltf::Value& value) {
+    if (!text.empty()) {
+        try {
+            return json::parse(text);
+        } catch (const json::parse_error&) {
+        }
+    }
+    const json j = from_value(value);
+    return j.is_object() ? j : json::object();
+}
+
+// nlohmann JSON → tinygltf value (for the extras we write).
+tinygltf::Value to_value(const json& j) {
+    if (j.is_object()) {
+        tinygltf::Value::Object o;
+        for (const auto& [k, v] : j.items()) o[k] = to_value(v);
+        return tinygltf::Value(std::move(o));
+    }
+    if (j.is_array()) {
+        tinygltf::Value::Array a;
+        for (const auto& v : j) a.push_back(to_value(v));
+        return tinygltf::Value(std::move(a));
+    }
+    if (j.is_boolean()) return tinygltf::Value(j.get<bool>());
+    if (j.is_number_integer()) return tinygltf::Value(static_cast<int>(j.get<std::int64_t>()));
+    if (j.is_number()) return tinygltf::Value(j.get<double>());
+    if (j.is_string()) return tinygltf::Value(j.get<std::string>());
+    return tinygltf::Value();
+}
+
+json scaled_point(const json& p, double scale) {
+    if (!p.is_array()) return p;
+    json out = json::array();
+    for (const auto& x : p) out.push_back(x.is_number() ? json(x.get<double>() * scale) : x);
+    return out;
+}
+
+}  // namespace
+
+std::vector<std::string> BlendshapeMapping::targets() const {
+    std::set<std::string> names;
+    for (const auto& [channel, row] : rows)
+        for (const auto* side : {&row.both, &row.positive, &row.negative})
+            for (const auto& [t, w] : *side) names.insert(t);
+    return {names.begin(), names.end()};
+}
+
+std::filesystem::path default_blendshape_mapping() {
+    return std::filesystem::path(AVSI_PROTOCOLS_DIR) / "head" / "arkit_mapping.json";
+}
+
+BlendshapeMapping read_blendshape_mapping(const std::filesystem::path& path) {
+    json doc;
+    try {
+        doc = json::parse(read_text_file(path));
+    } catch (const json::parse_error& e) {
+        throw InputError(path, std::string("not valid JSON: ") + e.what());
+    }
+    DiagnosticList problems;
+    auto problem = [&](const std::string& field, const std::string& message) {
+        problems.add(path.string(), 0, 0, field, message);
+    };
+    if (doc.value("format", "") != "avsi-blendshape-mapping")
+        problem("format", "expected \"avsi-blendshape-mapping\", got " + doc.value("format", json()).dump());
+    BlendshapeMapping m;
+    m.path = path;
+    const auto channels = channel_names();
+    const json& rows = doc.value("parameters", json());
+    if (!rows.is_object()) problem("parameters", "expected an object with one row per parameter");
+    else
+        for (const auto& [channel, row] : rows.items()) {
+            const std::string field = "parameters." + channel;
+            if (std::find(channels.begin(), channels.end(), channel) == channels.end()) {
+                const auto hint = closest_match(channel, channels);
+                problem(field, "expected a parameter name, \"blink\" or \"tongue_tip\"" +
+                                   (hint.empty() ? std::string() : " (did you mean '" + hint + "'?)"));
+                continue;
+            }
+            auto weights = [&](const json& j, const std::string& f, std::map<std::string, float>& out) {
+                if (!j.is_object()) {
+                    problem(f, "expected {\"<blendshape>\": weight, …}, got " + j.dump());
+                    return;
+                }
+                for (const auto& [target, w] : j.items()) {
+                    if (!w.is_number() || !std::isfinite(w.get<double>()))
+                        problem(f + "." + target, "expected a number, got " + w.dump());
+                    else out[target] = w.get<float>();
+                }
+            };
+            MappingRow r;
+            if (row.is_object() && (row.contains("positive") || row.contains("negative"))) {
+                for (const auto& [key, value] : row.items()) {
+                    if (key == "positive") weights(value, field + ".positive", r.positive);
+                    else if (key == "negative") weights(value, field + ".negative", r.negative);
+                    else problem(field + "." + key, "expected \"positive\" or \"negative\" (or a plain {target: weight} row)");
+                }
+            } else {
+                weights(row, field, r.both);
+            }
+            m.rows[channel] = std::move(r);
+        }
+    problems.throw_if_any();
+    return m;
+}
+
+Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::path& mapping_path) {
+    const BlendshapeMapping mapping = read_blendshape_mapping(mapping_path);
+    if (!std::filesystem::exists(path)) throw InputError(path, "cannot open: no such file");
+    tinygltf::TinyGLTF loader;
+    loader.SetStoreOriginalJSONForExtrasAndExtensions(true);
+    tinygltf::Model model;
+    std::string error, warning;
+    const bool binary = path.extension() == ".glb";
+    const bool ok = binary ? loader.LoadBinaryFromFile(&model, &error, &warning, path.string())
+                           : loader.LoadASCIIFromFile(&model, &error, &warning, path.string());
+    if (!ok) throw InputError(path, "not a readable glTF 2.0 file: " + (error.empty() ? warning : error));
+
+    Head head;
+    head.obj_path = path;
+    head.rig_path = path;
+    const json avsi = extras_of(model.extras_json_string, model.extras).value("avsi", json::object());
+
+    // The mesh nodes of the default scene, in order, with their world matrices.
+    std::vector<std::pair<int, glm::mat4>> mesh_nodes;
+    std::function<void(int, glm::mat4)> visit = [&](int n, glm::mat4 parent) {
+        const auto& node = model.nodes.at(static_cast<std::size_t>(n));
+        const glm::mat4 world = parent * node_matrix(node);
+        if (node.mesh >= 0) mesh_nodes.emplace_back(node.mesh, world);
+        for (int c : node.children) visit(c, world);
+    };
+    const int scene = model.defaultScene >= 0 ? model.defaultScene : 0;
+    if (static_cast<std::size_t>(scene) < model.scenes.size())
+        for (int n : model.scenes[static_cast<std::size_t>(scene)].nodes) visit(n, glm::mat4(1.0f));
+    if (mesh_nodes.empty()) throw InputError(path, "the scene has no mesh");
+
+    // Geometry, groups (material names), texture and morph targets.
+    auto& mesh = head.mesh;
+    std::map<std::string, std::vector<std::pair<std::uint32_t, glm::vec3>>> targets;  // name → (vertex, offset mm)
+    // Primitives of one node that share their vertex accessors share the vertices.
+    std::map<std::tuple<std::size_t, int, int, int>, std::uint32_t> shared;
+    std::set<std::string> target_names;
+    int texture_image = -1;
+    json materials = json::object();
+    for (std::size_t k = 0; k < mesh_nodes.size(); ++k) {
+        const auto& [mi, world] = mesh_nodes[k];
+        const auto& gm = model.meshes.at(static_cast<std::size_t>(mi));
+        const json mesh_extras = extras_of(gm.extras_json_string, gm.extras);
+        std::vector<std::string> names;
+        if (mesh_extras.contains("targetNames") && mesh_extras["targetNames"].is_array())
+            for (const auto& t : mesh_extras["targetNames"]) names.push_back(t.is_string() ? t.get<std::string>() : "");
+        const glm::mat3 linear(world);
+        for (std::size_t pi = 0; pi < gm.primitives.size(); ++pi) {
+            const auto& prim = gm.primitives[pi];
+            if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1)
+                throw InputError(path, "mesh '" + gm.name + "': only triangle primitives are supported");
+            const auto pos_it = prim.attributes.find("POSITION");
+            if (pos_it == prim.attributes.end()) throw InputError(path, "mesh '" + gm.name + "': a primitive has no POSITION");
+            const auto attribute = [&](const char* name) {
+                const auto it = prim.attributes.find(name);
+                return it == prim.attributes.end() ? -1 : it->second;
+            };
+            const auto key = std::make_tuple(k, pos_it->second, attribute("TEXCOORD_0"), attribute("COLOR_0"));
+            const auto seen = shared.find(key);
+            const bool fresh = seen == shared.end();
+            const auto base = fresh ? static_cast<std::uint32_t>(mesh.positions.size()) : seen->second;
+            if (fresh) shared[key] = base;
+            const std::size_t count = model.accessors.at(static_cast<std::size_t>(pos_it->second)).count;
+            const auto p = fresh ? read_floats(model, pos_it->second, 3, path) : std::vector<float>{};
+            for (std::size_t i = 0; i < p.size() / 3; ++i)
+                mesh.positions.push_back(glm::vec3(world * glm::vec4(p[3 * i], p[3 * i + 1], p[3 * i + 2], 1.0f)) * mm_per_metre);
+            std::vector<float> uv, color;
+            if (fresh && prim.attributes.count("TEXCOORD_0")) uv = read_floats(model, prim.attributes.at("TEXCOORD_0"), 2, path);
+            if (fresh && prim.attributes.count("COLOR_0")) color = read_floats(model, prim.attributes.at("COLOR_0"), 3, path);
+            glm::vec3 factor(1.0f);
+            std::string group = gm.name.empty() ? "mesh" + std::to_string(k) : gm.name;
+            group += "_" + std::to_string(pi);
+            if (prim.material >= 0) {
+                const auto& mat = model.materials.at(static_cast<std::size_t>(prim.material));
+                if (!mat.name.empty()) group = mat.name;
+                const auto& f = mat.pbrMetallicRoughness.baseColorFactor;
+                if (f.size() >= 3) factor = glm::vec3(float(f[0]), float(f[1]), float(f[2]));
+                const int tex = mat.pbrMetallicRoughness.baseColorTexture.index;
+                if (tex >= 0) {
+                    const int img = model.textures.at(static_cast<std::size_t>(tex)).source;
+                    if (texture_image >= 0 && img != texture_image)
+                        throw InputError(path, "material '" + mat.name + "': the head must use one texture image (an atlas); it uses several");
+                    texture_image = img;
+                }
+                if (mat.alphaMode == "BLEND") materials[group]["blend"] = true;
+            }
+            for (std::size_t i = 0; fresh && i < count; ++i) {
+                mesh.colors.push_back(factor * (color.empty() ? glm::vec3(1.0f)
+                                                              : glm::vec3(color[3 * i], color[3 * i + 1], color[3 * i + 2])));
+                mesh.uvs.push_back(uv.empty() ? glm::vec2(0.0f) : glm::vec2(uv[2 * i], 1.0f - uv[2 * i + 1]));
+            }
+            int g = mesh.group_index(group);
+            if (g < 0) {
+                g = static_cast<int>(mesh.group_names.size());
+                mesh.group_names.push_back(group);
+            }
+            std::vector<std::uint32_t> idx;
+            if (prim.indices >= 0) idx = read_indices(model, prim.indices, path);
+            else
+                for (std::uint32_t i = 0; i < count; ++i) idx.push_back(i);
+            if (idx.size() % 3 != 0) throw InputError(path, "mesh '" + gm.name + "': the index count is not a multiple of 3");
+            for (std::size_t i = 0; i < idx.size(); i += 3) {
+                for (int c = 0; c < 3; ++c) {
+                    if (idx[i + std::size_t(c)] >= count) throw InputError(path, "mesh '" + gm.name + "': a vertex index is out of range");
+                    mesh.indices.push_back(base + idx[i + std::size_t(c)]);
+                }
+                mesh.triangle_group.push_back(g);
+            }
+            for (std::size_t t = 0; t < prim.targets.size(); ++t) {
+                if (!fresh) {
+                    target_names.insert(t < names.size() && !names[t].empty() ? names[t] : "target_" + std::to_string(t));
+                    continue;
+                }
+                const std::string name = t < names.size() && !names[t].empty() ? names[t] : "target_" + std::to_string(t);
+                target_names.insert(name);
+                const auto it = prim.targets[t].find("POSITION");
+                if (it == prim.targets[t].end()) continue;
+                const auto d = read_floats(model, it->second, 3, path);
+                auto& list = targets[name];
+                for (std::size_t i = 0; i < d.size() / 3; ++i) {
+                    const glm::vec3 offset = linear * glm::vec3(d[3 * i], d[3 * i + 1], d[3 * i + 2]) * mm_per_metre;
+                    if (offset != glm::vec3(0.0f)) list.emplace_back(base + static_cast<std::uint32_t>(i), offset);
+                }
+            }
+        }
+    }
+    if (mesh.indices.empty()) throw InputError(path, "the mesh has no triangles");
+
+    // Every target the mapping needs, or the list of what is missing.
+    std::vector<std::string> missing;
+    for (const auto& t : mapping.targets())
+        if (!target_names.count(t)) missing.push_back(t);
+    if (!missing.empty()) {
+        std::string list, have;
+        for (const auto& m : missing) list += (list.empty() ? "" : ", ") + m;
+        for (const auto& h : target_names) have += (have.empty() ? "" : ", ") + h;
+        throw InputError(path.string(), 0, 0, "morph targets",
+                         "missing " + std::to_string(missing.size()) + " the mapping " + mapping.path.filename().string() +
+                             " needs: " + list + " (the file has: " + (have.empty() ? "none" : have) + ")");
+    }
+
+    if (texture_image >= 0) {
+        const auto& img = model.images.at(static_cast<std::size_t>(texture_image));
+        if (img.image.empty() || img.width <= 0 || img.height <= 0 || (img.component != 3 && img.component != 4))
+            throw InputError(path, "the texture image could not be decoded");
+        ImageRgba tex;
+        tex.width = img.width;
+        tex.height = img.height;
+        tex.rgba.resize(std::size_t(img.width) * std::size_t(img.height) * 4);
+        const auto comp = static_cast<std::size_t>(img.component);
+        for (std::size_t i = 0; i < tex.rgba.size() / 4; ++i) {
+            for (std::size_t c = 0; c < 3; ++c) tex.rgba[4 * i + c] = img.image[i * comp + c];
+            tex.rgba[4 * i + 3] = comp == 4 ? img.image[i * comp + 3] : 255;
+        }
+        head.texture = std::move(tex);
+        head.texture_path = path;
+    } else {
+        mesh.uvs.clear();
+    }
+
+    // The rig document: the extras' sections (metres → mm) and one blendshape
+    // transform per mapping row, side and target.
+    json doc = json::object();
+    if (avsi.contains("landmarks") && avsi["landmarks"].is_object()) {
+        json lm = json::object();
+        for (const auto& [key, value] : avsi["landmarks"].items())
+            lm[key] = value.is_number() ? json(value.get<double>() * mm_per_metre) : scaled_point(value, mm_per_metre);
+        doc["landmarks"] = lm;
+    }
+    for (const char* key : {"articulation", "lip_contact"})
+        if (avsi.contains(key)) doc[key] = avsi[key];
+    if (avsi.contains("materials") && avsi["materials"].is_object())
+        for (const auto& [g, m] : avsi["materials"].items()) materials[g] = m;
+    if (!materials.empty()) doc["materials"] = materials;
+    json transforms = json::array();
+    for (const auto& [channel, row] : mapping.rows) {
+        const auto [lo, hi] = channel_range(channel);
+        auto add = [&](const std::map<std::string, float>& weights, double per_unit, const char* side) {
+            for (const auto& [target, w] : weights) {
+                json vertices = json::array(), offsets = json::array();
+                for (const auto& [v, d] : targets[target]) {
+                    vertices.push_back(v);
+                    for (int c = 0; c < 3; ++c) offsets.push_back(double(d[c]) * w * per_unit);
+                }
+                json t = {{"channel", channel}, {"note", target}, {"blendshape", {{"vertices", vertices}, {"offsets", offsets}}}};
+                if (side) t["side"] = side;
+                transforms.push_back(t);
+            }
+        };
+        add(row.both, 1.0, nullptr);
+        add(row.positive, 1.0 / hi, "positive");
+        if (lo < 0) add(row.negative, 1.0 / lo, "negative");
+    }
+    doc["transforms"] = transforms;
+    detail::read_rig(head, doc, std::nullopt, false);
+    return head;
+}
+
+void export_gltf_head(const Head& head, const std::filesystem::path& out_path, const std::filesystem::path& mapping_path) {
+    const BlendshapeMapping mapping = read_blendshape_mapping(mapping_path);
+    const auto& mesh = head.mesh;
+    const std::size_t n = mesh.positions.size();
+
+    // Each target's shape: the rig posed at its row's end, split at the
+    // midline for an _L/_R pair; a target named by two rows is refused.
+    std::map<std::string, std::vector<glm::vec3>> shapes;
+    std::map<std::string, std::string> owner;
+    // The shapes without the lip contact step: the loaded head applies it
+    // after blending them (the extras carry it), as the rig does.
+    Head bare;
+    bare.mesh.positions = mesh.positions;
+    bare.transforms = head.transforms;
+    std::vector<glm::vec3> rest;
+    pose_positions(bare, Pose{}, rest);
+    for (const auto& [channel, row] : mapping.rows) {
+        const auto [lo, hi] = channel_range(channel);
+        auto side_shapes = [&](const std::map<std::string, float>& weights, double value) {
+            if (weights.empty()) return;
+            Pose pose;
+            if (const auto p = synth::param_from_name(channel)) pose.params[synth::index(*p)] = value;
+            else if (channel == "blink") pose.blink = value;
+            else pose.tongue_tip = value;
+            std::vector<glm::vec3> posed;
+            pose_positions(bare, pose, posed);
+            for (std::size_t i = 0; i < n; ++i) posed[i] -= rest[i];
+            // An _L/_R pair shares the shape across the midline (the speaker's left is +x).
+            std::vector<std::string> names;
+            for (const auto& [t, w] : weights) names.push_back(t);
+            const bool pair = names.size() == 2 && names[0].size() > 2 && names[0].substr(0, names[0].size() - 2) ==
+                                                                              names[1].substr(0, names[1].size() - 2);
+            for (const auto& [t, w] : weights) {
+                const std::string where = channel + (value > 0 ? " positive" : value < 0 ? " negative" : "");
+                if (!owner.emplace(t, where).second)
+                    throw InputError(mapping.path.string(), 0, 0, "parameters." + channel,
+                                     "target " + t + " is also driven by " + owner[t] + ": an exported target can hold one shape");
+                if (w == 0.0f) throw InputError(mapping.path.string(), 0, 0, "parameters." + channel + "." + t, "a zero weight cannot be exported");
+                std::vector<glm::vec3> d(n);
+                const bool left = t.size() > 2 && t.substr(t.size() - 2) == "_L";
+                for (std::size_t i = 0; i < n; ++i) {
+                    float share = 1.0f;
+                    if (pair) {
+                        const float l = smoothstep(-5.0f, 5.0f, mesh.positions[i].x);
+                        share = left ? l : 1.0f - l;
+                    } else {
+                        share = 1.0f / float(weights.size());
+                    }
+                    d[i] = posed[i] * (share / w);
+                }
+                shapes[t] = std::move(d);
+            }
+        };
+        side_shapes(row.both, 1.0);
+        side_shapes(row.positive, hi);
+        if (lo < 0) side_shapes(row.negative, lo);
+    }
+
+    // Buffers: positions, normals, texture coordinates, colours (shared by
+    // every primitive so vertex indices stay the head's), per group an
+    // index list, per target a displacement; then the texture PNG.
+    tinygltf::Model model;
+    model.asset.version = "2.0";
+    model.asset.generator = "avsi export-head";
+    tinygltf::Buffer buffer;
+    auto append = [&](const void* data, std::size_t bytes) {
+        while (buffer.data.size() % 4) buffer.data.push_back(0);
+        const std::size_t offset = buffer.data.size();
+        const auto* p = static_cast<const unsigned char*>(data);
+        buffer.data.insert(buffer.data.end(), p, p + bytes);
+        tinygltf::BufferView view;
+        view.buffer = 0;
+        view.byteOffset = offset;
+        view.byteLength = bytes;
+        model.bufferViews.push_back(view);
+        return static_cast<int>(model.bufferViews.size() - 1);
+    };
+    auto accessor = [&](int view, int component, int type, std::size_t count, std::vector<double> min = {},
+                        std::vector<double> max = {}) {
+        tinygltf::Accessor a;
+        a.bufferView = view;
+        a.componentType = component;
+        a.type = type;
+        a.count = count;
+        a.minValues = std::move(min);
+        a.maxValues = std::move(max);
+        model.accessors.push_back(a);
+        return static_cast<int>(model.accessors.size() - 1);
+    };
+    std::vector<float> pos(3 * n), nrm(3 * n), uv(2 * n), col(3 * n);
+    std::vector<glm::vec3> normals;
+    compute_normals(mesh.positions, mesh.indices, normals);
+    std::vector<double> lo(3, 1e30), hi(3, -1e30);
+    for (std::size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) {
+            pos[3 * i + std::size_t(c)] = mesh.positions[i][c] / mm_per_metre;
+            lo[std::size_t(c)] = std::min(lo[std::size_t(c)], double(pos[3 * i + std::size_t(c)]));
+            hi[std::size_t(c)] = std::max(hi[std::size_t(c)], double(pos[3 * i + std::size_t(c)]));
+            nrm[3 * i + std::size_t(c)] = normals[i][c];
+            col[3 * i + std::size_t(c)] = mesh.colors[i][c];
+        }
+    const bool textured = head.texture.has_value() && mesh.uvs.size() == n;
+    for (std::size_t i = 0; i < n && textured; ++i) uv[2 * i] = mesh.uvs[i].x, uv[2 * i + 1] = 1.0f - mesh.uvs[i].y;
+    const int a_pos = accessor(append(pos.data(), pos.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n, lo, hi);
+    const int a_nrm = accessor(append(nrm.data(), nrm.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+    const int a_col = accessor(append(col.data(), col.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+    const int a_uv = textured ? accessor(append(uv.data(), uv.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, n) : -1;
+    std::vector<std::pair<std::string, int>> target_accessors;
+    for (const auto& [name, d] : shapes) {
+        std::vector<float> data(3 * n);
+        std::vector<double> tlo(3, 1e30), thi(3, -1e30);
+        for (std::size_t i = 0; i < n; ++i)
+            for (int c = 0; c < 3; ++c) {
+                data[3 * i + std::size_t(c)] = d[i][c] / mm_per_metre;
+                tlo[std::size_t(c)] = std::min(tlo[std::size_t(c)], double(data[3 * i + std::size_t(c)]));
+                thi[std::size_t(c)] = std::max(thi[std::size_t(c)], double(data[3 * i + std::size_t(c)]));
+            }
+        target_accessors.emplace_back(name, accessor(append(data.data(), data.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                                     TINYGLTF_TYPE_VEC3, n, tlo, thi));
+    }
+    if (textured) {
+        std::string png;
+        if (!head.texture_path.empty() && head.texture_path.extension() == ".png") png = read_text_file(head.texture_path);
+        if (png.empty()) throw InputError(out_path, "the head's texture is not a PNG file that can be embedded");
+        tinygltf::Image image;
+        image.bufferView = append(png.data(), png.size());
+        image.mimeType = "image/png";
+        image.name = "texture";
+        model.images.push_back(image);
+        tinygltf::Texture texture;
+        texture.source = 0;
+        tinygltf::Sampler sampler;
+        sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+        sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+        model.samplers.push_back(sampler);
+        texture.sampler = 0;
+        model.textures.push_back(texture);
+    }
+    tinygltf::Mesh gm;
+    gm.name = "head";
+    tinygltf::Value::Array names;
+    for (const auto& [name, a] : target_accessors) names.emplace_back(name);
+    tinygltf::Value::Object mesh_extras;
+    mesh_extras["targetNames"] = tinygltf::Value(names);
+    gm.extras = tinygltf::Value(mesh_extras);
+    for (std::size_t g = 0; g < mesh.group_names.size(); ++g) {
+        std::vector<std::uint32_t> idx;
+        for (std::size_t t = 0; t < mesh.triangle_group.size(); ++t)
+            if (mesh.triangle_group[t] == int(g)) idx.insert(idx.end(), &mesh.indices[3 * t], &mesh.indices[3 * t] + 3);
+        if (idx.empty()) continue;
+        tinygltf::Material mat;
+        mat.name = mesh.group_names[g];
+        mat.pbrMetallicRoughness.metallicFactor = 0.0;
+        mat.pbrMetallicRoughness.roughnessFactor = 0.6;
+        if (textured) mat.pbrMetallicRoughness.baseColorTexture.index = 0;
+        if (head.materials.at(g).blend) mat.alphaMode = "BLEND", mat.doubleSided = true;
+        model.materials.push_back(mat);
+        tinygltf::Primitive prim;
+        prim.mode = TINYGLTF_MODE_TRIANGLES;
+        prim.material = static_cast<int>(model.materials.size() - 1);
+        prim.indices = accessor(append(idx.data(), idx.size() * 4), TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, idx.size());
+        prim.attributes["POSITION"] = a_pos;
+        prim.attributes["NORMAL"] = a_nrm;
+        prim.attributes["COLOR_0"] = a_col;
+        if (a_uv >= 0) prim.attributes["TEXCOORD_0"] = a_uv;
+        for (const auto& [name, a] : target_accessors) prim.targets.push_back({{"POSITION", a}});
+        gm.primitives.push_back(prim);
+    }
+    gm.weights.assign(target_accessors.size(), 0.0);
+    model.meshes.push_back(gm);
+    model.buffers.push_back(buffer);
+    tinygltf::Node node;
+    node.mesh = 0;
+    node.name = "head";
+    model.nodes.push_back(node);
+    tinygltf::Scene scene;
+    scene.nodes = {0};
+    model.scenes.push_back(scene);
+    model.defaultScene = 0;
+
+    // The avsi extras: landmarks (metres), articulation, lip contact, materials.
+    const auto& L = head.landmarks;
+    auto point = [](glm::vec3 p) { return json::array({p.x / mm_per_metre, p.y / mm_per_metre, p.z / mm_per_metre}); };
+    json avsi;
+    avsi["landmarks"] = {{"left_eye", point(L.left_eye)},         {"right_eye", point(L.right_eye)},
+                         {"nose_bottom", point(L.nose_bottom)},   {"mouth_left", point(L.mouth_left)},
+                         {"mouth_right", point(L.mouth_right)},   {"mouth_middle", point(L.mouth_middle)},
+                         {"head_center", point(L.head_center)},   {"iris_diameter", L.iris_diameter / mm_per_metre},
+                         {"head_height", L.head_height / mm_per_metre}};
+    if (head.articulation) {
+        const auto& a = *head.articulation;
+        avsi["articulation"] = {{"upper_lip_contour", a.upper_lip_contour},
+                                {"lower_lip_contour", a.lower_lip_contour},
+                                {"mouth_corners", {a.mouth_corner_left, a.mouth_corner_right}},
+                                {"upper_lip_point", a.upper_lip_point},
+                                {"lower_lip_point", a.lower_lip_point},
+                                {"upper_incisor_edge", a.upper_incisor_edge},
+                                {"lower_incisor_edge", a.lower_incisor_edge},
+                                {"lower_lip_surface", a.lower_lip_surface},
+                                {"up", {a.up.x, a.up.y, a.up.z}},
+                                {"forward", {a.forward.x, a.forward.y, a.forward.z}}};
+    }
+    // The rig file's lip contact and materials, as written (group names are the materials').
+    if (!head.rig_path.empty() && head.rig_path.extension() == ".json") {
+        const json rig = json::parse(read_text_file(head.rig_path));
+        for (const char* key : {"lip_contact", "materials"})
+            if (rig.contains(key)) avsi[key] = rig[key];
+    }
+    tinygltf::Value::Object asset_extras;
+    asset_extras["avsi"] = to_value(avsi);
+    model.extras = tinygltf::Value(asset_extras);
+
+    if (out_path.has_parent_path()) std::filesystem::create_directories(out_path.parent_path());
+    tinygltf::TinyGLTF writer;
+    if (!writer.WriteGltfSceneToFile(&model, out_path.string(), false, true, false, out_path.extension() == ".glb"))
+        throw InputError(out_path, "cannot write the glTF file");
+}
+
+}  // namespace avsi::stimuli
