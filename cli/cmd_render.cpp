@@ -17,6 +17,8 @@ const bool registered_render = register_command({
         sub.add_option("--fap", o->fap_path, "MPEG-4 FAP v2.1 file (instead of --traj)")->capture_default_str();
         sub.add_option("--audio", o->audio_path, "Audio (WAV/FLAC) muxed into the MP4")->capture_default_str();
         sub.add_option("--out", o->out_path, "Output: x.mp4, or a folder for PNG frames")->required();
+        sub.add_option("--phones", o->phones_path,
+                       "Timed phones (.tsv/.TextGrid/.lab): the tongue tip rises for /θ ð t d n l/");
         sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ with vertex colours and texture coordinates)")->capture_default_str();
         sub.add_option("--rig", o->head.rig, "Head rig (JSON)")->capture_default_str();
         sub.add_option("--head", o->head.gltf, "A glTF head (.glb/.gltf) with ARKit-named morph targets, instead of --mesh/--rig")

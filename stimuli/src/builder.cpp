@@ -653,7 +653,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                 VideoSettings video;
                 video.fps = fps;
                 if (c.face == FaceMode::Model) {
-                    render_video(renderer, trajectory, &audio, video_path, blinks, video);
+                    render_video(renderer, trajectory, &audio, video_path, blinks, video, &sp.phones);
                 } else {
                     // A still face (or a blank screen) is one frame repeated.
                     Image frame;

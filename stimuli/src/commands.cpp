@@ -39,6 +39,9 @@ void run_render(const RenderJobSettings& s) {
     RenderSettings rs = s.render;
     rs.camera = camera_view_from_name(s.camera);
     OffscreenRenderer renderer(head, rs);
+    PhoneSequence phones;
+    if (!s.phones_path.empty()) phones = read_phones(s.phones_path);
+    const PhoneSequence* tongue = s.phones_path.empty() ? nullptr : &phones;
     const bool video = s.out_path.extension() == ".mp4";
     const bool folder = s.out_path.extension().empty();
     if (!video && !folder)
@@ -46,11 +49,11 @@ void run_render(const RenderJobSettings& s) {
                                          s.out_path.extension().string() + "'");
     if (video) {
         const auto n = render_video(renderer, trajectory, s.audio_path.empty() ? nullptr : &audio, s.out_path,
-                                    s.blinks, s.video);
+                                    s.blinks, s.video, tongue);
         log_info("wrote {} ({} frames at {} fps)", s.out_path.string(), n, trajectory.fps);
     } else {
         if (!s.audio_path.empty()) log_warning("--audio is not used for a PNG sequence");
-        const auto n = render_png_sequence(renderer, trajectory, s.out_path, s.blinks);
+        const auto n = render_png_sequence(renderer, trajectory, s.out_path, s.blinks, tongue);
         log_info("wrote {} PNG frames to {}", n, s.out_path.string());
     }
 }

@@ -1,6 +1,8 @@
 // Contact sheet rendering; tiles pasted with OpenImageIO, labels drawn with cairo.
 #include "avsi/stimuli/contact_sheet.h"
 
+#include "avsi/stimuli/animation.h"
+
 #include <cairo.h>
 
 #include <cstring>
@@ -56,6 +58,9 @@ std::vector<SheetEntry> read_sheet_targets(const std::filesystem::path& path) {
             }
             e.pose.params[p] = *v;
         }
+        // The tongue tip as the animation's rule layer raises it (animation.h).
+        PhoneSequence one{{e.phone, 0.0, 1.0, false}};
+        e.pose.tongue_tip = tongue_tip_track(one, 1, 2.0)[0];
         entries.push_back(std::move(e));
     }
     problems.throw_if_any();

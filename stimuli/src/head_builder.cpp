@@ -61,10 +61,10 @@ constexpr std::uint32_t mouth_floor_vertex = 659;      // inside the mouth bag
 constexpr float cut_height = 4.3f;
 constexpr float cut_half_width = 2.7f;
 // A plain crew-neck shirt covers the body below the neck (a talker in the
-// corpora is dressed): its neckline, decimetres below the neck's base at the
-// midline, rising toward the shoulders; its colour (linear RGB).
-constexpr float neckline_drop = 0.45f;
-constexpr float neckline_rise = 0.7f;  // per decimetre² of lateral distance
+// corpora is dressed): its neckline is the base mesh's edge loop round the
+// neck through this front midline vertex; its colour (linear RGB).
+constexpr std::uint32_t neckline_vertex = 1522;
+constexpr std::uint32_t chest_vertex = 1526;  // below the neckline, on the chest
 const glm::vec3 shirt_color{0.055f, 0.075f, 0.11f};
 
 struct Variant {
@@ -399,11 +399,16 @@ void build_head(const HeadBuildSettings& settings) {
     // The lip line (loop A: the upper lip's lower edge and the lower lip's
     // front edge) and the inner loop (B), walked from the midline vertices.
     auto loop_through = [&](std::uint32_t v) {
+        // The neighbour toward the speaker's left most nearly level with v.
         std::uint32_t side = v;
         for (auto n : topo.neighbours[v])
-            if (shaped[n].x > shaped[side].x && std::abs(shaped[n].y - shaped[v].y) < 0.02f) side = n;
+            if (shaped[n].x > shaped[v].x &&
+                (side == v || std::abs(shaped[n].y - shaped[v].y) < std::abs(shaped[side].y - shaped[v].y)))
+                side = n;
         auto l = topo.loop(v, side);
-        if (l.size() < 8) throw InputError(dir / "mesh" / "base.obj", "the mouth's edge loops are not where the hm08 base mesh has them");
+        if (l.size() < 8)
+            throw InputError(dir / "mesh" / "base.obj",
+                             "no closed edge loop through vertex " + std::to_string(v) + " (the hm08 base mesh has one there)");
         return l;
     };
     const auto loop_a = loop_through(upper_lip_edge_vertex);
@@ -530,11 +535,35 @@ void build_head(const HeadBuildSettings& settings) {
     }
     atlas.pack();
     const glm::vec2 white_uv = atlas.map(white_rect, glm::vec2(0.5f, 0.5f));
-    const glm::vec3 neck_base =
-        joint_position(skeleton, skeleton.bones[static_cast<std::size_t>(skeleton.bone_index("neck01"))].head_joint, shaped);
-    auto under_shirt = [&](glm::vec3 p) {
-        return p.y < neck_base.y - neckline_drop + neckline_rise * p.x * p.x + (p.z < neck_base.z ? 0.25f : 0.0f);
-    };
+    // The shirt: the kept faces reached from the chest without crossing the neckline loop.
+    std::vector<char> shirt_face(base.faces.size(), 0);
+    {
+        const auto neckline = loop_through(neckline_vertex);
+        std::set<std::pair<std::uint32_t, std::uint32_t>> edges;
+        for (std::size_t k = 0; k < neckline.size(); ++k) {
+            const auto a = neckline[k], b = neckline[(k + 1) % neckline.size()];
+            edges.insert({std::min(a, b), std::max(a, b)});
+        }
+        std::vector<std::uint32_t> stack;
+        for (auto f : topo.faces_of[chest_vertex])
+            if (keep[f]) shirt_face[f] = 1, stack.push_back(f);
+        while (!stack.empty()) {
+            const auto f = stack.back();
+            stack.pop_back();
+            const auto& v = base.faces[f].v;
+            for (std::size_t k = 0; k < v.size(); ++k) {
+                const auto a = v[k], b = v[(k + 1) % v.size()];
+                if (edges.count({std::min(a, b), std::max(a, b)})) continue;
+                for (auto g : topo.faces_of[a]) {
+                    if (shirt_face[g] || !keep[g] || cavity[g]) continue;
+                    const auto& w = base.faces[g].v;
+                    if (std::find(w.begin(), w.end(), b) == w.end()) continue;
+                    shirt_face[g] = 1;
+                    stack.push_back(g);
+                }
+            }
+        }
+    }
 
     Assembled out;
     std::vector<std::string> face_group;
@@ -584,9 +613,7 @@ void build_head(const HeadBuildSettings& settings) {
         const auto& face = base.faces[f];
         std::string group = "skin";
         const bool lower = lower_part(face.v);
-        glm::vec3 centroid(0.0f);
-        for (auto v : face.v) centroid += shaped[v];
-        const bool shirt = !cavity[f] && under_shirt(centroid / float(face.v.size()));
+        const bool shirt = shirt_face[f] != 0;
         if (shirt) {
             std::vector<std::uint32_t> corners;
             for (std::size_t k = 0; k < face.v.size(); ++k) corners.push_back(out.vertex(-1, face.v[k], 0, white_uv, 3));
@@ -838,17 +865,23 @@ void build_head(const HeadBuildSettings& settings) {
     // 7. The rig's transforms.
     json transforms = json::array();
     const double offset_step = 0.001;  // mm
-    const float keep_offset_mm = 0.02f;
+    const float keep_offset_mm = 0.05f;
     // The speech channels move the lower face only: the units' small
     // motions above the cheekbones (temples, under the hair and brows) fade
     // out between 40 and 25 mm below the eyes; eyes, brows, lashes and hair
     // keep still. Static hair and brows then stay static for the renderer.
+    // They also fade out beyond the jaw (an ellipsoid round the mouth and
+    // chin): the neck and shoulders keep still, so the renderer redraws only
+    // the lower face each frame.
+    const glm::vec3 mouth_rest = 0.5f * (P(upper_lip_edge_vertex) + P(lower_lip_inner_vertex));
+    const glm::vec3 jaw_centre = mouth_rest - glm::vec3(0.0f, 20.0f, 25.0f), jaw_radii(72.0f, 62.0f, 85.0f);
     std::vector<float> speech_mask(n, 1.0f);
     for (std::size_t i = 0; i < n; ++i) {
         const int proxy = out.vertices[i].proxy;
+        const float reach = glm::length((rest_pos[i] - jaw_centre) / jaw_radii);
         speech_mask[i] = proxy >= 0 && proxy != teeth_proxy && proxies[static_cast<std::size_t>(proxy)].group != "tongue"
                              ? 0.0f
-                             : 1.0f - smoothstep(-40.0f, -25.0f, rest_pos[i].y);
+                             : (1.0f - smoothstep(-40.0f, -25.0f, rest_pos[i].y)) * (1.0f - smoothstep(0.75f, 1.0f, reach));
     }
     auto blendshape = [&](const std::string& channel, const std::vector<glm::vec3>& d, float per_unit,
                           const char* side, const std::string& note) {
@@ -994,8 +1027,8 @@ void build_head(const HeadBuildSettings& settings) {
     // Eyelids and the tongue tip.
     rotation_and_rest("blink", "LeftUpperLidClosed", "orbicularis03.L", 1.0f, "LeftUpperLidClosed: the upper lid closes");
     rotation_and_rest("blink", "RightUpperLidClosed", "orbicularis03.R", 1.0f, "RightUpperLidClosed: the upper lid closes");
-    blendshape("tongue_tip", displacement(pose_of({{"TonguePointUp", 1.0f}})), 1.0f, nullptr,
-               "TonguePointUp: the tip raised to the teeth and alveolar ridge");
+    blendshape("tongue_tip", displacement(pose_of({{"TonguePointUp", 0.6f}, {"TongueOut", 0.6f}})), 1.0f, nullptr,
+               "TonguePointUp and a little TongueOut: the tip raised and forward to the upper teeth and alveolar ridge");
 
     // 8. Vertex colours: ambient occlusion of the mouth's interior (darker
     // the deeper behind the lips), on the texture.

@@ -10,6 +10,7 @@
 #include <map>
 #include <set>
 
+#include "avsi/stimuli/animation.h"
 #include "avsi/stimuli/contact_sheet.h"
 #include "avsi/stimuli/image_io.h"
 #include "avsi/stimuli/renderer.h"
@@ -125,6 +126,33 @@ TEST(Renderer, LabiodentalShowsUpperTeethAboveTheLowerLip) {
     int n = 0;
     for (std::size_t i = 0; i < regions.rgb.size(); i += 3) n += regions.rgb[i] == upper_teeth;
     EXPECT_GT(n, 50);
+}
+
+// The rule layer's tongue tip (animation.h): through /θ ð t d n l/ it rises
+// to the upper teeth and alveolar ridge, which shows when the jaw is open.
+TEST(Renderer, TongueTipShowsForAlveolarsWhenTheMouthIsOpen) {
+    const int tongue = head().mesh.group_index("tongue") + 1;
+    // At the contact sheet's /θ/ (jaw 0.2, lips apart) the tip shows
+    // between the teeth; lowered, the tongue hides behind them.
+    auto tongue_pixels = [&](double tip) {
+        Pose p = target("TH");
+        p.tongue_tip = tip;
+        const Image img = closeup().render(p, RenderMode::Regions);
+        int n = 0;
+        for (std::size_t i = 0; i < img.rgb.size(); i += 3) n += img.rgb[i] == tongue;
+        return n;
+    };
+    const int down = tongue_pixels(0.0), up = tongue_pixels(1.0);
+    EXPECT_GT(up, down + 50) << "tongue pixels: tip down " << down << ", up " << up;
+    EXPECT_DOUBLE_EQ(target("TH").tongue_tip, 1.0);  // the sheet raises it for /θ/
+    EXPECT_DOUBLE_EQ(target("AA").tongue_tip, 0.0);
+    // The track: full through a dental or alveolar segment, nothing in a vowel far from one.
+    const PhoneSequence phones{{"AA", 0.0, 0.3, false}, {"TH", 0.3, 0.4, false}, {"AA", 0.4, 0.8, false}};
+    const auto track = tongue_tip_track(phones, 20, 25.0);
+    EXPECT_DOUBLE_EQ(track[9], 1.0);   // 0.36 s
+    EXPECT_DOUBLE_EQ(track[2], 0.0);   // 0.08 s
+    EXPECT_GT(track[7], 0.0);          // 0.28 s, the rise
+    EXPECT_LT(track[7], 1.0);
 }
 
 TEST(Renderer, BlinkClosesTheEyes) {

@@ -34,6 +34,7 @@ struct RenderJobSettings {
     std::filesystem::path trajectory_path;  // CSV trajectory, or
     std::filesystem::path fap_path;         // MPEG-4 FAP v2.1 file
     std::filesystem::path audio_path;       // optional WAV/FLAC to mux
+    std::filesystem::path phones_path;      // optional timed phones: the tongue tip follows them
     std::filesystem::path out_path;         // x.mp4, or a folder for PNG frames
     HeadFiles head;
     RenderSettings render;
