@@ -16,6 +16,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/stimuli/builder.h"
+#include "avsi/stimuli/gltf_head.h"
 #include "avsi/stimuli/head.h"
 #include "avsi/stimuli/video.h"
 #include "avsi/vocoder/masking.h"
@@ -249,6 +250,21 @@ TEST_F(BuilderFixture, BuildsWithTheHeadTheProtocolNames) {
     EXPECT_NE(missing.find("missing.toml:" + std::to_string(last_line + 1) + ":"), std::string::npos) << missing;
     EXPECT_NE(missing.find("render.head_rig"), std::string::npos) << missing;
     EXPECT_NE(missing.find("nothing.rig.json"), std::string::npos) << missing;
+
+    // A glTF head: the built-in one exported, named by head_gltf.
+    export_gltf_head(load_default_head(), dir / "lab" / "heads" / "head.glb");
+    write_text_file(dir / "lab" / "gltf.toml", text + "head_gltf = \"heads/head.glb\"\n");
+    BuildSettings g = settings("gltf-head");
+    g.protocol_path = dir / "lab" / "gltf.toml";
+    g.max_sentences = 1;
+    EXPECT_EQ(build_stimuli(g).rendered, 3u);
+    const auto gm = nlohmann::json::parse(read_text_file(g.out_dir / "manifest.json"));
+    EXPECT_EQ(gm["settings"]["head"]["gltf_sha256"], sha256_file(dir / "lab" / "heads" / "head.glb"));
+    EXPECT_EQ(gm["settings"]["head"]["mapping_sha256"], sha256_file(default_blendshape_mapping()));
+    write_text_file(dir / "lab" / "both.toml",
+                    text + "head_gltf = \"heads/head.glb\"\nhead_mesh = \"heads/head.obj\"\nhead_rig = \"heads/head.rig.json\"\n");
+    const std::string both = build_error(dir / "lab" / "both.toml", dir / "o3");
+    EXPECT_NE(both.find("either head_gltf or head_mesh"), std::string::npos) << both;
 }
 
 // A copy of the test protocol with its [vocoder] section replaced, written
