@@ -151,6 +151,8 @@ CREATE TABLE web_presentations(
   browser_total_frames INTEGER NOT NULL,
   output_latency_ms REAL NOT NULL,
   base_latency_ms REAL NOT NULL,
+  audio_path_ms REAL NOT NULL,
+  audio_path_measured INTEGER NOT NULL,
   PRIMARY KEY(subject, position),
   FOREIGN KEY(subject, position) REFERENCES planned_trials(subject, position));
 CREATE TABLE screening_trials(
@@ -510,10 +512,11 @@ OnlineImportCounts Store::import_online(const std::vector<OnlineSubject>& subjec
                 Statement(m_db,
                           "INSERT OR REPLACE INTO web_presentations(subject, position, frame_callbacks, presented_frames, "
                           "missed_callbacks, browser_dropped_frames, browser_total_frames, output_latency_ms, "
-                          "base_latency_ms) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?)")
+                          "base_latency_ms, audio_path_ms, audio_path_measured) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
                     .bind(1, id).bind(2, t.trial.position).bind(3, w.frame_callbacks ? 1 : 0).bind(4, w.presented_frames)
                     .bind(5, w.missed_callbacks).bind(6, w.browser_dropped_frames).bind(7, w.browser_total_frames)
-                    .bind(8, w.output_latency_ms).bind(9, w.base_latency_ms).run();
+                    .bind(8, w.output_latency_ms).bind(9, w.base_latency_ms).bind(10, w.audio_path_ms)
+                    .bind(11, w.audio_path_measured ? 1 : 0).run();
                 ++counts.trials_added;
             }
         }
@@ -586,7 +589,7 @@ std::vector<Store::TimingRow> Store::timing(bool with_frames) const {
 std::vector<Store::WebTimingRow> Store::web_timing() const {
     Statement s(m_db,
                 "SELECT subject, position, frame_callbacks, presented_frames, missed_callbacks, browser_dropped_frames, "
-                "browser_total_frames, output_latency_ms, base_latency_ms FROM web_presentations "
+                "browser_total_frames, output_latency_ms, base_latency_ms, audio_path_ms, audio_path_measured FROM web_presentations "
                 "ORDER BY subject, position");
     std::vector<WebTimingRow> out;
     while (s.step()) {
@@ -600,6 +603,8 @@ std::vector<Store::WebTimingRow> Store::web_timing() const {
         row.web.browser_total_frames = s.integer(6);
         row.web.output_latency_ms = s.real(7);
         row.web.base_latency_ms = s.real(8);
+        row.web.audio_path_ms = s.real(9);
+        row.web.audio_path_measured = s.integer(10) != 0;
         out.push_back(row);
     }
     return out;
@@ -728,12 +733,13 @@ std::vector<std::filesystem::path> export_store(const Store& store, const std::f
     if (!web.empty() || !screening.empty() || !screening_trials.empty()) {
         std::string web_csv = csv_line({"subject", "trial", "frame_callbacks", "presented_frames", "missed_callbacks",
                                         "browser_dropped_frames", "browser_total_frames", "output_latency_ms",
-                                        "base_latency_ms"});
+                                        "base_latency_ms", "audio_path_ms", "audio_path_measured"});
         for (const auto& w : web)
             web_csv += csv_line({std::to_string(w.subject), std::to_string(w.position), w.web.frame_callbacks ? "1" : "0",
                                  std::to_string(w.web.presented_frames), std::to_string(w.web.missed_callbacks),
                                  std::to_string(w.web.browser_dropped_frames), std::to_string(w.web.browser_total_frames),
-                                 ms(w.web.output_latency_ms), ms(w.web.base_latency_ms)});
+                                 ms(w.web.output_latency_ms), ms(w.web.base_latency_ms), ms(w.web.audio_path_ms),
+                                 w.web.audio_path_measured ? "1" : "0"});
         written.push_back(out_dir / "web_timing.csv");
         write_text_file(written.back(), web_csv);
         std::string screening_csv = csv_line({"subject", "session", "test", "trials", "correct", "required", "passed"});

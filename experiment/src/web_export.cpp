@@ -62,7 +62,6 @@ struct VendoredFile {
 constexpr VendoredFile vendored_files[] = {
     {"jspsych", "dist/index.browser.min.js", "lib/jspsych.js"},
     {"jspsych", "css/jspsych.css", "lib/jspsych.css"},
-    {"jspsych", "LICENSE", "lib/LICENSE-jspsych.txt"},
     {"@jspsych/plugin-preload", "dist/index.browser.min.js", "lib/plugin-preload.js"},
     {"@jspsych/plugin-html-button-response", "dist/index.browser.min.js", "lib/plugin-html-button-response.js"},
 };
@@ -232,19 +231,25 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
     ExportWebResult result;
 
     for (const auto& f : runtime_files) copy_into(web / f.from, dir / f.to);
+    // The vendored files, with each package's version and licence recorded
+    // in lib/VENDORED.txt (the npm packages ship no separate licence file).
     ordered_json vendored = ordered_json::object();
+    std::string vendored_txt = "Files in this folder come from the npm registry (installed by avsi's scripts/install-deps):\n\n";
     for (const auto& f : vendored_files) {
         copy_into(web / "node_modules" / f.package / f.file, dir / f.to);
         result.vendored.push_back(f.to);
         const fs::path package_json = web / "node_modules" / f.package / "package.json";
-        if (!vendored.contains(f.package) && fs::is_regular_file(package_json)) {
-            try {
-                vendored[f.package] = nlohmann::json::parse(read_text_file(package_json)).value("version", "");
-            } catch (const nlohmann::json::exception& e) {
-                throw InputError(package_json, fmt::format("not valid JSON: {}", e.what()));
-            }
+        nlohmann::json package;
+        try {
+            package = nlohmann::json::parse(read_text_file(package_json));
+        } catch (const nlohmann::json::exception& e) {
+            throw InputError(package_json, fmt::format("not valid JSON: {}", e.what()));
         }
+        vendored[f.package] = package.value("version", "");
+        vendored_txt += fmt::format("{}  <-  {}@{} ({}), licence {}, {}\n", f.to, f.package, package.value("version", "?"),
+                                    f.file, package.value("license", "?"), package.value("homepage", ""));
     }
+    write_text_file(dir / "lib" / "VENDORED.txt", vendored_txt);
 
     // Stimuli: copied when browsers play them as they are, else transcoded
     // (the builder's decoder and encoder: H.264 Constrained Baseline + AAC).

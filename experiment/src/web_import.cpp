@@ -42,6 +42,9 @@ struct Record {
     int line = 0;
     int column = 0;
     std::string where;  // "" or "[i]" for an element of a top-level array
+
+    // The field name in messages: "[i].key" inside an array, else "key".
+    std::string field(const std::string& key) const { return where.empty() ? key : where + "." + key; }
 };
 
 // Line and column (1-based) of a byte offset.
@@ -181,7 +184,8 @@ public:
         return v;
     }
     void report(const std::string& key, const std::string& message) const {
-        m_problems.add(m_record.file, m_record.line, m_record.column, m_record.where + m_prefix + "." + key, message);
+        m_problems.add(m_record.file, m_record.line, m_record.column,
+                       m_record.field(m_prefix.empty() ? key : m_prefix + "." + key), message);
     }
     const Record& record() const { return m_record; }
 
@@ -311,7 +315,7 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
             t.response.confirmed_empty = f.boolean("confirmed_empty");
             t.answered_utc = time_utc;
             if (const json* timing = f.object("timing")) {
-                const Fields g(r, *timing, ".timing", problems);
+                const Fields g(r, *timing, "timing", problems);
                 Presentation& p = t.presentation;
                 p.audio_onset_s = g.number("audio_onset_s");
                 p.video_onset_s = g.number("video_onset_s");
@@ -331,6 +335,8 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
                 w.browser_total_frames = static_cast<int>(g.integer("browser_total_frames", 0, max_frames_per_trial));
                 w.output_latency_ms = g.number("output_latency_ms");
                 w.base_latency_ms = g.number("base_latency_ms");
+                w.audio_path_ms = g.number("audio_path_ms");
+                w.audio_path_measured = g.boolean("audio_path_measured");
             }
             if (const json* frames = f.find("frames")) {
                 if (!frames->is_array() || frames->size() > max_frames_per_trial) {
@@ -415,7 +421,7 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
                 ++result.duplicates;
                 continue;
             }
-            problems.add(t.record->file, t.record->line, t.record->column, t.record->where + "position",
+            problems.add(t.record->file, t.record->line, t.record->column, t.record->field("position"),
                          fmt::format("subject {} trial {} has two different answers (\"{}\" at {}:{}, \"{}\" here)",
                                      subject, t.trial.position, first.response.text, first.record->file,
                                      first.record->line, t.response.text));
@@ -425,7 +431,7 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
             const Record& r = *t->record;
             const int position = t->trial.position;
             if (position != expected) {
-                problems.add(r.file, r.line, r.column, r.where + "position",
+                problems.add(r.file, r.line, r.column, r.field("position"),
                              fmt::format("subject {}: expected trial {} next in plan order, got trial {} (answers out "
                                          "of plan order or missing; the study answers trials in order and resumes "
                                          "at the first unanswered one)",
@@ -434,13 +440,13 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
             }
             ++expected;
             if (position > static_cast<int>(plan.size())) {
-                problems.add(r.file, r.line, r.column, r.where + "position",
+                problems.add(r.file, r.line, r.column, r.field("position"),
                              fmt::format("subject {} has {} planned trials, got trial {}", subject, plan.size(), position));
                 break;
             }
             const PlannedTrial& planned = plan[static_cast<std::size_t>(position - 1)];
             if (!(t->trial == planned)) {
-                problems.add(r.file, r.line, r.column, r.where + "trial",
+                problems.add(r.file, r.line, r.column, r.field("trial"),
                              fmt::format("subject {} trial {} is {} {} list {} {} in the results, the design of {} has "
                                          "{} {} list {} {} (results of another export or design?)",
                                          subject, position, to_string(t->trial.phase), t->trial.condition,
@@ -450,15 +456,15 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
             }
             const auto entry = manifest.stimuli.find(planned.stimulus);
             if (entry == manifest.stimuli.end())
-                problems.add(r.file, r.line, r.column, r.where + "stimulus",
+                problems.add(r.file, r.line, r.column, r.field("stimulus"),
                              fmt::format("{} is not in {}", planned.stimulus,
                                          (settings.stimuli / "manifest.json").string()));
             else if (entry->second.sha256 != t->stimulus_sha256)
-                problems.add(r.file, r.line, r.column, r.where + "stimulus_sha256",
+                problems.add(r.file, r.line, r.column, r.field("stimulus_sha256"),
                              fmt::format("expected {} ({} in the manifest), got {}: the participant saw another file",
                                          entry->second.sha256, planned.stimulus, t->stimulus_sha256));
             if (!t->session.empty() && !s.sessions.count(t->session))
-                problems.add(r.file, r.line, r.column, r.where + "session",
+                problems.add(r.file, r.line, r.column, r.field("session"),
                              fmt::format("browser session {} has trials but no session record: part of the results "
                                          "is missing (give every results file)",
                                          t->session));
@@ -469,7 +475,10 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
         o.subject = subject;
         o.plan = plan;
         std::map<std::string, std::size_t> session_index;
-        for (const auto& [id, sr] : s.sessions) {
+        std::vector<std::pair<std::string, SessionRecord>> chronological(s.sessions.begin(), s.sessions.end());
+        std::stable_sort(chronological.begin(), chronological.end(),
+                         [](const auto& a, const auto& b) { return a.second.time_utc < b.second.time_utc; });
+        for (const auto& [id, sr] : chronological) {
             OnlineSession os;
             os.external_id = id;
             os.started_utc = sr.time_utc;

@@ -82,6 +82,8 @@ struct WebPresentation {
     int browser_total_frames = 0;      // getVideoPlaybackQuality().totalVideoFrames during the clip
     double output_latency_ms = 0.0;    // AudioContext.outputLatency
     double base_latency_ms = 0.0;      // AudioContext.baseLatency
+    double audio_path_ms = 0.0;        // output path used for the A/V offsets (from getOutputTimestamp when measured)
+    bool audio_path_measured = false;  // audio_path_ms came from getOutputTimestamp (else outputLatency + baseLatency)
 };
 
 // One trial of a headphone check (online sessions).
