@@ -76,8 +76,9 @@ void parse_records(const std::string& text, const std::string& file, std::vector
             in >> value;
         } catch (const json::parse_error& e) {
             const auto [line, column] = line_column(text, start + (e.byte > 0 ? e.byte - 1 : 0));
+            // nlohmann's text without its own (value-relative) position: "syntax error while parsing …".
             std::string what = e.what();
-            if (const auto p = what.find("]: "); p != std::string::npos) what = what.substr(p + 3);
+            if (const auto p = what.find("syntax error"); p != std::string::npos) what = what.substr(p);
             throw InputError(file, line, column, "",
                              fmt::format("not valid JSON, the file is truncated or damaged ({}); nothing was imported",
                                          what));
