@@ -46,14 +46,17 @@ class WebStudy : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
         s_dir = temp_dir("web_study");
-        const std::string command = fmt::format("'{}' build-stimuli '{}' --out '{}' > '{}' 2>&1", AVSI_CLI_PATH,
-                                                web_protocol.string(), (s_dir / "stimuli").string(),
-                                                (s_dir / "build.log").string());
+        // The stimuli are built once into the build folder and reused: build-stimuli
+        // rebuilds nothing unchanged, and flock serialises the parallel test processes.
+        s_stimuli = fs::path(AVSI_WEB_TEST_STIMULI);
+        const std::string command = fmt::format("flock '{}.lock' '{}' build-stimuli '{}' --out '{}' > '{}' 2>&1",
+                                                s_stimuli.string(), AVSI_CLI_PATH, web_protocol.string(),
+                                                s_stimuli.string(), (s_dir / "build.log").string());
         ASSERT_EQ(std::system(command.c_str()), 0) << read_text_file(s_dir / "build.log");
         const Protocol p = load_protocol(web_protocol);
         write_lists_csv(s_dir / "lists.csv", make_design(p, read_corpus(p.corpus.sentences), 3));
     }
-    static fs::path stimuli() { return s_dir / "stimuli"; }
+    static fs::path stimuli() { return s_stimuli; }
     static fs::path lists() { return s_dir / "lists.csv"; }
 
     static ExportWebResult export_to(const fs::path& out, const fs::path& stimuli_dir = stimuli(),
@@ -67,6 +70,7 @@ protected:
     }
 
     static inline fs::path s_dir;
+    static inline fs::path s_stimuli;
 };
 
 // Every entry of a ZIP archive: name → bytes.

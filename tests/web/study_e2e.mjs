@@ -91,8 +91,40 @@ const plan = config.subjects['1'];
 const posted = [];
 let completed = null;
 const types = { '.html': 'text/html', '.js': 'text/javascript', '.css': 'text/css', '.json': 'application/json', '.mp4': 'video/mp4', '.wav': 'audio/wav' };
+// A stand-in for JATOS' jatos.js and server (the API calls the study makes:
+// onLoad, appendResultData, study-session data, batch session, end), so the
+// JATOS code paths run: subject allocation from the batch session, records
+// through appendResultData, resume from study-session data alone.
+const jatos = { results: '', session: {}, batch: {} };
+const jatosStub = `window.jatos = (function () {
+  const j = { studyResultId: 5, workerId: 17, urlQueryParameters: Object.fromEntries(new URLSearchParams(location.search)), studySessionData: {} };
+  let batch = {};
+  const post = (p, body) => fetch(p, { method: 'POST', body: JSON.stringify(body) }).then((r) => { if (!r.ok) throw new Error(String(r.status)); return r.json(); });
+  j.onLoad = (cb) => { Promise.all([fetch('/jatos/session').then((r) => r.json()), fetch('/jatos/batch').then((r) => r.json())]).then(([s, b]) => { j.studySessionData = s; batch = b; cb(); }); };
+  j.appendResultData = (text) => post('/jatos/append', { text });
+  j.setStudySessionData = (data) => post('/jatos/session', data);
+  j.batchSession = { getAll: () => batch, get: (k) => batch[k], set: (k, v) => post('/jatos/batch', { key: k, value: v }).then((b) => { batch = b; }) };
+  j.endStudyAndRedirect = (url) => { location.href = url; };
+  j.endStudy = () => {};
+  return j;
+})();`;
+let serveJatos = false;
 const server = http.createServer((req, res) => {
   const url = new URL(req.url, 'http://localhost');
+  if (url.pathname === '/jatos.js' && serveJatos) { res.writeHead(200, { 'Content-Type': 'text/javascript' }); res.end(jatosStub); return; }
+  if (url.pathname.startsWith('/jatos/')) {
+    let body = '';
+    req.on('data', (chunk) => { body += chunk; });
+    req.on('end', () => {
+      const what = url.pathname.slice(7);
+      if (req.method === 'POST' && what === 'append') jatos.results += JSON.parse(body).text;
+      if (req.method === 'POST' && what === 'session') jatos.session = JSON.parse(body);
+      if (req.method === 'POST' && what === 'batch') { const { key, value } = JSON.parse(body); jatos.batch[key] = value; }
+      res.writeHead(200, { 'Content-Type': 'application/json' });
+      res.end(JSON.stringify(what === 'session' ? jatos.session : what === 'batch' ? jatos.batch : {}));
+    });
+    return;
+  }
   if (req.method === 'POST' && url.pathname === '/results') {
     let body = '';
     req.on('data', (chunk) => { body += chunk; });
@@ -115,14 +147,11 @@ const browser = await puppeteer.launch({
     '--disable-component-update', '--disable-sync', '--no-first-run', `--user-data-dir=${path.join(work, 'profile')}`],
 });
 const typed = {};
+const jatosTyped = {};
 let downloadText = '';
 let jsPsychJson = '';
-try {
-  const page = await browser.newPage();
-  const pageErrors = [];
-  page.on('pageerror', (e) => pageErrors.push(String(e)));
-  page.setDefaultTimeout(20000);
-
+// A scripted participant's helpers on one page.
+function participant(page, typed) {
   // Helpers: click a button by its text once it is enabled; wait for the answer box.
   const clickButton = async (text) => {
     const handle = await page.waitForFunction((t) => [...document.querySelectorAll('button')].find((b) => b.textContent.trim() === t && !b.disabled), {}, text);
@@ -158,6 +187,15 @@ try {
     }
   };
 
+  return { clickButton, answer, screening };
+}
+
+try {
+  const page = await browser.newPage();
+  const pageErrors = [];
+  page.on('pageerror', (e) => pageErrors.push(String(e)));
+  page.setDefaultTimeout(20000);
+  const { clickButton, answer, screening } = participant(page, typed);
   await page.goto(`${base}/index.html?subject=1`);
   await clickButton('Start');
   await clickButton('The level is comfortable');
@@ -196,6 +234,43 @@ try {
   await page.waitForFunction(() => location.pathname === '/complete', { timeout: 30000 });
   check(completed === '?cc=TEST42', 'Finish sends the participant to the protocol\'s completion URL', completed);
   check(pageErrors.length === 0, 'no page errors', pageErrors.join('; '));
+
+  // The same study under (a stand-in for) JATOS: no ?subject, a fresh profile.
+  serveJatos = true;
+  const context = await browser.createBrowserContext();
+  const jpage = await context.newPage();
+  jpage.setDefaultTimeout(20000);
+  const j = participant(jpage, jatosTyped);
+  await jpage.goto(`${base}/index.html`);
+  await j.clickButton('Start');
+  await j.clickButton('The level is comfortable');
+  await j.screening('antiphase', 3, []);
+  await j.screening('huggins', 3, [1, 2]);  // 1 of 3: fails, recorded, the session goes on
+  await j.clickButton('Begin');
+  await j.answer(1, 'sun warm');
+  await jpage.waitForFunction(() => window.avsiStudy.outbox === 0);
+  const allocated = await jpage.evaluate(() => window.avsiStudy.subject);
+  check(allocated === 1 && jatos.batch.avsi_worker_17 === 1 && jatos.batch.avsi_subject_1 === 17,
+    'under JATOS the worker gets the lowest free subject from the batch session', JSON.stringify(jatos.batch));
+  // Only JATOS' study-session data survives: localStorage is cleared before the reload.
+  await jpage.evaluate(() => localStorage.clear());
+  await jpage.reload();
+  await j.clickButton('Start');
+  await j.clickButton('Begin');
+  await jpage.waitForFunction(() => window.avsiStudy.currentPosition > 0);
+  check(await jpage.evaluate(() => window.avsiStudy.currentPosition) === 2, 'with localStorage cleared, JATOS study-session data resumes at trial 2');
+  await j.answer(2, 'she opened the door');
+  await j.clickButton('Continue');
+  await j.clickButton('Begin');
+  await j.answer(3, 'the dog barked');
+  await j.clickButton('Continue');
+  await j.answer(4, 'bought bread');
+  await jpage.waitForFunction(() => window.avsiStudy.outbox === 0);
+  completed = null;
+  await j.clickButton('Finish');
+  await jpage.waitForFunction(() => location.pathname === '/complete', { timeout: 30000 });
+  check(completed === '?cc=TEST42', 'under JATOS, Finish ends the study with the completion URL');
+  await context.close();
 } finally {
   await browser.close();
   server.close();
@@ -266,6 +341,17 @@ for (const [name, file] of [['jsPsych JSON', 'jspsych.json'], ['download', 'down
   const rows = readCsv(path.join(work, `${file}-export`, 'responses.csv'));
   check(rows.length === plan.length && rows.every((r) => r.response === typed[Number(r.trial)]), `the ${name} imports to the same answers`);
 }
+// JATOS' "data only" export is the appended lines: import them.
+fs.writeFileSync(path.join(work, 'jatos_results.txt'), jatos.results);
+const jatosDb = path.join(work, 'jatos.sqlite');
+runLog('import-web', path.join(work, 'jatos_results.txt'), '--protocol', protocol, '--db', jatosDb, '--stimuli', stimuli);
+run('export', jatosDb, '--out', path.join(work, 'jatos-export'));
+const jatosRows = readCsv(path.join(work, 'jatos-export', 'responses.csv'));
+check(jatosRows.length === plan.length && jatosRows.every((r) => r.subject === '1' && r.response === jatosTyped[Number(r.trial)]),
+  'the JATOS results import to the typed answers', JSON.stringify(jatosRows.map((r) => r.response)));
+const jatosScreening = readCsv(path.join(work, 'jatos-export', 'screening.csv'));
+check(jatosScreening.some((r) => r.test === 'huggins' && r.correct === '1' && r.passed === '0'), 'the failed Huggins check is recorded, the subject kept');
+
 // A truncated file is refused and the database is unchanged.
 const truncated = path.join(work, 'truncated.jsonl');
 fs.writeFileSync(truncated, postedText.slice(0, Math.floor(postedText.length * 0.6)));
