@@ -26,33 +26,20 @@ namespace avsi::synth {
 
 namespace {
 
-// A segment prepared for evaluation: ln α instead of α.
-struct Seg {
-    double tau;
-    double target;
-    double log_alpha;
-    double theta;
-    double phi;
-    double c;
-};
-
-// rate · d^c for d >= 0, with the common exponents exact and fast.
-inline double decay(double d, double rate, double c) {
-    if (c == 1.0) return rate * d;
-    if (c == 2.0) return rate * d * d;
-    return rate * std::pow(d, c);
+// Segment i's term at t with ln D_i(t) (eq. 7) in `weight`: x = |τ_i − t|,
+// x^c as exp(c·ln x) (exactly x for c = 1, when ln x is computed only if
+// asked for).
+inline CmTerm segment_term(const CmSegment& s, double log_alpha, std::uint32_t i, double t, bool need_log_x) {
+    CmTerm term{i, t < s.tau_s, std::abs(s.tau_s - t), 0.0, 0.0, 0.0};
+    if (term.distance_s > 0 && (need_log_x || s.c != 1.0)) term.log_distance = std::log(term.distance_s);
+    term.distance_c = s.c == 1.0 ? term.distance_s : (term.distance_s > 0 ? std::exp(s.c * term.log_distance) : 0.0);
+    term.weight = log_alpha - (term.before ? s.theta_per_s : s.phi_per_s) * term.distance_c;
+    return term;
 }
 
-inline double log_dom(const Seg& s, double t) {
-    const double d = s.tau - t;
-    return d > 0.0 ? s.log_alpha - decay(d, s.theta, s.c) : s.log_alpha - decay(-d, s.phi, s.c);
-}
-
-Seg prepare(const CmSegment& s) {
+void check_segment(const CmSegment& s) {
     AVSI_ASSERT(s.alpha > 0.0 && s.theta_per_s > 0.0 && s.phi_per_s > 0.0 && s.c > 0.0);
-    return {s.tau_s, s.target, std::log(s.alpha), s.theta_per_s, s.phi_per_s, s.c};
 }
-
 
 // |d|^c, with the common exponents exact and fast (pow as exp(c·ln|d|):
 // relative error ~1e-15, far below what the tolerance needs).
@@ -545,32 +532,100 @@ void bounded_sum(std::size_t n, const Source& source, std::span<const double> ti
 
 }  // namespace
 
-double log_dominance(const CmSegment& segment, double t_s) { return log_dom(prepare(segment), t_s); }
+double log_dominance(const CmSegment& segment, double t_s) {
+    check_segment(segment);
+    return segment_term(segment, std::log(segment.alpha), 0, t_s, false).weight;
+}
 
 double dominance(const CmSegment& segment, double t_s) { return std::exp(log_dominance(segment, t_s)); }
+
+CmPointwiseSum::CmPointwiseSum(std::span<const CmSegment> s, double skip_log_ratio)
+    : m_s(s),
+      m_skip_log_ratio(skip_log_ratio),
+      m_log_alpha(s.size()),
+      m_max_log_alpha(-std::numeric_limits<double>::infinity()),
+      m_min_theta(std::numeric_limits<double>::infinity()),
+      m_min_phi(std::numeric_limits<double>::infinity()),
+      m_min_c(std::numeric_limits<double>::infinity()) {
+    AVSI_ASSERT(!s.empty());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+        check_segment(s[i]);
+        AVSI_ASSERT(i == 0 || s[i].tau_s >= s[i - 1].tau_s);
+        m_log_alpha[i] = std::log(s[i].alpha);
+        m_max_log_alpha = std::max(m_max_log_alpha, m_log_alpha[i]);
+        m_min_theta = std::min(m_min_theta, s[i].theta_per_s);
+        m_min_phi = std::min(m_min_phi, s[i].phi_per_s);
+        m_min_c = std::min(m_min_c, s[i].c);
+        m_max_c = std::max(m_max_c, s[i].c);
+    }
+}
+
+double CmPointwiseSum::collect(double t, bool need_log_x) {
+    m_terms.clear();
+    const std::size_t n = m_s.size();
+    const auto first_after = static_cast<std::size_t>(
+        std::lower_bound(m_s.begin(), m_s.end(), t, [](const CmSegment& s, double v) { return s.tau_s < v; }) -
+        m_s.begin());
+    double m = -std::numeric_limits<double>::infinity();
+    auto add = [&](std::size_t i) {
+        m_terms.push_back(segment_term(m_s[i], m_log_alpha[i], static_cast<std::uint32_t>(i), t, need_log_x));
+        m = std::max(m, m_terms.back().weight);
+    };
+    if (first_after > 0) add(first_after - 1);
+    if (first_after < n) add(first_after);
+    // Anticipatory side (later centres, θ), then carry-over side (earlier, φ).
+    double reach_m = m, reach = max_distance(m, m_min_theta);
+    for (std::size_t i = first_after + 1; i < n; ++i) {
+        if (m != reach_m) reach = max_distance(reach_m = m, m_min_theta);
+        if (m_s[i].tau_s - t > reach) break;
+        add(i);
+    }
+    reach_m = m;
+    reach = max_distance(m, m_min_phi);
+    for (std::size_t i = first_after >= 1 ? first_after - 1 : 0; i-- > 0;) {
+        if (m != reach_m) reach = max_distance(reach_m = m, m_min_phi);
+        if (t - m_s[i].tau_s > reach) break;
+        add(i);
+    }
+    return m;
+}
+
+double CmPointwiseSum::max_distance(double m, double rate) const {
+    const double y = (m_max_log_alpha - m + m_skip_log_ratio) / rate;
+    if (y <= 0) return 0.0;
+    const double c = y < 1.0 ? m_max_c : m_min_c;
+    return c == 1.0 ? y : std::pow(y, 1.0 / c);
+}
+
+double CmPointwiseSum::evaluate(double t_s, bool need_log_distance) {
+    const double m = collect(t_s, need_log_distance);
+    // ln D_i − max ln D, then D_i / max D (vectorised), and eq. 8.
+    m_ratio.resize(m_terms.size());
+    for (std::size_t e = 0; e < m_terms.size(); ++e) m_ratio[e] = m_terms[e].weight - m;
+    detail::cm_exp(m_ratio.data(), m_ratio.size());
+    double sum = 0.0, num = 0.0;
+    for (std::size_t e = 0; e < m_terms.size(); ++e) {
+        CmTerm& term = m_terms[e];
+        term.weight = m_ratio[e];
+        sum += term.weight;
+        num += term.weight * m_s[term.segment].target;
+    }
+    m_weight_sum = sum;
+    return num / sum;
+}
 
 void cohen_massaro_full(std::span<const CmSegment> segments, std::span<const double> times_s,
                         std::span<double> out) {
     AVSI_ASSERT(!segments.empty() && out.size() == times_s.size());
-    std::vector<Seg> segs;
-    segs.reserve(segments.size());
-    for (const auto& s : segments) segs.push_back(prepare(s));
-    std::vector<double> logs(segs.size());
-    for (std::size_t k = 0; k < times_s.size(); ++k) {
-        const double t = times_s[k];
-        double top = -std::numeric_limits<double>::infinity();
-        for (std::size_t i = 0; i < segs.size(); ++i) {
-            logs[i] = log_dom(segs[i], t);
-            top = std::max(top, logs[i]);
-        }
-        double num = 0.0, den = 0.0;
-        for (std::size_t i = 0; i < segs.size(); ++i) {
-            const double w = std::exp(logs[i] - top);
-            num += segs[i].target * w;
-            den += w;
-        }
-        out[k] = num / den;
+    const auto by_centre = [](const CmSegment& a, const CmSegment& b) { return a.tau_s < b.tau_s; };
+    std::vector<CmSegment> sorted;
+    if (!std::is_sorted(segments.begin(), segments.end(), by_centre)) {
+        sorted.assign(segments.begin(), segments.end());
+        std::stable_sort(sorted.begin(), sorted.end(), by_centre);
+        segments = sorted;
     }
+    CmPointwiseSum sum(segments, std::numeric_limits<double>::infinity());
+    for (std::size_t k = 0; k < times_s.size(); ++k) out[k] = sum.evaluate(times_s[k]);
 }
 
 void cohen_massaro_bounded(std::span<const CmSegment> segments, std::span<const double> times_s,

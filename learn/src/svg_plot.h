@@ -14,7 +14,7 @@
 
 #include "avsi/core/error.h"
 
-namespace avsi::synth::detail {
+namespace avsi::learn::detail {
 
 // Page size and the margins around the plot frame, in SVG points.
 struct PlotBox {
@@ -84,4 +84,4 @@ private:
     cairo_t* m_cr = nullptr;
 };
 
-}  // namespace avsi::synth::detail
+}  // namespace avsi::learn::detail

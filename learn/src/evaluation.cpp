@@ -1,6 +1,6 @@
 // Objective evaluation (Beskow §5, Table 2, Fig. 5): RMSE as % of range and
 // Pearson ρ per parameter and frame subset; Markdown/CSV tables; SVG plot.
-#include "avsi/synth/evaluation.h"
+#include "avsi/learn/evaluation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,7 @@
 #include "avsi/synth/control_model.h"
 #include "svg_plot.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 namespace fs = std::filesystem;
 
@@ -329,4 +329,4 @@ EvaluationResult run_evaluation(const EvaluationSettings& settings) {
     return result;
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

@@ -12,11 +12,11 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
-#include "avsi/synth/ann_training.h"
-#include "avsi/synth/evaluation.h"
+#include "avsi/learn/ann_training.h"
+#include "avsi/learn/evaluation.h"
 #include "svg_plot.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 namespace fs = std::filesystem;
 
 std::pair<int, int> parse_lookahead_range(const std::string& text) {
@@ -184,4 +184,4 @@ void run_ann_command(const AnnCommandSettings& s) {
              test_scores.mean[all].rmse_percent, test_scores.mean[all].pearson, report.seconds);
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn
