@@ -1,6 +1,6 @@
 // `avsi evaluate`: scores control models against a corpus' measured
 // trajectories in the layout of Table 2 of the reference study, and plots one
-// utterance like its Fig. 5 (synth/evaluation.h).
+// utterance like its Fig. 5 (learn/evaluation.h).
 #include <memory>
 #include <string>
 

@@ -1,5 +1,5 @@
 // `avsi train`: fits a control model (Cohen-Massaro, Öhman, MPEG-4 CM) to an
-// articulatory corpus (synth/training.h) and writes the model file.
+// articulatory corpus (learn/training.h) and writes the model file.
 #include <memory>
 #include <string>
 

@@ -220,11 +220,11 @@ struct CmTable {
     }
 };
 
-// source(p, i) is parameter p's segment i (any order), n >= 1.
+// Fills s (reusing its storage) from source(p, i), parameter p's segment i
+// (any order), n >= 1.
 template <int P, class Source>
-CmTable<P> cm_table(std::size_t n, const Source& source, double tolerance) {
+void cm_table(std::size_t n, const Source& source, double tolerance, CmTable<P>& s) {
     using Index = Eigen::Index;
-    CmTable<P> s;
     s.n = n;
     std::vector<std::size_t> order(n);
     std::iota(order.begin(), order.end(), std::size_t{0});
@@ -263,6 +263,13 @@ CmTable<P> cm_table(std::size_t n, const Source& source, double tolerance) {
         s.ln_factor[p] = s.spread[p] > 0.0 ? std::min(0.0, std::log(tolerance) - std::log(s.spread[p]) -
                                                                std::log(static_cast<double>(n)))
                                            : 0.0;
+}
+
+// The same, returned.
+template <int P, class Source>
+CmTable<P> cm_table(std::size_t n, const Source& source, double tolerance) {
+    CmTable<P> s;
+    cm_table(n, source, tolerance, s);
     return s;
 }
 
@@ -337,16 +344,19 @@ struct CmCutOffs {
 // r = (max_p (ln α_p − ln δ_p)/θ_p)^(1/c) before the centre (φ after); each
 // segment keeps the hull of its frames over all cells (a superset: extra
 // terms only bring the sum nearer the full one).
+// Fills `out`, reusing its storage.
 template <int P>
-CmCutOffs<P> cm_cut_offs(const CmTable<P>& s, std::span<const double> times, const std::vector<char>& recursive) {
+void cm_cut_offs(const CmTable<P>& s, std::span<const double> times, const std::vector<char>& recursive,
+                 CmCutOffs<P>& out) {
     using Col = typename CmTable<P>::Col;
     using Index = Eigen::Index;
     constexpr std::size_t none = CmCutOffs<P>::none;
     const std::size_t n = s.n, frames = times.size();
-    CmCutOffs<P> out;
     out.hull_lo.assign(n, none);
     out.hull_hi.assign(n, 0);
-    out.hull_ln_delta = CmCutOffs<P>::Mat::Constant(P, static_cast<Index>(n), std::numeric_limits<double>::infinity());
+    out.hull_ln_delta.resize(P, static_cast<Index>(n));
+    out.hull_ln_delta.setConstant(std::numeric_limits<double>::infinity());
+    out.log_cells.clear();
     const bool all_recursive = std::all_of(recursive.begin(), recursive.end(), [](char r) { return r != 0; });
     // (All summed by the recursions: nothing left for the bound.)
     for_each_cell(s.tau, times, all_recursive ? frames : 0, [&](std::size_t j, std::size_t k0, std::size_t k) {
@@ -389,6 +399,13 @@ CmCutOffs<P> cm_cut_offs(const CmTable<P>& s, std::span<const double> times, con
         }
         return true;
     });
+}
+
+// The same, returned.
+template <int P>
+CmCutOffs<P> cm_cut_offs(const CmTable<P>& s, std::span<const double> times, const std::vector<char>& recursive) {
+    CmCutOffs<P> out;
+    cm_cut_offs(s, times, recursive, out);
     return out;
 }
 
@@ -398,9 +415,9 @@ CmCutOffs<P> cm_cut_offs(const CmTable<P>& s, std::span<const double> times, con
 // rate's parameters (a fast rate's dominances are evaluated only near the
 // centre, not over the whole hull).
 template <int P>
-std::vector<RateGroups<P>> cm_rate_groups(const CmTable<P>& s, const CmCutOffs<P>& cut) {
+void cm_rate_groups(const CmTable<P>& s, const CmCutOffs<P>& cut, std::vector<RateGroups<P>>& rate_groups) {
     using Index = Eigen::Index;
-    std::vector<RateGroups<P>> rate_groups(2 * s.n);
+    rate_groups.assign(2 * s.n, RateGroups<P>{});
     for (std::size_t i = 0; i < s.n; ++i) {
         if (cut.hull_lo[i] == CmCutOffs<P>::none) continue;
         const auto col = static_cast<Index>(i);
@@ -423,7 +440,6 @@ std::vector<RateGroups<P>> cm_rate_groups(const CmTable<P>& s, const CmCutOffs<P
             }
         }
     }
-    return rate_groups;
 }
 
 // Frames (rows) × parameters of one block's sums.
@@ -530,6 +546,16 @@ void cm_add_segment_side(const CmTable<P>& s, std::span<const double> times, std
 template <int P>
 using CmFrameSums = std::vector<std::array<double, static_cast<std::size_t>(P)>>;
 
+// Pass 2's working storage, kept between calls by the caller (no fresh
+// pages for every utterance).
+template <int P>
+struct CmBlockScratch {
+    std::vector<RateGroups<P>> rate_groups;
+    std::vector<std::size_t> block_start, block_segments, fill;
+    CmBlockSums<P> num, den;
+    Eigen::ArrayXd u, e;
+};
+
 // Pass 2: each kept segment's dominances over its hull, summed per frame as
 // absolute values (every kept one is >= δ_j > e^−680, none overflows), onto
 // the recursions' sums (rec_num, rec_den; null when there are none), in
@@ -538,36 +564,44 @@ using CmFrameSums = std::vector<std::array<double, static_cast<std::size_t>(P)>>
 template <int P, class Sink>
 void cm_accumulate_blocks(const CmTable<P>& s, std::span<const double> times, std::optional<double> step,
                           const CmCutOffs<P>& cut, const CmFrameSums<P>* rec_num, const CmFrameSums<P>* rec_den,
-                          const Sink& sink) {
+                          CmBlockScratch<P>& scratch, const Sink& sink) {
     using Index = Eigen::Index;
     constexpr std::size_t none = CmCutOffs<P>::none;
     const std::size_t n = s.n, frames = times.size();
     constexpr std::size_t block = 256;
     const std::size_t blocks = (frames + block - 1) / block;
     // The segments overlapping each block (compressed rows).
-    std::vector<std::size_t> block_start(blocks + 1, 0), block_segments;
+    auto& block_start = scratch.block_start;
+    auto& block_segments = scratch.block_segments;
+    block_start.assign(blocks + 1, 0);
     for (std::size_t i = 0; i < n; ++i)
         if (cut.hull_lo[i] != none)
             for (std::size_t b = cut.hull_lo[i] / block; b <= (cut.hull_hi[i] - 1) / block; ++b) ++block_start[b + 1];
     for (std::size_t b = 0; b < blocks; ++b) block_start[b + 1] += block_start[b];
     block_segments.resize(block_start[blocks]);
     {
-        std::vector<std::size_t> fill(block_start.begin(), block_start.end() - 1);
+        auto& fill = scratch.fill;
+        fill.assign(block_start.begin(), block_start.end() - 1);
         for (std::size_t i = 0; i < n; ++i)
             if (cut.hull_lo[i] != none)
                 for (std::size_t b = cut.hull_lo[i] / block; b <= (cut.hull_hi[i] - 1) / block; ++b)
                     block_segments[fill[b]++] = i;
     }
-    const std::vector<RateGroups<P>> rate_groups = cm_rate_groups(s, cut);
-    CmBlockSums<P> num(static_cast<Index>(block), P), den(static_cast<Index>(block), P);
-    Eigen::ArrayXd u, e;
+    cm_rate_groups(s, cut, scratch.rate_groups);
+    const std::vector<RateGroups<P>>& rate_groups = scratch.rate_groups;
+    CmBlockSums<P>& num = scratch.num;
+    CmBlockSums<P>& den = scratch.den;
+    num.resize(static_cast<Index>(block), P);
+    den.resize(static_cast<Index>(block), P);
+    Eigen::ArrayXd& u = scratch.u;
+    Eigen::ArrayXd& e = scratch.e;
     for (std::size_t b = 0; b < blocks; ++b) {
         const std::size_t b0 = b * block, b1 = std::min(frames, b0 + block);
         num.setZero();
         den.setZero();
-        if (rec_num)
-            for (std::size_t f = b0; f < b1; ++f)
-                for (int p = 0; p < P; ++p) {
+        if (rec_num)  // (column by column: the block sums are column-major)
+            for (int p = 0; p < P; ++p)
+                for (std::size_t f = b0; f < b1; ++f) {
                     num(static_cast<Index>(f - b0), p) = (*rec_num)[f][static_cast<std::size_t>(p)];
                     den(static_cast<Index>(f - b0), p) = (*rec_den)[f][static_cast<std::size_t>(p)];
                 }

@@ -45,23 +45,29 @@ template <int P, class Source, class Sink>
 void bounded_sum(std::size_t n, const Source& source, std::span<const double> times, double tolerance,
                  const Sink& sink) {
     using namespace detail;
-    const CmTable<P> table = cm_table<P>(n, source, tolerance);
+    // The working storage, kept per thread between calls: no fresh pages for
+    // every utterance.
+    struct Workspace {
+        CmTable<P> table;
+        CmCutOffs<P> cut;
+        CmFrameSums<P> rec_num, rec_den;  // the c = 1 segments' sums per frame
+        CmBlockScratch<P> scratch;
+    };
+    static thread_local Workspace w;
+    cm_table<P>(n, source, tolerance, w.table);
     const std::optional<double> step = uniform_step(times);
-    const std::vector<char> recursive = cm_recursive_segments(table, times, step.has_value());
-    const CmCutOffs<P> cut = cm_cut_offs(table, times, recursive);
-    // The c = 1 segments' sums per frame (kept per thread between calls: no
-    // fresh pages for every utterance).
-    static thread_local CmFrameSums<P> rec_num, rec_den;
+    const std::vector<char> recursive = cm_recursive_segments(w.table, times, step.has_value());
+    cm_cut_offs(w.table, times, recursive, w.cut);
     const bool any_recursive = std::any_of(recursive.begin(), recursive.end(), [](char r) { return r != 0; });
     if (any_recursive) {
-        rec_num.assign(times.size(), {});
-        rec_den.assign(times.size(), {});
-        recursive_sums<P>(times, *step, table.tau, recursive, table.theta, table.phi, table.alpha, table.target_alpha,
-                          rec_num, rec_den);
+        w.rec_num.assign(times.size(), {});
+        w.rec_den.assign(times.size(), {});
+        recursive_sums<P>(times, *step, w.table.tau, recursive, w.table.theta, w.table.phi, w.table.alpha,
+                          w.table.target_alpha, w.rec_num, w.rec_den);
     }
-    cm_accumulate_blocks(table, times, step, cut, any_recursive ? &rec_num : nullptr,
-                         any_recursive ? &rec_den : nullptr, sink);
-    cm_log_domain_cells(table, times, cut.log_cells, sink);
+    cm_accumulate_blocks(w.table, times, step, w.cut, any_recursive ? &w.rec_num : nullptr,
+                         any_recursive ? &w.rec_den : nullptr, w.scratch, sink);
+    cm_log_domain_cells(w.table, times, w.cut.log_cells, sink);
 }
 
 }  // namespace

@@ -202,7 +202,8 @@ TEST(CmBoundedSumSteps, BlockAccumulationMatchesTheFullSumAcrossBlockEdges) {
         const CmCutOffs<1> cut = detail::cm_cut_offs(table, times, std::vector<char>(segs.size(), 0));
         ASSERT_TRUE(cut.log_cells.empty());
         std::vector<double> got(times.size(), std::numeric_limits<double>::quiet_NaN());
-        detail::cm_accumulate_blocks<1>(table, times, step, cut, nullptr, nullptr,
+        detail::CmBlockScratch<1> scratch;
+        detail::cm_accumulate_blocks<1>(table, times, step, cut, nullptr, nullptr, scratch,
                                         [&](std::size_t f, std::size_t, double z) { got[f] = z; });
         const std::vector<double> full = full_sum(segs, times);
         double worst = 0.0;
