@@ -27,6 +27,7 @@
 #include <numeric>
 #include <optional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -40,6 +41,10 @@
 #include "cm_kernel.h"
 
 namespace avsi::synth::detail {
+// (File-local to each includer: cohen_massaro.cpp and the step tests. Internal
+// linkage lets the compiler inline the steps into bounded_sum as it did when
+// they were one function.)
+namespace {
 
 // |d|^c, with the common exponents exact and fast (pow as exp(c·ln|d|):
 // relative error ~1e-15, far below what the tolerance needs).
@@ -442,9 +447,10 @@ void cm_rate_groups(const CmTable<P>& s, const CmCutOffs<P>& cut, std::vector<Ra
     }
 }
 
-// Frames (rows) × parameters of one block's sums.
+// Frames (rows) × parameters of one block's sums, column by column, over
+// storage laid out by CmBlockScratch.
 template <int P>
-using CmBlockSums = Eigen::Array<double, Eigen::Dynamic, P>;
+using CmBlockSums = Eigen::Map<Eigen::Array<double, Eigen::Dynamic, P>, Eigen::Unaligned, Eigen::OuterStride<>>;
 
 // Adds segment i's dominances on one side of its centre over frames
 // [s0, s1) into the block sums (row 0 = frame b0): per distinct rate only
@@ -552,8 +558,24 @@ template <int P>
 struct CmBlockScratch {
     std::vector<RateGroups<P>> rate_groups;
     std::vector<std::size_t> block_start, block_segments, fill;
-    CmBlockSums<P> num, den;
     Eigen::ArrayXd u, e;
+    std::vector<double> storage;  // the block sums, see sums()
+
+    // The numerator and denominator sums of a block of `rows` frames. Each
+    // column starts on a 64-byte boundary (the kernels' 4-wide loads and
+    // stores never straddle cache lines), and columns and the two arrays are
+    // spaced off multiples of 4 KiB (no false store-to-load aliasing between
+    // the columns the kernel updates together).
+    std::pair<CmBlockSums<P>, CmBlockSums<P>> sums(std::size_t rows) {
+        const std::size_t stride = (rows + 7) / 8 * 8 + 8;  // doubles; 64-byte multiple, not 4 KiB
+        const std::size_t each = stride * static_cast<std::size_t>(P) + 8;
+        storage.resize(2 * each + 8);
+        double* base = storage.data();
+        while (reinterpret_cast<std::uintptr_t>(base) % 64 != 0) ++base;
+        const auto r = static_cast<Eigen::Index>(rows), st = static_cast<Eigen::Index>(stride);
+        return {CmBlockSums<P>(base, r, P, Eigen::OuterStride<>(st)),
+                CmBlockSums<P>(base + each, r, P, Eigen::OuterStride<>(st))};
+    }
 };
 
 // Pass 2: each kept segment's dominances over its hull, summed per frame as
@@ -589,10 +611,7 @@ void cm_accumulate_blocks(const CmTable<P>& s, std::span<const double> times, st
     }
     cm_rate_groups(s, cut, scratch.rate_groups);
     const std::vector<RateGroups<P>>& rate_groups = scratch.rate_groups;
-    CmBlockSums<P>& num = scratch.num;
-    CmBlockSums<P>& den = scratch.den;
-    num.resize(static_cast<Index>(block), P);
-    den.resize(static_cast<Index>(block), P);
+    auto [num, den] = scratch.sums(block);
     Eigen::ArrayXd& u = scratch.u;
     Eigen::ArrayXd& e = scratch.e;
     for (std::size_t b = 0; b < blocks; ++b) {
@@ -653,4 +672,5 @@ void cm_log_domain_cells(const CmTable<P>& s, std::span<const double> times,
         }
 }
 
+}  // namespace
 }  // namespace avsi::synth::detail
