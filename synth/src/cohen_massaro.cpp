@@ -107,9 +107,11 @@ double CmPointwiseSum::collect(double t, bool need_log_x) {
         std::lower_bound(m_s.begin(), m_s.end(), t, [](const CmSegment& s, double v) { return s.tau_s < v; }) -
         m_s.begin());
     double m = -std::numeric_limits<double>::infinity();
-    auto add = [&](std::size_t i) {
-        m_terms.push_back(segment_term(m_s[i], m_log_alpha[i], static_cast<std::uint32_t>(i), t, need_log_x));
-        m = std::max(m, m_terms.back().weight);
+    // (Inlined: this is training's innermost loop.)
+    auto add = [&](std::size_t i) __attribute__((always_inline)) {
+        const CmTerm term = segment_term(m_s[i], m_log_alpha[i], static_cast<std::uint32_t>(i), t, need_log_x);
+        m = std::max(m, term.weight);
+        m_terms.push_back(term);
     };
     if (first_after > 0) add(first_after - 1);
     if (first_after < n) add(first_after);
