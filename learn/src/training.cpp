@@ -1,7 +1,10 @@
 // Training control models (Beskow §4; training.h): Levenberg-Marquardt in
-// Ceres Solver with analytic Jacobians (eq. 9–14 Cohen-Massaro, eq. 18–20
-// Öhman, MPEG-4 CM likewise), bounds, per-parameter problems in parallel,
-// early stopping on the held-out error.
+// Ceres Solver minimising eq. 5 with analytic Jacobians — eq. 9–14 for
+// Cohen-Massaro (and MPEG-4 CM) from the terms of the model's own pointwise
+// sum (eq. 7–8, CmPointwiseSum in synth's cohen_massaro.h), eq. 18–20 for
+// Öhman from the model's own blends (eq. 16–17, ohman_value in ohman.h) —
+// bounds, per-parameter problems in parallel, early stopping on the
+// held-out error.
 #include "avsi/learn/training.h"
 
 #include <algorithm>

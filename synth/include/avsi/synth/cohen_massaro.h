@@ -20,21 +20,22 @@
 // result stays within ε of the full sum. Each segment's reach follows from
 // solving α·exp(−θ r^c) = δ for r. Only at the frames within a kept
 // segment's reach are dominances evaluated, as absolute values (all >= δ_j,
-// so no underflow while δ_j >= e^−680; below that, per frame in the log
-// domain shifted by the largest dominance). All parameters of a segment
-// share τ and c, so |τ − t|^c is computed once per segment and frame
-// (as exp(c·ln|τ − t|); directly for c = 1, 2) and exp(−θ·|τ − t|^c) once
-// per distinct rate of the segment, over only the frames that rate's
-// parameters reach (vectorised: glibc's libmvec, AVX2 where the processor
-// has it, see synth/src/cm_kernel.h; for c = 1 on uniform frames by an exact
-// recurrence).
+// so no underflow while δ_j >= e^−680; below that, per frame by the
+// pointwise sum below, in the log domain shifted by the largest dominance).
+// All parameters of a segment share τ and c, so |τ − t|^c is computed once
+// per segment and frame (as exp(c·ln|τ − t|); directly for c = 1, 2) and
+// exp(−θ·|τ − t|^c) once per distinct rate of the segment, over only the
+// frames that rate's parameters reach (vectorised: glibc's libmvec, AVX2
+// where the processor has it, see synth/src/cm_kernel.h; for c = 1 on
+// uniform frames by an exact recurrence).
 // Segments with c = 1 on uniformly spaced frames need no bound at all: for
 // c = 1 a dominance factorises along time, so per parameter and distinct
 // rate the sum over all such segments obeys a first-order recursion
 // (A(t_f) = A(t_{f+1})·exp(−θ·h) + the segments passed), one multiply per
 // frame and rate however far the tails reach; that is the exact full sum up
-// to rounding (cohen_massaro.cpp, recursive_sums). It is used unless some
-// cell owner's dominance is below e^−600 (then the bounded path above).
+// to rounding (recursive_sums in synth/src/cm_bounded_sum.h). It is used
+// unless some cell owner's dominance is below e^−600 (then the bounded path
+// above). The steps are named functions in synth/src/cm_bounded_sum.h.
 #pragma once
 
 #include <array>
