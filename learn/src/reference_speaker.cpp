@@ -1,7 +1,7 @@
 // The synthetic reference speaker (reference_speaker.h): critically damped
 // articulator dynamics toward phone targets with anticipatory onset, over
 // espeak-ng-timed English sentences.
-#include "avsi/synth/reference_speaker.h"
+#include "avsi/learn/reference_speaker.h"
 
 #include <algorithm>
 #include <cmath>
@@ -17,7 +17,7 @@
 #include "avsi/core/log.h"
 #include "avsi/core/tts.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 namespace fs = std::filesystem;
 
@@ -298,4 +298,4 @@ std::size_t write_reference_corpus(const fs::path& out_dir, const ReferenceSpeak
     return entries.size();
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

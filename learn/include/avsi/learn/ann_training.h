@@ -30,10 +30,13 @@
 #include <string>
 #include <vector>
 
+#include "avsi/learn/articulatory_corpus.h"
 #include "avsi/synth/ann.h"
-#include "avsi/synth/articulatory_corpus.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
+
+// learn builds on synth's parameters, trajectories and control models.
+using namespace avsi::synth;
 
 struct AnnTrainingSettings {
     AnnConfig config = ann1_config();
@@ -117,4 +120,4 @@ void run_ann_command(const AnnCommandSettings& settings);
 // Parses "a..b" (or a single "a") into an inclusive range; throws UsageError.
 std::pair<int, int> parse_lookahead_range(const std::string& text);
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

@@ -8,10 +8,11 @@
 #include <filesystem>
 
 #include "avsi/core/files.h"
-#include "avsi/synth/evaluation.h"
+#include "avsi/learn/evaluation.h"
 
 using namespace avsi;
 using namespace avsi::synth;
+using namespace avsi::learn;
 
 namespace {
 

@@ -1,6 +1,6 @@
 // Objective evaluation (Beskow §5, Table 2, Fig. 5): RMSE as % of range and
 // Pearson ρ per parameter and frame subset; Markdown/CSV tables; SVG plot.
-#include "avsi/synth/evaluation.h"
+#include "avsi/learn/evaluation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,7 @@
 #include "avsi/synth/control_model.h"
 #include "svg_plot.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 namespace fs = std::filesystem;
 
@@ -173,26 +173,14 @@ void write_trajectory_plot_svg(const fs::path& path, const CorpusUtterance& u, P
     const std::size_t n = u.track.size();
     AVSI_ASSERT(n >= 2);
     const double t0 = u.track.time_s(0), t1 = u.track.time_s(n - 1);
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    auto extend = [&](double v) {
-        if (std::isfinite(v)) {
-            lo = std::min(lo, v);
-            hi = std::max(hi, v);
-        }
-    };
-    for (std::size_t k = 0; k < n; ++k) extend(u.track.frames[k][index(param)]);
+    detail::ValueRange range;
+    for (std::size_t k = 0; k < n; ++k) range.extend(u.track.frames[k][index(param)]);
     for (const auto& c : curves)
-        for (double v : c.second) extend(v);
-    if (!(hi > lo)) {
-        lo -= 0.5;
-        hi += 0.5;
-    }
-    const double pad = 0.05 * (hi - lo);
-    lo -= pad;
-    hi += pad;
-    auto X = [&](double t) { return left + (t - t0) / (t1 - t0) * (width - left - right); };
+        for (double v : c.second) range.extend(v);
+    const auto [lo, hi] = range.padded(0.05);
 
     detail::SvgPage page(path, box);
+    auto X = [&](double t) { return page.x_of(t, t0, t1); };
     auto Y = [&](double v) { return page.y_of(v, lo, hi); };
     cairo_t* cr = page.cr();
 
@@ -208,18 +196,14 @@ void write_trajectory_plot_svg(const fs::path& path, const CorpusUtterance& u, P
         const std::string label = ph.symbol == "sil" ? "" : ph.symbol;
         cairo_text_extents_t ext;
         cairo_text_extents(cr, label.c_str(), &ext);
-        cairo_move_to(cr, X(std::clamp(ph.centre_s(), t0, t1)) - ext.width / 2, height - bottom + 16);
-        cairo_show_text(cr, label.c_str());
+        page.text(X(std::clamp(ph.centre_s(), t0, t1)) - ext.width / 2, height - bottom + 16, label);
     }
     // Axes.
     page.frame_with_value_labels(lo, hi, 45);
     const double step = (t1 - t0) > 4 ? 1.0 : 0.5;
-    for (double t = std::ceil(t0 / step) * step; t <= t1 + 1e-9; t += step) {
-        cairo_move_to(cr, X(t) - 8, height - bottom + 34);
-        cairo_show_text(cr, fmt::format("{:.1f}", t).c_str());
-    }
-    cairo_move_to(cr, left, 18);
-    cairo_show_text(cr, fmt::format("{} — {} (time in s)", u.id, params()[index(param)].name).c_str());
+    for (double t = std::ceil(t0 / step) * step; t <= t1 + 1e-9; t += step)
+        page.text(X(t) - 8, height - bottom + 34, fmt::format("{:.1f}", t));
+    page.text(left, 18, fmt::format("{} — {} (time in s)", u.id, params()[index(param)].name));
 
     // Curves: target in black, models in colours; legend at the right.
     static const double colours[][3] = {{0.85, 0.15, 0.15}, {0.1, 0.4, 0.85}, {0.1, 0.6, 0.2},
@@ -228,25 +212,14 @@ void write_trajectory_plot_svg(const fs::path& path, const CorpusUtterance& u, P
                     std::size_t row) {
         cairo_set_source_rgb(cr, rgb[0], rgb[1], rgb[2]);
         cairo_set_line_width(cr, line);
-        bool pen = false;
-        for (std::size_t k = 0; k < values.size() && k < n; ++k) {
-            if (!std::isfinite(values[k])) {
-                pen = false;
-                continue;
-            }
-            if (pen)
-                cairo_line_to(cr, X(u.track.time_s(k)), Y(values[k]));
-            else
-                cairo_move_to(cr, X(u.track.time_s(k)), Y(values[k]));
-            pen = true;
-        }
-        cairo_stroke(cr);
+        page.polyline(
+            std::min(values.size(), n), [&](std::size_t k) { return X(u.track.time_s(k)); },
+            [&](std::size_t k) { return Y(values[k]); });
         const double ly = top + 14 + 18.0 * static_cast<double>(row);
         cairo_move_to(cr, width - right + 12, ly - 4);
         cairo_line_to(cr, width - right + 36, ly - 4);
         cairo_stroke(cr);
-        cairo_move_to(cr, width - right + 42, ly);
-        cairo_show_text(cr, name.c_str());
+        page.text(width - right + 42, ly, name);
     };
     std::vector<double> target(n);
     for (std::size_t k = 0; k < n; ++k) target[k] = u.track.frames[k][index(param)];
@@ -329,4 +302,4 @@ EvaluationResult run_evaluation(const EvaluationSettings& settings) {
     return result;
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

@@ -37,11 +37,14 @@
 #include <vector>
 
 #include "avsi/core/phones.h"
+#include "avsi/learn/sensor_mapping.h"
 #include "avsi/synth/parameters.h"
-#include "avsi/synth/sensor_mapping.h"
 #include "avsi/synth/trajectory.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
+
+// learn builds on synth's parameters, trajectories and control models.
+using namespace avsi::synth;
 
 // The value of a measured sample the data cannot give (a lost sensor frame, a
 // parameter the sensors do not measure).
@@ -131,4 +134,4 @@ void write_corpus_manifest(const std::filesystem::path& dir, const std::string& 
 // also takes t == end), or nullopt outside the labels.
 std::optional<std::size_t> phone_at(const PhoneSequence& phones, double time_s);
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

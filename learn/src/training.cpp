@@ -1,8 +1,11 @@
 // Training control models (Beskow §4; training.h): Levenberg-Marquardt in
-// Ceres Solver with analytic Jacobians (eq. 9–14 Cohen-Massaro, eq. 18–20
-// Öhman, MPEG-4 CM likewise), bounds, per-parameter problems in parallel,
-// early stopping on the held-out error.
-#include "avsi/synth/training.h"
+// Ceres Solver minimising eq. 5 with analytic Jacobians — eq. 9–14 for
+// Cohen-Massaro (and MPEG-4 CM) from the terms of the model's own pointwise
+// sum (eq. 7–8, CmPointwiseSum in synth's cohen_massaro.h), eq. 18–20 for
+// Öhman from the model's own blends (eq. 16–17, ohman_value in ohman.h) —
+// bounds, per-parameter problems in parallel, early stopping on the
+// held-out error.
+#include "avsi/learn/training.h"
 
 #include <algorithm>
 #include <atomic>
@@ -21,12 +24,11 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
-#include "avsi/synth/evaluation.h"
+#include "avsi/learn/evaluation.h"
 #include "avsi/synth/mpeg4_cohen_massaro.h"
 #include "avsi/synth/ohman.h"
-#include "cm_kernel.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 namespace fs = std::filesystem;
 
@@ -35,143 +37,35 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A segment is left out at t when its dominance there is below e^−40 times
-// the largest dominance at t (see cohen_massaro_partials in training.h).
-constexpr double cm_skip_log_ratio = 40.0;
-
-// One contributing segment at one time.
-struct CmTerm {
-    std::uint32_t i;
-    bool before;     // t < τ_i: the anticipatory side (θ)
-    double x;        // |τ_i − t|
-    double log_x;    // ln x (when x > 0 and it was needed)
-    double xc;       // x^c_i
-    double log_d;    // ln D_i(t), then D_i(t) / max_j D_j(t)
-};
-
-// Eq. 7 for the segments that matter at t, over segments in ascending τ.
-// From the two segments bracketing t (the largest dominance so far, m), a
-// segment at distance x can only reach ln D ≥ m − 40 if
-//     ln α_max − rate_min · min(x^c_min, x^c_max) ≥ m − 40,
-// which bounds x; the walk outward on each side stops at that distance
-// (recomputed when a farther segment raises m), so far segments are never
-// evaluated. x^c is exp(c·ln x), the ln x being reused by ∂/∂c (eq. 14).
-class CmFrameSum {
-public:
-    explicit CmFrameSum(std::span<const CmSegment> s) : m_s(s), m_log_alpha(s.size()) {
-        AVSI_ASSERT(!s.empty());
-        for (std::size_t i = 0; i < s.size(); ++i) {
-            AVSI_ASSERT(s[i].alpha > 0 && s[i].theta_per_s > 0 && s[i].phi_per_s > 0 && s[i].c > 0);
-            AVSI_ASSERT(i == 0 || s[i].tau_s >= s[i - 1].tau_s);
-            m_log_alpha[i] = std::log(s[i].alpha);
-            m_max_log_alpha = std::max(m_max_log_alpha, m_log_alpha[i]);
-            m_min_theta = std::min(m_min_theta, s[i].theta_per_s);
-            m_min_phi = std::min(m_min_phi, s[i].phi_per_s);
-            m_min_c = std::min(m_min_c, s[i].c);
-            m_max_c = std::max(m_max_c, s[i].c);
-        }
-    }
-
-    // Collects the contributing segments at t into terms(); returns max ln D.
-    double collect(double t, bool need_log_x) {
-        m_terms.clear();
-        const std::size_t n = m_s.size();
-        const auto first_after = static_cast<std::size_t>(
-            std::lower_bound(m_s.begin(), m_s.end(), t, [](const CmSegment& s, double v) { return s.tau_s < v; }) -
-            m_s.begin());
-        double m = -std::numeric_limits<double>::infinity();
-        auto add = [&](std::size_t i) {
-            const CmSegment& s = m_s[i];
-            CmTerm term{static_cast<std::uint32_t>(i), t < s.tau_s, std::abs(s.tau_s - t), 0.0, 0.0, 0.0};
-            if (term.x > 0 && (need_log_x || s.c != 1.0)) term.log_x = std::log(term.x);
-            term.xc = s.c == 1.0 ? term.x : (term.x > 0 ? std::exp(s.c * term.log_x) : 0.0);
-            term.log_d = m_log_alpha[i] - (term.before ? s.theta_per_s : s.phi_per_s) * term.xc;
-            m = std::max(m, term.log_d);
-            m_terms.push_back(term);
-        };
-        if (first_after > 0) add(first_after - 1);
-        if (first_after < n) add(first_after);
-        // Anticipatory side (later centres, θ), then carry-over side (earlier, φ).
-        double reach_m = m, reach = max_distance(m, m_min_theta);
-        for (std::size_t i = first_after + 1; i < n; ++i) {
-            if (m != reach_m) reach = max_distance(reach_m = m, m_min_theta);
-            if (m_s[i].tau_s - t > reach) break;
-            add(i);
-        }
-        reach_m = m;
-        reach = max_distance(m, m_min_phi);
-        for (std::size_t i = first_after >= 1 ? first_after - 1 : 0; i-- > 0;) {
-            if (m != reach_m) reach = max_distance(reach_m = m, m_min_phi);
-            if (t - m_s[i].tau_s > reach) break;
-            add(i);
-        }
-        return m;
-    }
-
-    std::vector<CmTerm>& terms() { return m_terms; }
-
-private:
-    // The largest x with ln α_max − rate · min(x^c_min, x^c_max) ≥ m − 40.
-    double max_distance(double m, double rate) const {
-        const double y = (m_max_log_alpha - m + cm_skip_log_ratio) / rate;
-        if (y <= 0) return 0.0;
-        const double c = y < 1.0 ? m_max_c : m_min_c;
-        return c == 1.0 ? y : std::pow(y, 1.0 / c);
-    }
-
-    std::span<const CmSegment> m_s;
-    std::vector<double> m_log_alpha;
-    double m_max_log_alpha = -std::numeric_limits<double>::infinity();
-    double m_min_theta = std::numeric_limits<double>::infinity();
-    double m_min_phi = std::numeric_limits<double>::infinity();
-    double m_min_c = std::numeric_limits<double>::infinity();
-    double m_max_c = 0.0;
-    std::vector<CmTerm> m_terms;
-};
-
-}  // namespace
-
-namespace {
-
-// Eq. 8 at each time and, when `partials` (then need_dc says whether ∂/∂c is
-// wanted), each contributing segment's partials of eq. 9–14 handed to
-// visit(k, segment, d) in segment-walk order; begin_row(k) before a row's.
+// Eq. 8 at each time by the model's pointwise sum (cohen_massaro.h) and,
+// when `partials` (then need_dc says whether ∂/∂c is wanted), each
+// contributing segment's partials of eq. 9–14 from its terms, handed to
+// visit(k, segment, d) in the sum's segment-walk order.
 template <class Visit>
 void cm_partials_visit(std::span<const CmSegment> segments, std::span<const double> times_s,
                        std::vector<double>& z, bool partials, bool need_dc, const Visit& visit) {
-    CmFrameSum frame_sum(segments);
+    CmPointwiseSum frame_sum(segments);
     z.assign(times_s.size(), 0.0);
-    std::vector<double> ratio;
     for (std::size_t k = 0; k < times_s.size(); ++k) {
-        const double m = frame_sum.collect(times_s[k], partials && need_dc);
-        std::vector<CmTerm>& terms = frame_sum.terms();
-        double sum = 0.0, num = 0.0;
-        ratio.resize(terms.size());
-        for (std::size_t e = 0; e < terms.size(); ++e) ratio[e] = terms[e].log_d - m;
-        detail::cm_exp(ratio.data(), ratio.size());  // vectorised
-        for (std::size_t e = 0; e < terms.size(); ++e) {
-            CmTerm& term = terms[e];
-            term.log_d = ratio[e];  // now D_i / max D
-            sum += term.log_d;
-            num += term.log_d * segments[term.i].target;
-        }
-        const double zk = num / sum;
+        const double zk = frame_sum.evaluate(times_s[k], partials && need_dc);
         z[k] = zk;
         if (!partials) continue;
-        for (const CmTerm& term : terms) {
-            const CmSegment& s = segments[term.i];
-            const double w = term.log_d / sum;           // D_i / ΣD
+        const double sum = frame_sum.weight_sum();
+        for (const CmTerm& term : frame_sum.terms()) {
+            const CmSegment& s = segments[term.segment];
+            const double w = term.weight / sum;          // D_i / ΣD
             const double g = w * (s.target - zk);        // eq. 10 with ∂D/∂ψ = D·∂lnD/∂ψ
             const double rate = term.before ? s.theta_per_s : s.phi_per_s;
+            const double xc = term.distance_c;
             std::array<double, 6> d{};
             d[0] = w;                                    // eq. 9
             d[1] = g / s.alpha;                          // eq. 11
-            d[2] = term.before ? -term.xc * g : 0.0;     // eq. 12
-            d[3] = term.before ? 0.0 : -term.xc * g;     // eq. 13
-            d[4] = need_dc && term.x > 0 ? -rate * term.xc * term.log_x * g : 0.0;  // eq. 14 (with its sign)
-            const double dxc = term.x > 0 ? s.c * term.xc / term.x : 0.0;  // d(x^c)/dx
+            d[2] = term.before ? -xc * g : 0.0;          // eq. 12
+            d[3] = term.before ? 0.0 : -xc * g;          // eq. 13
+            d[4] = need_dc && term.distance_s > 0 ? -rate * xc * term.log_distance * g : 0.0;  // eq. 14 (with its sign)
+            const double dxc = term.distance_s > 0 ? s.c * xc / term.distance_s : 0.0;  // d(x^c)/dx
             d[5] = (term.before ? -rate * dxc : rate * dxc) * g;          // ∂/∂τ
-            visit(k, term.i, d);
+            visit(k, term.segment, d);
         }
     }
 }
@@ -250,39 +144,28 @@ void ohman_keyed(const KeyedUtterance& u, std::span<const double> x, std::vector
             anchor_keys.push_back(u.key[i]);
         }
     const std::size_t cols = x.size();
+    auto anchor_column = [&](long j) { return 2 * static_cast<std::size_t>(anchor_keys[static_cast<std::size_t>(j)]); };
+    auto consonant_column = [&](std::size_t i) { return 2 * static_cast<std::size_t>(u.key[i]); };
     z.assign(u.times_s.size(), 0.0);
     if (jacobian) jacobian->assign(u.times_s.size() * cols, 0.0);
     for (std::size_t k = 0; k < u.times_s.size(); ++k) {
-        const double t = u.times_s[k];
-        // Vowel track (eq. 17, the model's blend) and its weights per anchor key.
-        double v = 0.0;  // every parameter's neutral value is 0 (parameters.h)
-        const VowelBlend b = ohman_vowel_blend(anchor_centres, t);
-        const std::array<std::pair<int, double>, 2> vw{{
-            {b.left >= 0 ? anchor_keys[static_cast<std::size_t>(b.left)] : -1, b.w_left},
-            {b.right >= 0 ? anchor_keys[static_cast<std::size_t>(b.right)] : -1, b.w_right}}};
-        for (const auto& [key, w] : vw)
-            if (key >= 0) v += w * x[2 * static_cast<std::size_t>(key)];
-        // Consonant pulls (eq. 16) and their derivatives (eq. 18–19).
-        double zk = v, pull = 0.0;
-        const long n = bracket(u.centres_s, t);
-        for (long i : {n, n + 1}) {
-            if (i < 0 || static_cast<std::size_t>(i) >= u.centres_s.size() || u.anchor[i]) continue;
-            const double blend = ohman_consonant_blend(u.centres_s, static_cast<std::size_t>(i), t);
-            if (blend == 0.0) continue;
-            const std::size_t q = 2 * static_cast<std::size_t>(u.key[i]);
-            const double c = x[q], w = x[q + 1];
-            zk += w * blend * (c - v);
-            pull += w * blend;
-            if (jacobian) {
-                double* row = jacobian->data() + k * cols;
-                row[q] += w * blend;             // eq. 19
-                row[q + 1] += blend * (c - v);   // eq. 18
-            }
+        // The model's forward pass (ohman.h, eq. 16–17); every parameter's
+        // neutral value is 0 (parameters.h).
+        const OhmanBlends b = ohman_blends(u.centres_s, anchor_centres, u.anchor, u.times_s[k]);
+        const OhmanValue value = ohman_value(
+            b, 0.0, [&](long j) { return x[anchor_column(j)]; },
+            [&](std::size_t i) { return std::pair{x[consonant_column(i)], x[consonant_column(i) + 1]}; });
+        z[k] = value.z;
+        if (!jacobian) continue;
+        double* row = jacobian->data() + k * cols;
+        for (int e = 0; e < b.consonants; ++e) {
+            const auto ue = static_cast<std::size_t>(e);
+            const std::size_t q = consonant_column(b.consonant[ue]);
+            row[q] += x[q + 1] * b.k[ue];                  // eq. 19
+            row[q + 1] += b.k[ue] * (x[q] - value.v);      // eq. 18
         }
-        z[k] = zk;
-        if (jacobian)
-            for (const auto& [key, w] : vw)  // eq. 20
-                if (key >= 0) (*jacobian)[k * cols + 2 * static_cast<std::size_t>(key)] += w * (1.0 - pull);
+        if (b.vowel.left >= 0) row[anchor_column(b.vowel.left)] += b.vowel.w_left * (1.0 - value.pull);  // eq. 20
+        if (b.vowel.right >= 0) row[anchor_column(b.vowel.right)] += b.vowel.w_right * (1.0 - value.pull);
     }
 }
 
@@ -754,7 +637,7 @@ public:
         const std::size_t n = m_series.u.centres_s.size();
         std::vector<CmSegment> segs(n);
         for (std::size_t i = 0; i < n; ++i)
-            segs[i] = {m_series.u.centres_s[i] + g[2], parameters[m_local[i]][0], m_alpha[i], g[0], g[1], 1.0};
+            segs[i] = mpeg4_segment(m_series.u.centres_s[i], g[2], parameters[m_local[i]][0], m_alpha[i], g[0], g[1]);
         std::vector<double> z;
         CmPartials dz;
         cohen_massaro_partials(segs, m_series.u.times_s, z, jacobians ? &dz : nullptr);
@@ -849,8 +732,8 @@ std::unique_ptr<ControlModel> train_mpeg4(std::unique_ptr<ControlModel> init, co
                 std::vector<CmSegment> segs(s.u.centres_s.size());
                 for (std::size_t i = 0; i < segs.size(); ++i) {
                     const auto v = static_cast<std::size_t>(s.u.key[i]);
-                    segs[i] = {s.u.centres_s[i] + global[2], targets[v * param_count + q], alphas[v], global[0],
-                               global[1], 1.0};
+                    segs[i] = mpeg4_segment(s.u.centres_s[i], global[2], targets[v * param_count + q], alphas[v],
+                                            global[0], global[1]);
                 }
                 cohen_massaro_partials(segs, s.u.times_s, z, nullptr);
                 for (std::size_t k = 0; k < z.size(); ++k) sse += (z[k] - s.y[k]) * (z[k] - s.y[k]);
@@ -987,4 +870,4 @@ TrainingReport run_training(const TrainCommandSettings& s) {
     return report;
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

@@ -9,14 +9,15 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
-#include "avsi/synth/articulatory_corpus.h"
-#include "avsi/synth/est_track.h"
-#include "avsi/synth/evaluation.h"
-#include "avsi/synth/sensor_mapping.h"
+#include "avsi/learn/articulatory_corpus.h"
+#include "avsi/learn/est_track.h"
+#include "avsi/learn/evaluation.h"
+#include "avsi/learn/sensor_mapping.h"
 
 namespace fs = std::filesystem;
 using namespace avsi;
 using namespace avsi::synth;
+using namespace avsi::learn;
 
 namespace {
 

@@ -8,11 +8,12 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
-#include "avsi/synth/articulatory_corpus.h"
+#include "avsi/learn/articulatory_corpus.h"
 
 namespace fs = std::filesystem;
 using namespace avsi;
 using namespace avsi::synth;
+using namespace avsi::learn;
 
 namespace {
 

@@ -11,11 +11,12 @@
 #include <filesystem>
 
 #include "avsi/core/files.h"
-#include "avsi/synth/reference_speaker.h"
+#include "avsi/learn/reference_speaker.h"
 
 namespace fs = std::filesystem;
 using namespace avsi;
 using namespace avsi::synth;
+using namespace avsi::learn;
 
 namespace {
 

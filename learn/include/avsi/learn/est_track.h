@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 struct EstTrack {
     std::vector<std::string> channels;        // channel names in file order
@@ -57,4 +57,4 @@ EstTrack read_sensor_csv(const std::filesystem::path& path);
 // Reads a sensor file chosen by extension: .csv → CSV, anything else → EST.
 EstTrack read_sensor_file(const std::filesystem::path& path);
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

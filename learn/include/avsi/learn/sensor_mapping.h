@@ -39,9 +39,9 @@
 #include <string>
 #include <vector>
 
-#include "avsi/synth/est_track.h"
+#include "avsi/learn/est_track.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 struct ParamTrack;
 
@@ -75,4 +75,4 @@ ParamTrack map_sensors_to_params(const EstTrack& sensors, const SensorMappingSet
 void remove_head_motion(EstTrack& sensors, const SensorMappingSettings& settings,
                         const std::string& source);
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

@@ -23,9 +23,9 @@
 #include <vector>
 
 #include "avsi/core/phones.h"
-#include "avsi/synth/articulatory_corpus.h"
+#include "avsi/learn/articulatory_corpus.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 enum class FrameSubset { AllNonSilence = 0, Vowels, Consonants, Count };
 inline constexpr std::size_t subset_count = static_cast<std::size_t>(FrameSubset::Count);
@@ -105,4 +105,4 @@ struct EvaluationResult {
 // split, writes the CSV, Markdown and SVG plot. Throws InputError for bad input.
 EvaluationResult run_evaluation(const EvaluationSettings& settings);
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

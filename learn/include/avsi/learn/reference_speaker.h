@@ -35,9 +35,9 @@
 
 #include "avsi/core/phones.h"
 #include "avsi/core/rng.h"
-#include "avsi/synth/articulatory_corpus.h"
+#include "avsi/learn/articulatory_corpus.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 struct ArticulatorDynamics {
     double time_constant_s;  // τ of the critically damped system
@@ -87,4 +87,4 @@ std::vector<std::string> read_sentence_list(const std::filesystem::path& path);
 // number of utterances written.
 std::size_t write_reference_corpus(const std::filesystem::path& out_dir, const ReferenceSpeakerSettings& settings);
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

@@ -5,13 +5,13 @@
 
 #include <cmath>
 
-#include "ann_test_util.h"
+#include "ann_corpus_util.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
-#include "avsi/synth/ann_training.h"
-#include "avsi/synth/evaluation.h"
+#include "avsi/learn/ann_training.h"
+#include "avsi/learn/evaluation.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 namespace {
 
 struct TinyData {
@@ -171,4 +171,4 @@ TEST(AnnLookahead, SweepWritesOnePointPerLookAhead) {
 }
 
 }  // namespace
-}  // namespace avsi::synth
+}  // namespace avsi::learn

@@ -9,12 +9,13 @@
 #include <fstream>
 
 #include "avsi/core/rng.h"
+#include "avsi/learn/evaluation.h"
+#include "avsi/learn/training.h"
 #include "avsi/synth/cohen_massaro.h"
-#include "avsi/synth/evaluation.h"
-#include "avsi/synth/training.h"
 
 using namespace avsi;
 using namespace avsi::synth;
+using namespace avsi::learn;
 
 namespace {
 

@@ -1,6 +1,6 @@
 // Articulatory corpus: manifest, parameter track CSV, seeded split, corpus
 // hash (see articulatory_corpus.h; Beskow §4.1 for the 200/87 split).
-#include "avsi/synth/articulatory_corpus.h"
+#include "avsi/learn/articulatory_corpus.h"
 
 #include <algorithm>
 #include <cmath>
@@ -20,7 +20,7 @@
 #include "avsi/core/rng.h"
 #include "avsi/core/text.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -404,4 +404,4 @@ std::optional<std::size_t> phone_at(const PhoneSequence& phones, double time_s) 
     return std::nullopt;
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

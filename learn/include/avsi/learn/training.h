@@ -4,7 +4,8 @@
 // the per-segment derivatives summed over the segments of each phone class:
 //
 // - Cohen-Massaro (eq. 9–14): per phone key and parameter T, α, θ, φ, c;
-//   computed in the log domain, ∂z/∂ψ_i = w_i·(∂ln D_i/∂ψ_i)·(T_i − z) with
+//   from the terms of the model's pointwise sum (CmPointwiseSum in
+//   cohen_massaro.h, eq. 7–8), in the log domain, ∂z/∂ψ_i = w_i·(∂ln D_i/∂ψ_i)·(T_i − z) with
 //   w_i = D_i/ΣD (eq. 10), ∂z/∂T_i = w_i (eq. 9). Note eq. 14 as printed
 //   lacks the minus sign: ∂D/∂c = −D·θ·(τ−t)^c·ln(τ−t) before the centre.
 //   The model file keeps one c per phone (cohen_massaro.h), so with c free
@@ -13,9 +14,10 @@
 //   fixed. By default c is fixed at 1 (TrainingSettings::min_c, max_c) and
 //   only the second stage runs.
 // - Öhman (eq. 18–20): vowel (and silence) targets a, consonant targets c and
-//   coarticulation factors w_c ∈ [0, 1], with the blend functions of ohman.h.
+//   coarticulation factors w_c ∈ [0, 1], differentiating the model's own
+//   forward pass (ohman_value in ohman.h).
 // - MPEG-4 Cohen-Massaro: the viseme targets per parameter and the shared
-//   θ←, θ→ and peak offset t0 (one problem over all parameters, since they
+//   θ←, θ→ and peak offset t0 of the model's segments (mpeg4_segment) (one problem over all parameters, since they
 //   are shared); α stays the ellipse-area normalisation of the viseme set.
 //
 // Bounds: targets within each parameter's range; α ∈ [1e-3, 1e3];
@@ -43,11 +45,14 @@
 #include <string>
 #include <vector>
 
-#include "avsi/synth/articulatory_corpus.h"
+#include "avsi/learn/articulatory_corpus.h"
 #include "avsi/synth/cohen_massaro.h"
 #include "avsi/synth/control_model.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
+
+// learn builds on synth's parameters, trajectories and control models.
+using namespace avsi::synth;
 
 struct TrainingSettings {
     std::string model = "cohen-massaro";   // cohen-massaro | ohman | mpeg4-cohen-massaro
@@ -113,13 +118,11 @@ struct CmPartials {
     std::vector<std::array<double, 6>> d;
 };
 
-// Eq. 8 at each time and, if `partials` is non-null, the partials of eq.
-// 9–14 (and ∂/∂τ) of each contributing segment; log domain, so it never
-// divides by zero. Segments in ascending τ. A segment whose dominance at t
-// is below e^−40 of the largest there is left out (found by a bound, never
-// evaluated): all of them together move z by less than N·5e-18 of the target
-// spread, far below double precision of the sum. need_dc false: ∂/∂c is
-// left 0 (c held fixed; saves the ln|τ − t|).
+// Eq. 8 at each time by the model's pointwise sum (CmPointwiseSum in
+// cohen_massaro.h: log domain, segments below e^−40 of the largest left
+// out) and, if `partials` is non-null, the partials of eq. 9–14 (and ∂/∂τ)
+// of each contributing segment, from the sum's terms. Segments in ascending
+// τ. need_dc false: ∂/∂c is left 0 (c held fixed; saves the ln|τ − t|).
 void cohen_massaro_partials(std::span<const CmSegment> segments, std::span<const double> times_s,
                             std::vector<double>& z, CmPartials* partials, bool need_dc = true);
 
@@ -138,8 +141,9 @@ void cohen_massaro_keyed(const KeyedUtterance& u, std::span<const double> x, std
                          std::vector<double>* jacobian);
 
 // Öhman for one parameter: x holds 2 values per key: anchors (a, unused),
-// consonants (c, w_c). Blend functions as in ohman.cpp (eq. 16–17).
+// consonants (c, w_c). z by the model's forward pass (ohman_blends and
+// ohman_value in ohman.h, eq. 16–17), J by eq. 18–20.
 void ohman_keyed(const KeyedUtterance& u, std::span<const double> x, std::vector<double>& z,
                  std::vector<double>* jacobian);
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

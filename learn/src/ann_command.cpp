@@ -12,11 +12,11 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
-#include "avsi/synth/ann_training.h"
-#include "avsi/synth/evaluation.h"
+#include "avsi/learn/ann_training.h"
+#include "avsi/learn/evaluation.h"
 #include "svg_plot.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 namespace fs = std::filesystem;
 
 std::pair<int, int> parse_lookahead_range(const std::string& text) {
@@ -51,42 +51,23 @@ void write_lookahead_csv(const fs::path& path, const std::vector<LookaheadPoint>
 void write_lookahead_svg(const fs::path& path, const std::vector<LookaheadPoint>& points) {
     if (points.empty()) throw InputError(Diagnostic{path.string(), 0, 0, "", "expected sweep points, got none"});
     const detail::PlotBox box{560, 360, 70, 20, 36, 52};
-    double lo = points.front().test_rmse_percent, hi = lo;
-    for (const auto& p : points) {
-        lo = std::min(lo, p.test_rmse_percent);
-        hi = std::max(hi, p.test_rmse_percent);
-    }
-    if (!(hi > lo)) {
-        lo -= 0.5;
-        hi += 0.5;
-    }
-    const double pad = 0.08 * (hi - lo);
-    lo -= pad;
-    hi += pad;
+    detail::ValueRange range;
+    for (const auto& p : points) range.extend(p.test_rmse_percent);
+    const auto [lo, hi] = range.padded(0.08);
     const double a0 = points.front().look_ahead, a1 = std::max<double>(points.back().look_ahead, a0 + 1);
-    auto X = [&](double a) { return box.left + (a - a0) / (a1 - a0) * box.frame_width(); };
     detail::SvgPage page(path, box);
+    auto X = [&](double a) { return page.x_of(a, a0, a1); };
     auto Y = [&](double v) { return page.y_of(v, lo, hi); };
     cairo_t* cr = page.cr();
     page.frame_with_value_labels(lo, hi, 50);
-    for (const auto& p : points) {
-        cairo_move_to(cr, X(p.look_ahead) - 4, box.height - box.bottom + 16);
-        cairo_show_text(cr, fmt::format("{}", p.look_ahead).c_str());
-    }
-    cairo_move_to(cr, box.left, 20);
-    cairo_show_text(cr, "Occlusion ANN: held-out RMSE (% of range) vs look-ahead (frames at 60 fps), window 31");
-    cairo_move_to(cr, (box.width - box.left) / 2, box.height - 12);
-    cairo_show_text(cr, "look-ahead (frames)");
+    for (const auto& p : points) page.text(X(p.look_ahead) - 4, box.height - box.bottom + 16, fmt::format("{}", p.look_ahead));
+    page.text(box.left, 20, "Occlusion ANN: held-out RMSE (% of range) vs look-ahead (frames at 60 fps), window 31");
+    page.text((box.width - box.left) / 2, box.height - 12, "look-ahead (frames)");
     cairo_set_source_rgb(cr, 0.1, 0.3, 0.8);
     cairo_set_line_width(cr, 1.5);
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        const double x = X(points[i].look_ahead), y = Y(points[i].test_rmse_percent);
-        if (i == 0)
-            cairo_move_to(cr, x, y);
-        else
-            cairo_line_to(cr, x, y);
-    }
-    cairo_stroke(cr);
+    page.polyline(
+        points.size(), [&](std::size_t i) { return X(points[i].look_ahead); },
+        [&](std::size_t i) { return Y(points[i].test_rmse_percent); });
     for (const auto& p : points) {
         cairo_arc(cr, X(p.look_ahead), Y(p.test_rmse_percent), 3, 0, 2 * M_PI);
         cairo_fill(cr);
@@ -184,4 +165,4 @@ void run_ann_command(const AnnCommandSettings& s) {
              test_scores.mean[all].rmse_percent, test_scores.mean[all].pearson, report.seconds);
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

@@ -1,7 +1,7 @@
 // Midsagittal sensors → articulatory parameters: head-motion removal by a
 // per-frame rigid 2-D Procrustes fit to reference sensors (Beskow §3.2), then
 // the documented direct mapping of sensor_mapping.h.
-#include "avsi/synth/sensor_mapping.h"
+#include "avsi/learn/sensor_mapping.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,9 +10,9 @@
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
-#include "avsi/synth/articulatory_corpus.h"
+#include "avsi/learn/articulatory_corpus.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 namespace {
 
@@ -228,4 +228,4 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
     return out;
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

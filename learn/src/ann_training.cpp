@@ -2,7 +2,7 @@
 // recurrent time-delay networks as torch modules, backpropagation through
 // time by autograd over whole padded utterances, Adam, masked loss, early
 // stopping on the held-out error. The only file that includes torch.
-#include "avsi/synth/ann_training.h"
+#include "avsi/learn/ann_training.h"
 
 #include <algorithm>
 #include <chrono>
@@ -14,7 +14,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 namespace {
 
 // One utterance as tensors at the model frame rate.
@@ -318,4 +318,4 @@ std::vector<LookaheadPoint> sweep_lookahead(const AnnTrainingSettings& settings,
     return points;
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn

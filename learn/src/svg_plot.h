@@ -1,11 +1,16 @@
-// The page both of synth's figures draw on (Fig. 5 target-vs-model tracks in
-// evaluation.cpp, the Fig. 4 look-ahead sweep in ann_command.cpp): a cairo SVG
-// surface with a white background and an 11 px sans-serif font, the plot
-// frame with five value labels, and cairo's write errors reported as
-// InputError when the page is finished.
+// The one plot helper of learn's figures (Fig. 5 target-vs-model tracks in
+// evaluation.cpp, the Fig. 4 look-ahead sweep in ann_command.cpp): the value
+// range of the plotted data, a cairo SVG surface with a white background and
+// an 11 px sans-serif font, positions on the plot frame, the frame with five
+// value labels, text, lines broken at missing values, and cairo's write
+// errors reported as InputError when the page is finished. (cairo is
+// learn's: synth's own `avsi synth --plot` writes its SVG as text.)
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <string>
 
 #include <cairo-svg.h>
@@ -14,7 +19,33 @@
 
 #include "avsi/core/error.h"
 
-namespace avsi::synth::detail {
+namespace avsi::learn::detail {
+
+// The range of the finite values given to extend(), widened for plotting.
+class ValueRange {
+public:
+    void extend(double v) {
+        if (std::isfinite(v)) {
+            m_lo = std::min(m_lo, v);
+            m_hi = std::max(m_hi, v);
+        }
+    }
+    // [lo, hi] with pad_fraction of its width added on each side (a range of
+    // one value first widened by 0.5 each way).
+    std::pair<double, double> padded(double pad_fraction) const {
+        double lo = m_lo, hi = m_hi;
+        if (!(hi > lo)) {
+            lo -= 0.5;
+            hi += 0.5;
+        }
+        const double pad = pad_fraction * (hi - lo);
+        return {lo - pad, hi + pad};
+    }
+
+private:
+    double m_lo = std::numeric_limits<double>::infinity();
+    double m_hi = -std::numeric_limits<double>::infinity();
+};
 
 // Page size and the margins around the plot frame, in SVG points.
 struct PlotBox {
@@ -41,6 +72,11 @@ public:
 
     cairo_t* cr() const { return m_cr; }
 
+    // Horizontal position of value v on a frame spanning [lo, hi] left to right.
+    double x_of(double v, double lo, double hi) const {
+        return m_box.left + (v - lo) / (hi - lo) * m_box.frame_width();
+    }
+
     // Vertical position of value v on a frame spanning [lo, hi] bottom to top.
     double y_of(double v, double lo, double hi) const {
         return m_box.top + (hi - v) / (hi - lo) * m_box.frame_height();
@@ -57,6 +93,32 @@ public:
             cairo_move_to(m_cr, m_box.left - label_inset, y_of(v, lo, hi) + 4);
             cairo_show_text(m_cr, fmt::format("{:.2f}", v).c_str());
         }
+    }
+
+    // `text` with its baseline starting at (x, y), in the current colour.
+    void text(double x, double y, const std::string& text) {
+        cairo_move_to(m_cr, x, y);
+        cairo_show_text(m_cr, text.c_str());
+    }
+
+    // A line through (x(k), y(k)) for k < count, lifted where y(k) is not
+    // finite, stroked in the current colour and width.
+    template <class X, class Y>
+    void polyline(std::size_t count, const X& x, const Y& y) {
+        bool pen = false;
+        for (std::size_t k = 0; k < count; ++k) {
+            const double yk = y(k);
+            if (!std::isfinite(yk)) {
+                pen = false;
+                continue;
+            }
+            if (pen)
+                cairo_line_to(m_cr, x(k), yk);
+            else
+                cairo_move_to(m_cr, x(k), yk);
+            pen = true;
+        }
+        cairo_stroke(m_cr);
     }
 
     // Writes the file; throws InputError naming it when cairo could not.
@@ -84,4 +146,4 @@ private:
     cairo_t* m_cr = nullptr;
 };
 
-}  // namespace avsi::synth::detail
+}  // namespace avsi::learn::detail

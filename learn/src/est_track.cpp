@@ -1,6 +1,6 @@
 // EST track files (Edinburgh Speech Tools), as MOCHA-TIMIT and mngu0 ship
 // EMA data, and sensor CSV. See est_track.h for the layout.
-#include "avsi/synth/est_track.h"
+#include "avsi/learn/est_track.h"
 
 #include <algorithm>
 #include <bit>
@@ -19,7 +19,7 @@
 #include "avsi/core/log.h"
 #include "avsi/core/text.h"
 
-namespace avsi::synth {
+namespace avsi::learn {
 
 std::size_t EstTrack::channel(const std::string& name) const {
     const auto it = std::find(channels.begin(), channels.end(), name);
@@ -299,4 +299,4 @@ EstTrack read_sensor_file(const std::filesystem::path& path) {
     return read_est_track(path);
 }
 
-}  // namespace avsi::synth
+}  // namespace avsi::learn
