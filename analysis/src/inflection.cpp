@@ -121,26 +121,22 @@ Inflections Inflections::read_default() {
     return read(dir / "inflections.csv", dir / "lemma_pos.tsv");
 }
 
-void Inflections::add_open_word(const std::string& word) {
-    if (is_word_text(word) && !m_pos.count(word)) m_open.insert(word);
-}
-
 std::uint8_t Inflections::pos_of(const std::string& word) const {
     const auto it = m_pos.find(word);
     return it == m_pos.end() ? 0 : it->second;
 }
 
-std::uint8_t Inflections::base_pos_of(const std::string& word) const {
+std::uint8_t Inflections::base_pos_of(const std::string& word, const OpenWords* open) const {
     const std::uint8_t pos = pos_of(word);
-    return pos != 0 ? pos : m_open.count(word) ? std::uint8_t(Noun | Verb) : std::uint8_t(0);
+    return pos != 0 ? pos : open && open->count(word) ? std::uint8_t(Noun | Verb) : std::uint8_t(0);
 }
 
-std::vector<std::string> Inflections::lemmas(const std::string& w) const {
+std::vector<std::string> Inflections::lemmas(const std::string& w, const OpenWords* open) const {
     std::vector<std::string> out{w};
     if (!is_word_text(w)) return out;  // numbers and the like inflect by no rule
     auto add_base = [&](const std::string& base, Suffix suffix) {
         if (base.size() < 2 || std::find(out.begin(), out.end(), base) != out.end()) return;
-        const std::uint8_t pos = base_pos_of(base);
+        const std::uint8_t pos = base_pos_of(base, open);
         if (suffix == Suffix::S ? (pos & (Noun | Verb)) == 0 : (pos & Verb) == 0) return;
         if (m_not.count({w, base})) return;
         const auto forms = regular_forms(base, suffix);
@@ -173,9 +169,9 @@ std::vector<std::string> Inflections::lemmas(const std::string& w) const {
     return out;
 }
 
-bool Inflections::same_lemma(const std::string& a, const std::string& b) const {
+bool Inflections::same_lemma(const std::string& a, const std::string& b, const OpenWords* open) const {
     if (a == b) return true;
-    const auto la = lemmas(a), lb = lemmas(b);
+    const auto la = lemmas(a, open), lb = lemmas(b, open);
     for (const auto& x : la)
         if (std::find(lb.begin(), lb.end(), x) != lb.end()) return true;
     return false;

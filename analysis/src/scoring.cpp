@@ -8,6 +8,7 @@
 #include <cctype>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <set>
 
 #include <fmt/format.h>
@@ -159,12 +160,28 @@ std::vector<std::string> corpus_vocabulary(const Corpus& corpus) {
     return {words.begin(), words.end()};
 }
 
+namespace {
+
+// The tables of a path, read once per process (scorers of every rule set
+// share them).
+template <typename T, typename Read>
+std::shared_ptr<const T> shared_table(const std::vector<std::filesystem::path>& key, Read read) {
+    static std::mutex mutex;
+    static std::map<std::vector<std::filesystem::path>, std::shared_ptr<const T>> cache;
+    std::lock_guard lock(mutex);
+    auto& slot = cache[key];
+    if (!slot) slot = std::make_shared<const T>(read());
+    return slot;
+}
+
+}  // namespace
+
 struct KeywordScorer::Impl {
     ScoringSettings settings;
-    WordGroups homophones, variants;
-    std::optional<Inflections> inflections;       // loose and lenient
-    std::shared_ptr<const Lexicon> lexicon;        // lenient
-    std::set<std::string, std::less<>> vocabulary;
+    std::shared_ptr<const WordGroups> homophones, variants;
+    std::shared_ptr<const Inflections> inflections;  // loose and lenient
+    std::shared_ptr<const Lexicon> lexicon;          // lenient
+    Inflections::OpenWords vocabulary;
 
     bool is_word(const std::string& w) const {
         return vocabulary.count(w) > 0 || (lexicon && lexicon->contains(w));
@@ -172,10 +189,10 @@ struct KeywordScorer::Impl {
 
     bool inflection_of(const std::string& k, const std::string& r) const {
         if (!inflections || is_number(k) || is_number(r)) return false;
-        if (inflections->same_lemma(k, r)) return true;
+        if (inflections->same_lemma(k, r, &vocabulary)) return true;
         // An inflection of a spelling variant (colours for color).
-        for (const auto& v : variants.partners(r))
-            if (inflections->same_lemma(k, v)) return true;
+        for (const auto& v : variants->partners(r))
+            if (inflections->same_lemma(k, v, &vocabulary)) return true;
         return false;
     }
 
@@ -193,8 +210,8 @@ struct KeywordScorer::Impl {
         case MatchRule::Exact: return equal && k.number_in_words == r.number_in_words;
         case MatchRule::Number: return equal && k.number_in_words != r.number_in_words;
         case MatchRule::Alternate: return equal;
-        case MatchRule::Variant: return equal || variants.same_group(k.text, r.text);
-        case MatchRule::Homophone: return equal || homophones.same_group(k.text, r.text);
+        case MatchRule::Variant: return equal || variants->same_group(k.text, r.text);
+        case MatchRule::Homophone: return equal || homophones->same_group(k.text, r.text);
         case MatchRule::Inflection: return equal || inflection_of(k.text, r.text);
         case MatchRule::Typo: return equal || typo_of(k.text, r.text);
         case MatchRule::None: return false;
@@ -206,13 +223,15 @@ struct KeywordScorer::Impl {
 KeywordScorer::KeywordScorer(ScoringSettings settings) : m_impl(std::make_unique<Impl>()) {
     Impl& m = *m_impl;
     m.settings = std::move(settings);
-    m.homophones = WordGroups::read(protocols_file(m.settings.homophones, "homophones.csv"));
-    m.variants = WordGroups::read(protocols_file(m.settings.spelling_variants, "spelling_variants.csv"));
+    const auto homophones = protocols_file(m.settings.homophones, "homophones.csv");
+    m.homophones = shared_table<WordGroups>({homophones}, [&] { return WordGroups::read(homophones); });
+    const auto variants = protocols_file(m.settings.spelling_variants, "spelling_variants.csv");
+    m.variants = shared_table<WordGroups>({variants}, [&] { return WordGroups::read(variants); });
     for (const auto& w : m.settings.vocabulary) m.vocabulary.insert(w);
     if (rule_set_allows(m.settings.rules, MatchRule::Inflection)) {
-        m.inflections = Inflections::read(protocols_file(m.settings.inflections, "inflections.csv"),
-                                          protocols_file(m.settings.parts_of_speech, "lemma_pos.tsv"));
-        for (const auto& w : m.settings.vocabulary) m.inflections->add_open_word(w);
+        const auto table = protocols_file(m.settings.inflections, "inflections.csv");
+        const auto pos = protocols_file(m.settings.parts_of_speech, "lemma_pos.tsv");
+        m.inflections = shared_table<Inflections>({table, pos}, [&] { return Inflections::read(table, pos); });
     }
     if (rule_set_allows(m.settings.rules, MatchRule::Typo)) m.lexicon = Lexicon::shared(m.settings.lexicon);
 }
@@ -494,13 +513,16 @@ ScoringResult score_responses(const Corpus& corpus, const std::vector<Response>&
 }
 
 std::optional<double> cohens_kappa(std::size_t both, std::size_t a_only, std::size_t b_only, std::size_t neither) {
-    const double n = double(both + a_only + b_only + neither);
+    // kappa = (po - pe) / (1 - pe), po = agreements / n, pe = (a_yes b_yes +
+    // a_no b_no) / n^2; multiplied through by n^2 so that the counts stay
+    // integers (exact zero when po = pe).
+    const long long n = static_cast<long long>(both + a_only + b_only + neither);
     if (n == 0) return std::nullopt;
-    const double observed = double(both + neither) / n;
-    const double a_yes = double(both + a_only) / n, b_yes = double(both + b_only) / n;
-    const double expected = a_yes * b_yes + (1.0 - a_yes) * (1.0 - b_yes);
-    if (expected >= 1.0) return std::nullopt;
-    return (observed - expected) / (1.0 - expected);
+    const long long a_yes = static_cast<long long>(both + a_only), b_yes = static_cast<long long>(both + b_only);
+    const long long chance = a_yes * b_yes + (n - a_yes) * (n - b_yes);  // pe * n^2
+    const long long observed = static_cast<long long>(both + neither) * n;  // po * n^2
+    if (chance == n * n) return std::nullopt;
+    return double(observed - chance) / double(n * n - chance);
 }
 
 AgreementResult compare_with_scorer(const ScoringResult& result, const std::vector<Override>& judgments,

@@ -45,28 +45,27 @@ public:
     // consonant may be doubled or not, or -o may take -s or -es).
     static std::vector<std::string> regular_forms(const std::string& base, Suffix suffix);
 
-    // Lets `word` be the base of a regular inflection as a noun or a verb
-    // when WordNet gives it no part of speech (the corpus's words it lacks).
-    void add_open_word(const std::string& word);
+    // Words (the corpus's) that may be the base of a regular inflection as a
+    // noun or a verb when WordNet gives them no part of speech.
+    using OpenWords = std::set<std::string, std::less<>>;
 
     // The lemmas `word` is a form of: itself, the bases it is a regular
     // inflection of, and the lemmas it is a listed irregular form of.
-    std::vector<std::string> lemmas(const std::string& word) const;
+    std::vector<std::string> lemmas(const std::string& word, const OpenWords* open = nullptr) const;
 
     // Do the two normalised words share a lemma?
-    bool same_lemma(const std::string& a, const std::string& b) const;
+    bool same_lemma(const std::string& a, const std::string& b, const OpenWords* open = nullptr) const;
 
     std::size_t irregular_count() const { return m_irregular_count; }
 
 private:
     enum : std::uint8_t { Noun = 1, Verb = 2 };
     std::uint8_t pos_of(const std::string& word) const;       // WordNet's
-    std::uint8_t base_pos_of(const std::string& word) const;  // WordNet's, or n+v for open words
+    std::uint8_t base_pos_of(const std::string& word, const OpenWords* open) const;  // or n+v for open words
 
     std::unordered_map<std::string, std::vector<std::string>> m_irregular;  // form -> lemmas
     std::set<std::pair<std::string, std::string>> m_not;                     // (form, lemma)
     std::unordered_map<std::string, std::uint8_t> m_pos;
-    std::set<std::string, std::less<>> m_open;
     std::size_t m_irregular_count = 0;
 };
 
