@@ -61,8 +61,8 @@ const bool registered_score = register_command({
             if (!o->protocol.empty()) {
                 const Protocol protocol = load_protocol(o->protocol);
                 s.corpus = protocol.corpus.sentences;
+                s.scoring = analysis::scoring_settings(protocol);
                 rules = protocol.scoring.rules;
-                s.scoring.homophones = protocol.scoring.homophones;
             }
             if (!o->corpus.empty()) s.corpus = o->corpus;
             if (s.corpus.empty()) throw UsageError("--corpus (or --protocol, whose [corpus] sentences it uses) is required");

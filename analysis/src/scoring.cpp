@@ -147,6 +147,15 @@ WordGroups WordGroups::read(const std::filesystem::path& path) {
 
 // ---------------------------------------------------------------- scorer
 
+ScoringSettings scoring_settings(const Protocol& protocol) {
+    ScoringSettings s;
+    const auto set = parse_rule_set(protocol.scoring.rules);
+    AVSI_ASSERT(set.has_value());  // load_protocol accepts protocol_rule_sets() only
+    s.rules = *set;
+    s.homophones = protocol.scoring.homophones;
+    return s;
+}
+
 std::vector<std::string> corpus_vocabulary(const Corpus& corpus) {
     std::set<std::string> words;
     for (const auto& s : corpus.sentences) {

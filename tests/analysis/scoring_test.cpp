@@ -201,6 +201,12 @@ TEST(Strictness, StrictAndLooseDifferOnlyOnInflections) {
 
 TEST(RuleSets, NamesParseAndSetsAreNested) {
     EXPECT_EQ(rule_set_names(), (std::vector<std::string>{"strict", "loose", "lenient"}));
+    EXPECT_EQ(rule_set_names(), protocol_rule_sets());  // the protocol loader accepts exactly these
+    Protocol p;
+    p.scoring.rules = "loose";
+    p.scoring.homophones = "rp.csv";
+    EXPECT_EQ(scoring_settings(p).rules, RuleSet::Loose);
+    EXPECT_EQ(scoring_settings(p).homophones, "rp.csv");
     for (RuleSet set : kRuleSets) EXPECT_EQ(parse_rule_set(rule_set_name(set)), set);
     EXPECT_FALSE(parse_rule_set("strikt"));
     for (MatchRule rule : {MatchRule::Exact, MatchRule::Number, MatchRule::Alternate, MatchRule::Variant,

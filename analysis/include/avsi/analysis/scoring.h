@@ -38,9 +38,9 @@
 // One scorer object scores one response at a time, for batch files and for a
 // live adaptive track alike:
 //
-//   avsi::analysis::ScoringSettings s;
-//   s.rules = avsi::analysis::RuleSet::Strict;
-//   avsi::analysis::KeywordScorer scorer(s);
+//   avsi::analysis::ScoringSettings s = avsi::analysis::scoring_settings(protocol);
+//   s.vocabulary = avsi::analysis::corpus_vocabulary(corpus);
+//   const avsi::analysis::KeywordScorer scorer(s);  // once; then per answer:
 //   auto matches = scorer.score(sentence, "the boys fell from the windows");
 //
 // Responses CSV (the experiment module's export):
@@ -59,6 +59,7 @@
 
 #include "avsi/analysis/scores.h"
 #include "avsi/core/corpus.h"
+#include "avsi/core/protocol.h"
 
 namespace avsi::analysis {
 
@@ -114,6 +115,10 @@ struct ScoringSettings {
     // the corpus vocabulary (corpus_vocabulary()).
     std::vector<std::string> vocabulary;
 };
+
+// The scoring settings a protocol asks for: its [scoring] rule set and
+// homophone table (the loader has validated both).
+ScoringSettings scoring_settings(const Protocol& protocol);
 
 // The normalised words of every sentence, keyword and alternate of a corpus.
 std::vector<std::string> corpus_vocabulary(const Corpus& corpus);
