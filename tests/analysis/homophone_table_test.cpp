@@ -23,6 +23,7 @@ namespace {
 
 std::mutex g_espeak_mutex;
 bool g_espeak_initialised = false;
+std::string g_espeak_voice;  // the voice selected last (selecting one allocates)
 
 // Releases espeak-ng's buffers when the test program ends (for LeakSanitizer).
 class EspeakEnvironment : public ::testing::Environment {
@@ -31,6 +32,7 @@ public:
         std::lock_guard lock(g_espeak_mutex);
         if (g_espeak_initialised) espeak_Terminate();
         g_espeak_initialised = false;
+        g_espeak_voice.clear();
     }
 };
 [[maybe_unused]] ::testing::Environment* const g_espeak_environment =
@@ -45,7 +47,10 @@ std::string phonemes(const std::string& word, const std::string& voice) {
         if (rate <= 0) return "";
         initialised = true;
     }
-    if (espeak_SetVoiceByName(voice.c_str()) != EE_OK) return "";
+    if (voice != g_espeak_voice) {
+        if (espeak_SetVoiceByName(voice.c_str()) != EE_OK) return "";
+        g_espeak_voice = voice;
+    }
     std::string out;
     const void* pointer = word.c_str();
     while (pointer) {
