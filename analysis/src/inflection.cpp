@@ -20,8 +20,23 @@ bool has_suffix(const std::string& s, std::string_view suffix) {
     return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+// Vowel groups (a rough syllable count: "stop" 1, "visit" 2, "travel" 2).
+std::size_t vowel_groups(const std::string& b) {
+    std::size_t groups = 0;
+    bool in_vowel = false;
+    for (char c : b) {
+        const bool v = is_vowel(c) || (c == 'y' && groups > 0);
+        if (v && !in_vowel) ++groups;
+        in_vowel = v;
+    }
+    return groups;
+}
+
 // consonant + single vowel + consonant (not w, x, y) at the end: the final
-// consonant may double before -ed/-ing (stop -> stopped; visit -> visited).
+// consonant doubles before -ed/-ing in one syllable (stop -> stopped, hat ->
+// hatted, never hated) and may or may not in longer words, depending on
+// stress and variety (prefer -> preferred, visit -> visited, travel ->
+// travelled or traveled).
 bool ends_cvc(const std::string& b) {
     const std::size_t n = b.size();
     if (n < 3) return false;
@@ -49,13 +64,15 @@ std::vector<std::string> Inflections::regular_forms(const std::string& b, Suffix
     case Suffix::Ed:
         if (has_suffix(b, "e")) return {b + "d"};
         if (consonant_y) return {b.substr(0, n - 1) + "ied"};
-        if (ends_cvc(b)) return {b + b.back() + "ed", b + "ed"};
+        if (ends_cvc(b)) return vowel_groups(b) == 1 ? std::vector<std::string>{b + b.back() + "ed"}
+                                                     : std::vector<std::string>{b + b.back() + "ed", b + "ed"};
         return {b + "ed"};
     case Suffix::Ing:
         if (has_suffix(b, "ie")) return {b.substr(0, n - 2) + "ying"};
         if (has_suffix(b, "e") && !has_suffix(b, "ee") && !has_suffix(b, "ye") && !has_suffix(b, "oe") && n > 2)
             return {b.substr(0, n - 1) + "ing"};
-        if (ends_cvc(b)) return {b + b.back() + "ing", b + "ing"};
+        if (ends_cvc(b)) return vowel_groups(b) == 1 ? std::vector<std::string>{b + b.back() + "ing"}
+                                                     : std::vector<std::string>{b + b.back() + "ing", b + "ing"};
         return {b + "ing"};
     }
     return {};

@@ -191,6 +191,7 @@ struct KeywordScorer::Impl {
     std::shared_ptr<const Inflections> inflections;  // loose and lenient
     std::shared_ptr<const Lexicon> lexicon;          // lenient
     Inflections::OpenWords vocabulary;
+    Inflections::OpenWords open_words;  // vocabulary words that may be bases though WordNet lacks them
 
     bool is_word(const std::string& w) const {
         return vocabulary.count(w) > 0 || (lexicon && lexicon->contains(w));
@@ -198,10 +199,10 @@ struct KeywordScorer::Impl {
 
     bool inflection_of(const std::string& k, const std::string& r) const {
         if (!inflections || is_number(k) || is_number(r)) return false;
-        if (inflections->same_lemma(k, r, &vocabulary)) return true;
+        if (inflections->same_lemma(k, r, &open_words)) return true;
         // An inflection of a spelling variant (colours for color).
         for (const auto& v : variants->partners(r))
-            if (inflections->same_lemma(k, v, &vocabulary)) return true;
+            if (inflections->same_lemma(k, v, &open_words)) return true;
         return false;
     }
 
@@ -241,6 +242,11 @@ KeywordScorer::KeywordScorer(ScoringSettings settings) : m_impl(std::make_unique
         const auto table = protocols_file(m.settings.inflections, "inflections.csv");
         const auto pos = protocols_file(m.settings.parts_of_speech, "lemma_pos.tsv");
         m.inflections = shared_table<Inflections>({table, pos}, [&] { return Inflections::read(table, pos); });
+        // Corpus words WordNet lacks (goldfish, doorstep) may be bases, but
+        // not words that are forms of a known lemma themselves (rang, chefs):
+        // "ranged" is no form of "rang".
+        for (const auto& w : m.vocabulary)
+            if (m.inflections->lemmas(w).size() == 1) m.open_words.insert(w);
     }
     if (rule_set_allows(m.settings.rules, MatchRule::Typo)) m.lexicon = Lexicon::shared(m.settings.lexicon);
 }

@@ -155,6 +155,17 @@ TEST(Lexicon, CorpusVocabularyIsNeverATypo) {
     EXPECT_EQ(scorer(RuleSet::Lenient).score(s, "kitchin")[0].rule, MatchRule::Typo);
 }
 
+TEST(Inflection, CorpusWordsWordNetLacksAreBasesButFormsAreNot) {
+    ScoringSettings settings;
+    settings.rules = RuleSet::Loose;
+    settings.vocabulary = {"zorp", "rang"};  // a made-up name of the corpus, and the past of ring
+    const KeywordScorer with_corpus(settings);
+    EXPECT_EQ(with_corpus.score(sentence_of("zorp"), "two zorps")[0].rule, MatchRule::Inflection);
+    EXPECT_EQ(scorer(RuleSet::Loose).score(sentence_of("zorp"), "two zorps")[0].rule, MatchRule::None);
+    EXPECT_EQ(with_corpus.score(sentence_of("rang"), "ranged")[0].rule, MatchRule::None);
+    EXPECT_EQ(with_corpus.score(sentence_of("rang"), "rung")[0].rule, MatchRule::Inflection);  // both forms of ring
+}
+
 TEST(Inflection, RegularSpellingRules) {
     using V = std::vector<std::string>;
     EXPECT_EQ(Inflections::regular_forms("boy", Suffix::S), V{"boys"});
@@ -163,12 +174,15 @@ TEST(Inflection, RegularSpellingRules) {
     EXPECT_EQ(Inflections::regular_forms("potato", Suffix::S), (V{"potatoes", "potatos"}));
     EXPECT_EQ(Inflections::regular_forms("bake", Suffix::Ed), V{"baked"});
     EXPECT_EQ(Inflections::regular_forms("carry", Suffix::Ed), V{"carried"});
-    EXPECT_EQ(Inflections::regular_forms("stop", Suffix::Ed), (V{"stopped", "stoped"}));
+    EXPECT_EQ(Inflections::regular_forms("stop", Suffix::Ed), V{"stopped"});   // one syllable: doubled
+    EXPECT_EQ(Inflections::regular_forms("hat", Suffix::Ed), V{"hatted"});     // so hated is not hat + ed
+    EXPECT_EQ(Inflections::regular_forms("travel", Suffix::Ed), (V{"travelled", "traveled"}));
     EXPECT_EQ(Inflections::regular_forms("help", Suffix::Ed), V{"helped"});
     EXPECT_EQ(Inflections::regular_forms("bake", Suffix::Ing), V{"baking"});
     EXPECT_EQ(Inflections::regular_forms("see", Suffix::Ing), V{"seeing"});
     EXPECT_EQ(Inflections::regular_forms("die", Suffix::Ing), V{"dying"});
-    EXPECT_EQ(Inflections::regular_forms("run", Suffix::Ing), (V{"running", "runing"}));
+    EXPECT_EQ(Inflections::regular_forms("run", Suffix::Ing), V{"running"});
+    EXPECT_EQ(Inflections::regular_forms("visit", Suffix::Ing), (V{"visitting", "visiting"}));
 }
 
 TEST(Inflection, LemmasNeedARealBaseOfTheRightPartOfSpeech) {
@@ -186,6 +200,8 @@ TEST(Inflection, LemmasNeedARealBaseOfTheRightPartOfSpeech) {
     EXPECT_FALSE(has("evening", "even")); // listed: a noun of its own
     EXPECT_FALSE(has("clothes", "cloth"));
     EXPECT_FALSE(inf.same_lemma("rang", "range"));
+    EXPECT_FALSE(inf.same_lemma("hat", "hated"));
+    EXPECT_TRUE(inf.same_lemma("hate", "hated"));
 }
 
 }  // namespace
