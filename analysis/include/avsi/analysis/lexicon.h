@@ -7,6 +7,11 @@
 // british-english, about 104,000 entries each with plurals, verb forms and
 // possessives). A word is in the lexicon when it is in either list, so a
 // British spelling typed by an American listener (or the reverse) is a word.
+// Why these lists: each inflected form is a plain line (hunspell-en-us needs
+// its affix rules expanded; WordNet holds base forms only, so "pounds" would
+// not be a word), both varieties come from one source, and the size-50 lists
+// hold the words of ordinary dictionaries without the rare words that would
+// turn common misspellings into "words" (the larger SCOWL sizes list more).
 // Entries are normalised like responses (text_normalize.h); capitalised
 // entries (names: Mable, Paris) and possessives ('s) are left out, the first
 // because a lower-case response word is not a name, the second because
