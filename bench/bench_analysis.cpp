@@ -1,8 +1,10 @@
 // Benchmarks of the analysis module: the repeated-measures ANOVA with
-// sphericity for a study-sized data set, keyword scoring of one response,
-// and one simulated experiment of the power analysis.
+// sphericity for a study-sized data set, reading the scoring lexicon, keyword
+// scoring of one response under each rule set, and one simulated experiment
+// of the power analysis.
 #include <benchmark/benchmark.h>
 
+#include "avsi/analysis/lexicon.h"
 #include "avsi/analysis/power.h"
 #include "avsi/analysis/rm_anova.h"
 #include "avsi/analysis/scoring.h"
@@ -21,15 +23,33 @@ void BM_RmAnova25x6(benchmark::State& state) {
 }
 BENCHMARK(BM_RmAnova25x6);
 
+// The SCOWL word lists (wamerican + wbritish) read from disk, as the first
+// lenient scorer of a process does (later ones share it).
+void BM_LexiconLoad(benchmark::State& state) {
+    for (auto _ : state) benchmark::DoNotOptimize(Lexicon::read(Lexicon::default_files()));
+}
+BENCHMARK(BM_LexiconLoad)->Unit(benchmark::kMillisecond);
+
+void BM_LexiconLookup(benchmark::State& state) {
+    const auto lexicon = Lexicon::shared();
+    const char* words[] = {"pound", "gardne", "windows", "brekfast", "evening", "kitchne"};
+    std::size_t i = 0;
+    for (auto _ : state) benchmark::DoNotOptimize(lexicon->contains(words[i++ % 6]));
+}
+BENCHMARK(BM_LexiconLookup);
+
+// One typed answer under a rule set (0 strict, 1 loose, 2 lenient).
 void BM_ScoreResponse(benchmark::State& state) {
-    KeywordScorer scorer;
+    ScoringSettings settings;
+    settings.rules = kRuleSets[std::size_t(state.range(0))];
+    const KeywordScorer scorer(settings);
     avsi::Sentence s;
     s.id = "s1";
     s.text = "The dog barked at the mailman.";
     s.keywords = {{"dog", {"dogs"}}, {"barked", {}}, {"mailman", {"postman"}}};
-    for (auto _ : state) benchmark::DoNotOptimize(scorer.score(s, "the dogs were barking at the mailmen"));
+    for (auto _ : state) benchmark::DoNotOptimize(scorer.score(s, "the dogs were barkng at the mailmen"));
 }
-BENCHMARK(BM_ScoreResponse);
+BENCHMARK(BM_ScoreResponse)->Arg(0)->Arg(1)->Arg(2);
 
 void BM_PowerOneSubjectCount(benchmark::State& state) {
     PowerSettings s;

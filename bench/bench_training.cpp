@@ -7,14 +7,14 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "avsi/synth/articulatory_corpus.h"
-#include "avsi/synth/reference_speaker.h"
-#include "avsi/synth/training.h"
+#include "avsi/learn/articulatory_corpus.h"
+#include "avsi/learn/reference_speaker.h"
+#include "avsi/learn/training.h"
 
 namespace {
 
 struct Data {
-    std::vector<avsi::synth::CorpusUtterance> train, test;
+    std::vector<avsi::learn::CorpusUtterance> train, test;
 };
 
 const Data& data() {
@@ -25,12 +25,12 @@ const Data& data() {
             dir = given;
         } else {
             std::filesystem::remove_all(dir);
-            avsi::synth::write_reference_corpus(dir, {});
+            avsi::learn::write_reference_corpus(dir, {});
         }
-        const auto corpus = avsi::synth::load_articulatory_corpus(dir);
+        const auto corpus = avsi::learn::load_articulatory_corpus(dir);
         std::vector<std::string> ids;
         for (const auto& e : corpus.entries) ids.push_back(e.id);
-        auto all = avsi::synth::load_corpus_utterances(corpus, ids);
+        auto all = avsi::learn::load_corpus_utterances(corpus, ids);
         Data out;
         out.train.assign(all.begin(), all.begin() + 200);
         out.test.assign(all.begin() + 200, all.end());
@@ -41,11 +41,11 @@ const Data& data() {
 
 void BM_TrainCohenMassaro200(benchmark::State& state) {
     const Data& d = data();
-    avsi::synth::TrainingSettings settings;
+    avsi::learn::TrainingSettings settings;
     settings.model = "cohen-massaro";
     settings.threads = static_cast<int>(state.range(0));
     for (auto _ : state) {
-        const auto report = avsi::synth::train_model(settings, d.train, d.test);
+        const auto report = avsi::learn::train_model(settings, d.train, d.test);
         state.counters["iterations"] = report.iterations;
         state.counters["test_rmse_percent"] = report.test_rmse_percent;
         benchmark::DoNotOptimize(report.model.get());
@@ -63,16 +63,16 @@ void BM_TrainCohenMassaroRateFloor(benchmark::State& state) {
         state.SkipWithError("set AVSI_BENCH_CORPUS to a folder written by avsi corpus reference");
         return;
     }
-    const auto corpus = avsi::synth::load_articulatory_corpus(given);
-    const auto split = avsi::synth::split_corpus(corpus);
-    const auto train = avsi::synth::load_corpus_utterances(corpus, split.train_ids);
-    const auto test = avsi::synth::load_corpus_utterances(corpus, split.test_ids);
-    avsi::synth::TrainingSettings settings;
+    const auto corpus = avsi::learn::load_articulatory_corpus(given);
+    const auto split = avsi::learn::split_corpus(corpus);
+    const auto train = avsi::learn::load_corpus_utterances(corpus, split.train_ids);
+    const auto test = avsi::learn::load_corpus_utterances(corpus, split.test_ids);
+    avsi::learn::TrainingSettings settings;
     settings.model = "cohen-massaro";
     settings.threads = 2;
     settings.min_rate_per_s = static_cast<double>(state.range(0)) / 10.0;
     for (auto _ : state) {
-        const auto report = avsi::synth::train_model(settings, train, test);
+        const auto report = avsi::learn::train_model(settings, train, test);
         state.counters["min_rate_per_s"] = settings.min_rate_per_s;
         state.counters["iterations"] = report.iterations;
         state.counters["train_rmse_percent"] = report.train_rmse_percent;

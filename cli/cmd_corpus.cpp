@@ -1,6 +1,6 @@
 // `avsi corpus <action>`: articulatory corpora for training and evaluating
 // control models. `avsi corpus reference --out DIR` writes the synthetic
-// reference speaker's corpus (synth/reference_speaker.h). Each action is a
+// reference speaker's corpus (learn/reference_speaker.h). Each action is a
 // sub-subcommand; importing recorded corpora is to come as another action.
 #include <filesystem>
 #include <functional>
@@ -11,8 +11,8 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
-#include "avsi/synth/articulatory_corpus.h"
-#include "avsi/synth/reference_speaker.h"
+#include "avsi/learn/articulatory_corpus.h"
+#include "avsi/learn/reference_speaker.h"
 #include "command.h"
 
 namespace avsi::cli {
@@ -21,15 +21,15 @@ namespace {
 struct ReferenceOptions {
     std::string out;
     std::string sentences;
-    synth::ReferenceSpeakerSettings settings;
+    learn::ReferenceSpeakerSettings settings;
 };
 
 int run_reference(const ReferenceOptions& o) {
-    synth::ReferenceSpeakerSettings s = o.settings;
+    learn::ReferenceSpeakerSettings s = o.settings;
     s.sentences_path = o.sentences;
-    const std::size_t n = synth::write_reference_corpus(o.out, s);
-    const synth::ArticulatoryCorpus corpus = synth::load_articulatory_corpus(o.out);
-    const synth::CorpusSplit split = synth::split_corpus(corpus);
+    const std::size_t n = learn::write_reference_corpus(o.out, s);
+    const learn::ArticulatoryCorpus corpus = learn::load_articulatory_corpus(o.out);
+    const learn::CorpusSplit split = learn::split_corpus(corpus);
     log_info("wrote {} utterances to {} ({} train / {} test, split seed {}); corpus hash {}", n, o.out,
              split.train_ids.size(), split.test_ids.size(), split.seed, corpus.hash);
     return 0;

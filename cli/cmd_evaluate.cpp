@@ -1,12 +1,12 @@
 // `avsi evaluate`: scores control models against a corpus' measured
 // trajectories in the layout of Table 2 of the reference study, and plots one
-// utterance like its Fig. 5 (synth/evaluation.h).
+// utterance like its Fig. 5 (learn/evaluation.h).
 #include <memory>
 #include <string>
 
 #include <fmt/format.h>
 
-#include "avsi/synth/evaluation.h"
+#include "avsi/learn/evaluation.h"
 #include "command.h"
 
 namespace avsi::cli {
@@ -16,7 +16,7 @@ const bool registered_evaluate = register_command({
     "evaluate",
     "Score models against an articulatory corpus: RMSE % of range and Pearson rho (Table 2), plus a plot",
     [](CLI::App& sub) -> std::function<int()> {
-        auto s = std::make_shared<synth::EvaluationSettings>();
+        auto s = std::make_shared<learn::EvaluationSettings>();
         auto seed = std::make_shared<std::uint64_t>(0);
         auto fraction = std::make_shared<double>(0.0);
         sub.add_option("--corpus", s->corpus, "Corpus folder (corpus.json or corpus.csv)")->required();
@@ -31,7 +31,7 @@ const bool registered_evaluate = register_command({
         return [s, seed, fraction, seed_opt, fraction_opt] {
             if (seed_opt->count()) s->split_seed = *seed;
             if (fraction_opt->count()) s->test_fraction = *fraction;
-            const synth::EvaluationResult r = synth::run_evaluation(*s);
+            const learn::EvaluationResult r = learn::run_evaluation(*s);
             fmt::print("{}\n", r.markdown);
             return 0;
         };

@@ -1,48 +1,87 @@
-// `avsi score`: keyword scoring of typed responses (keywords.csv, scores.csv).
+// `avsi score`: keyword scoring of typed responses (keywords.csv, scores.csv,
+// audit.csv; agreement with a second scorer).
 #include <memory>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "avsi/analysis/scoring.h"
+#include "avsi/core/error.h"
+#include "avsi/core/protocol.h"
 #include "command.h"
 
 namespace avsi::cli {
 namespace {
 
 struct ScoreOptions {
-    std::string corpus, responses, out = "scores", overrides, homophones;
+    std::string protocol, corpus, responses, out = "scores", overrides, homophones, rules, agreement;
     bool strict = false;
 };
 
 const bool registered_score = register_command({
     "score",
-    "Score typed responses against each sentence's keywords (keywords.csv, scores.csv)",
+    "Score typed responses against each sentence's keywords (keywords.csv, scores.csv, audit.csv)",
     [](CLI::App& sub) -> std::function<int()> {
         auto o = std::make_shared<ScoreOptions>();
-        sub.add_option("--corpus", o->corpus, "Sentence corpus CSV (id,text,keywords with alternates)")
-            ->required()
+        sub.add_option("--protocol", o->protocol,
+                       "Protocol file: its [corpus] sentences and [scoring] rules and homophones are the defaults")
+            ->check(CLI::ExistingFile);
+        sub.add_option("--corpus", o->corpus,
+                       "Sentence corpus CSV (id,text,keywords with alternates); required without --protocol")
             ->check(CLI::ExistingFile);
         sub.add_option("--responses", o->responses,
                        "Responses CSV: subject,session,trial,phase,condition,list,sentence,response "
                        "(only phase = test is scored)")
             ->required()
             ->check(CLI::ExistingFile);
-        sub.add_option("--out", o->out, "Output folder for keywords.csv, scores.csv (and overrides_applied.csv)")
+        sub.add_option("--out", o->out,
+                       "Output folder for keywords.csv, scores.csv, audit.csv (and overrides_applied.csv, "
+                       "agreement.csv, disagreements.csv)")
             ->capture_default_str();
-        sub.add_flag("--strict", o->strict, "No typo tolerance (Damerau-Levenshtein ≤ 1 for 5+ letter words)")
-            ->capture_default_str();
+        sub.add_option("--rules", o->rules,
+                       "Rule set: strict (exact word, alternates, number words, US/UK spellings, homophones), "
+                       "loose (also inflections of the keyword's root), lenient (also non-word misspellings); "
+                       "default: the protocol's [scoring] rules, else strict (docs/scoring.md)");
+        sub.add_flag("--strict", o->strict, "Same as --rules strict");
         sub.add_option("--overrides", o->overrides,
-                       "Manual overrides CSV: subject,trial or sentence,keyword_index,correct,reason")
+                       "Manual overrides CSV: subject,trial or sentence,keyword_index,correct,reason "
+                       "(audit.csv with `correct` edited and a reason is one)")
             ->check(CLI::ExistingFile);
-        sub.add_option("--homophones", o->homophones, "Homophone table (default: the shipped protocols/homophones.csv)")
+        sub.add_option("--agreement", o->agreement,
+                       "A second scorer's judgments (same layout: subject,trial or sentence,keyword_index,correct): "
+                       "percent agreement and Cohen's kappa per rule set, disagreements listed")
+            ->check(CLI::ExistingFile);
+        sub.add_option("--homophones", o->homophones,
+                       "Homophone table (default: the protocol's, else protocols/homophones.csv, General American; "
+                       "protocols/homophones-rp.csv for RP)")
             ->check(CLI::ExistingFile);
         return [o] {
             analysis::ScoreFilesSettings s;
-            s.corpus = o->corpus;
+            std::string rules = "strict";
+            if (!o->protocol.empty()) {
+                const Protocol protocol = load_protocol(o->protocol);
+                s.corpus = protocol.corpus.sentences;
+                s.scoring = analysis::scoring_settings(protocol);
+                rules = protocol.scoring.rules;
+            }
+            if (!o->corpus.empty()) s.corpus = o->corpus;
+            if (s.corpus.empty()) throw UsageError("--corpus (or --protocol, whose [corpus] sentences it uses) is required");
+            if (o->strict && !o->rules.empty() && o->rules != "strict")
+                throw UsageError(fmt::format("--strict and --rules {} disagree; give one", o->rules));
+            if (o->strict) rules = "strict";
+            if (!o->rules.empty()) rules = o->rules;
+            const auto set = analysis::parse_rule_set(rules);
+            if (!set) {
+                const std::string hint = closest_match(rules, analysis::rule_set_names());
+                throw UsageError(fmt::format("--rules: expected strict, loose or lenient, got \"{}\"{}", rules,
+                                             hint.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", hint)));
+            }
+            s.scoring.rules = *set;
             s.responses = o->responses;
             s.out_dir = o->out;
             s.overrides = o->overrides;
-            s.scoring.strict = o->strict;
-            s.scoring.homophones = o->homophones;
+            s.agreement = o->agreement;
+            if (!o->homophones.empty()) s.scoring.homophones = o->homophones;
             analysis::score_files(s);
             return 0;
         };

@@ -1,10 +1,10 @@
 // `avsi train`: fits a control model (Cohen-Massaro, Öhman, MPEG-4 CM) to an
-// articulatory corpus (synth/training.h) and writes the model file.
+// articulatory corpus (learn/training.h) and writes the model file.
 #include <memory>
 #include <string>
 
-#include "avsi/synth/ann_training.h"
-#include "avsi/synth/training.h"
+#include "avsi/learn/ann_training.h"
+#include "avsi/learn/training.h"
 #include "command.h"
 
 namespace avsi::cli {
@@ -14,7 +14,7 @@ const bool registered_train = register_command({
     "train",
     "Train a control model on an articulatory corpus (Levenberg-Marquardt, early stopping on the test split)",
     [](CLI::App& sub) -> std::function<int()> {
-        auto s = std::make_shared<synth::TrainCommandSettings>();
+        auto s = std::make_shared<learn::TrainCommandSettings>();
         auto seed = std::make_shared<std::uint64_t>(0);
         auto fraction = std::make_shared<double>(0.0);
         sub.add_option("--model", s->training.model, "Model kind: cohen-massaro, ohman, mpeg4-cohen-massaro, ann (= ann1), ann1 or ann2")
@@ -42,7 +42,7 @@ const bool registered_train = register_command({
                        "Cohen-Massaro: upper bound on c; equal to --min-c fixes c (one training stage)")
             ->capture_default_str();
         // ANN models (--model ann | ann1 | ann2; synth/ann_training.h).
-        auto ann = std::make_shared<synth::AnnCommandSettings>();
+        auto ann = std::make_shared<learn::AnnCommandSettings>();
         auto ann_ahead = std::make_shared<int>(0), ann_back = std::make_shared<int>(0);
         auto* ahead_opt = sub.add_option("--look-ahead", *ann_ahead, "ANN: frames of look-ahead (default: preset)");
         auto* back_opt = sub.add_option("--look-back", *ann_back, "ANN: frames of look-back (default: preset)");
@@ -70,10 +70,10 @@ const bool registered_train = register_command({
                 if (patience_opt->count()) ann->training.patience = s->training.patience;
                 if (ahead_opt->count()) ann->look_ahead = *ann_ahead;
                 if (back_opt->count()) ann->look_back = *ann_back;
-                synth::run_ann_command(*ann);
+                learn::run_ann_command(*ann);
                 return 0;
             }
-            synth::run_training(*s);
+            learn::run_training(*s);
             return 0;
         };
     },

@@ -29,6 +29,7 @@ Scores read_scores(const std::filesystem::path& path) {
     const std::size_t c_percent = table.require_column("percent");
     const auto c_keywords = table.column("keywords");
     const auto c_correct = table.column("correct");
+    const auto c_rule_set = table.column("rule_set");
 
     Scores scores;
     DiagnosticList problems;
@@ -67,6 +68,15 @@ Scores read_scores(const std::filesystem::path& path) {
         if (cell.correct > cell.keywords && c_keywords && c_correct && cell.keywords > 0)
             problems.add(p, row.line, 0, "correct",
                          fmt::format("expected at most keywords = {}, got {}", cell.keywords, cell.correct));
+        if (c_rule_set) {
+            const std::string set = trim(row.fields[*c_rule_set]);
+            if (scores.rule_set.empty() && !set.empty()) scores.rule_set = set;
+            else if (set != scores.rule_set)
+                problems.add(p, row.line, int(*c_rule_set) + 1, "rule_set",
+                             fmt::format("expected the rule set of the rows before (\"{}\"): one scores file "
+                                         "holds one scoring, got \"{}\"",
+                                         scores.rule_set, set));
+        }
         if (!seen.insert({cell.subject, cell.condition}).second)
             problems.add(p, row.line, 0, "subject,condition",
                          fmt::format("duplicate row for subject '{}' in condition '{}'", cell.subject,
@@ -99,6 +109,7 @@ Scores select_conditions(const Scores& scores, const std::vector<std::string>& c
     }
     problems.throw_if_any();
     Scores selected;
+    selected.rule_set = scores.rule_set;
     for (const auto& name : conditions)
         for (const auto& c : scores.cells)
             if (c.condition == name) selected.cells.push_back(c);
@@ -106,10 +117,16 @@ Scores select_conditions(const Scores& scores, const std::vector<std::string>& c
 }
 
 void write_scores(const std::filesystem::path& path, const Scores& scores) {
-    std::string out = csv_line({"subject", "condition", "keywords", "correct", "percent"});
-    for (const auto& c : scores.cells)
-        out += csv_line({c.subject, c.condition, std::to_string(c.keywords), std::to_string(c.correct),
-                         c.percent ? fmt::format("{}", *c.percent) : std::string("NA")});
+    std::vector<std::string> header = {"subject", "condition", "keywords", "correct", "percent"};
+    if (!scores.rule_set.empty()) header.push_back("rule_set");
+    std::string out = csv_line(header);
+    for (const auto& c : scores.cells) {
+        std::vector<std::string> fields = {c.subject, c.condition, std::to_string(c.keywords),
+                                           std::to_string(c.correct),
+                                           c.percent ? fmt::format("{}", *c.percent) : std::string("NA")};
+        if (!scores.rule_set.empty()) fields.push_back(scores.rule_set);
+        out += csv_line(fields);
+    }
     write_text_file(path, out);
 }
 

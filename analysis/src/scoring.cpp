@@ -1,16 +1,20 @@
-// Keyword scoring: rules, assignment, overrides and the CSV files of
+// Keyword scoring: rules, rule sets, assignment, overrides, the audit, the
+// agreement with a second scorer (Cohen 1960) and the CSV files of
 // `avsi score`. See scoring.h for the rule order and the assignment.
 #include "avsi/analysis/scoring.h"
 
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cmath>
 #include <map>
+#include <mutex>
 #include <set>
 
 #include <fmt/format.h>
-#include <libstemmer.h>
 
+#include "avsi/analysis/inflection.h"
+#include "avsi/analysis/lexicon.h"
 #include "avsi/analysis/text_normalize.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
@@ -23,13 +27,45 @@ namespace avsi::analysis {
 const char* rule_name(MatchRule rule) {
     switch (rule) {
     case MatchRule::Exact: return "exact";
+    case MatchRule::Number: return "number";
     case MatchRule::Alternate: return "alternate";
+    case MatchRule::Variant: return "variant";
     case MatchRule::Homophone: return "homophone";
-    case MatchRule::Stem: return "stem";
+    case MatchRule::Inflection: return "inflection";
     case MatchRule::Typo: return "typo";
     case MatchRule::None: return "none";
     }
     return "none";
+}
+
+const char* rule_set_name(RuleSet set) {
+    switch (set) {
+    case RuleSet::Strict: return "strict";
+    case RuleSet::Loose: return "loose";
+    case RuleSet::Lenient: return "lenient";
+    }
+    return "strict";
+}
+
+std::optional<RuleSet> parse_rule_set(std::string_view name) {
+    for (RuleSet set : kRuleSets)
+        if (name == rule_set_name(set)) return set;
+    return std::nullopt;
+}
+
+std::vector<std::string> rule_set_names() {
+    std::vector<std::string> out;
+    for (RuleSet set : kRuleSets) out.emplace_back(rule_set_name(set));
+    return out;
+}
+
+bool rule_set_allows(RuleSet set, MatchRule rule) {
+    switch (rule) {
+    case MatchRule::Inflection: return set != RuleSet::Strict;
+    case MatchRule::Typo: return set == RuleSet::Lenient;
+    case MatchRule::None: return false;
+    default: return true;
+    }
 }
 
 namespace {
@@ -44,16 +80,22 @@ bool is_number(const std::string& w) {
     return !w.empty() && std::isdigit(static_cast<unsigned char>(w.front()));
 }
 
+std::filesystem::path protocols_file(const std::filesystem::path& given, const char* name) {
+    return given.empty() ? std::filesystem::path(AVSI_PROTOCOLS_DIR) / name : given;
+}
+
 }  // namespace
 
-// ---------------------------------------------------------------- homophones
+// ---------------------------------------------------------------- word groups
 
-void HomophoneTable::add_group(const std::vector<std::string>& words) {
+void WordGroups::add_group(const std::vector<std::string>& words) {
     const std::size_t id = m_group_count++;
+    m_groups.push_back(words);
     for (const auto& w : words) m_groups_of[w].push_back(id);
 }
 
-bool HomophoneTable::are_homophones(const std::string& a, const std::string& b) const {
+bool WordGroups::same_group(const std::string& a, const std::string& b) const {
+    if (a == b) return false;
     const auto ia = m_groups_of.find(a), ib = m_groups_of.find(b);
     if (ia == m_groups_of.end() || ib == m_groups_of.end()) return false;
     for (std::size_t g : ia->second)
@@ -61,10 +103,20 @@ bool HomophoneTable::are_homophones(const std::string& a, const std::string& b) 
     return false;
 }
 
-HomophoneTable HomophoneTable::read(const std::filesystem::path& path) {
+std::vector<std::string> WordGroups::partners(const std::string& word) const {
+    std::vector<std::string> out;
+    const auto it = m_groups_of.find(word);
+    if (it == m_groups_of.end()) return out;
+    for (std::size_t g : it->second)
+        for (const auto& w : m_groups[g])
+            if (w != word && std::find(out.begin(), out.end(), w) == out.end()) out.push_back(w);
+    return out;
+}
+
+WordGroups WordGroups::read(const std::filesystem::path& path) {
     const CsvTable table = read_csv(path);
     const std::size_t c_words = table.require_column("words");
-    HomophoneTable out;
+    WordGroups out;
     DiagnosticList problems;
     for (const auto& row : table.rows) {
         std::vector<std::string> group;
@@ -77,7 +129,7 @@ HomophoneTable HomophoneTable::read(const std::filesystem::path& path) {
             }
             const auto words = normalize_words(part);
             if (words.size() != 1)
-                problems.add(path.string(), row.line, 0, "words",
+                problems.add(path.string(), row.line, int(c_words) + 1, "words",
                              fmt::format("expected one word per entry, got \"{}\" (normalised to {} words)",
                                          trim(part), words.size()));
             else
@@ -85,7 +137,7 @@ HomophoneTable HomophoneTable::read(const std::filesystem::path& path) {
             part.clear();
         }
         if (group.size() < 2 && problems.empty())
-            problems.add(path.string(), row.line, 0, "words",
+            problems.add(path.string(), row.line, int(c_words) + 1, "words",
                          fmt::format("expected at least two words separated by '|', got \"{}\"", row.fields[c_words]));
         out.add_group(group);
     }
@@ -95,84 +147,137 @@ HomophoneTable HomophoneTable::read(const std::filesystem::path& path) {
 
 // ---------------------------------------------------------------- scorer
 
+ScoringSettings scoring_settings(const Protocol& protocol) {
+    ScoringSettings s;
+    const auto set = parse_rule_set(protocol.scoring.rules);
+    AVSI_ASSERT(set.has_value());  // load_protocol accepts protocol_rule_sets() only
+    s.rules = *set;
+    s.homophones = protocol.scoring.homophones;
+    return s;
+}
+
+std::vector<std::string> corpus_vocabulary(const Corpus& corpus) {
+    std::set<std::string> words;
+    for (const auto& s : corpus.sentences) {
+        for (auto& w : normalize_words(s.text)) words.insert(std::move(w));
+        for (const auto& k : s.keywords) {
+            for (auto& w : normalize_words(k.word)) words.insert(std::move(w));
+            for (const auto& a : k.alternates)
+                for (auto& w : normalize_words(a)) words.insert(std::move(w));
+        }
+    }
+    return {words.begin(), words.end()};
+}
+
+namespace {
+
+// The tables of a path, read once per process (scorers of every rule set
+// share them).
+template <typename T, typename Read>
+std::shared_ptr<const T> shared_table(const std::vector<std::filesystem::path>& key, Read read) {
+    static std::mutex mutex;
+    static std::map<std::vector<std::filesystem::path>, std::shared_ptr<const T>> cache;
+    std::lock_guard lock(mutex);
+    auto& slot = cache[key];
+    if (!slot) slot = std::make_shared<const T>(read());
+    return slot;
+}
+
+}  // namespace
+
 struct KeywordScorer::Impl {
     ScoringSettings settings;
-    HomophoneTable homophones;
-    sb_stemmer* stemmer = nullptr;
-    std::map<std::string, std::string> stem_cache;
+    std::shared_ptr<const WordGroups> homophones, variants;
+    std::shared_ptr<const Inflections> inflections;  // loose and lenient
+    std::shared_ptr<const Lexicon> lexicon;          // lenient
+    Inflections::OpenWords vocabulary;
+    Inflections::OpenWords open_words;  // vocabulary words that may be bases though WordNet lacks them
 
-    ~Impl() {
-        if (stemmer) sb_stemmer_delete(stemmer);
+    bool is_word(const std::string& w) const {
+        return vocabulary.count(w) > 0 || (lexicon && lexicon->contains(w));
     }
 
-    std::string stem(const std::string& word) {
-        if (auto it = stem_cache.find(word); it != stem_cache.end()) return it->second;
-        const sb_symbol* s = sb_stemmer_stem(stemmer, reinterpret_cast<const sb_symbol*>(word.data()),
-                                             static_cast<int>(word.size()));
-        std::string out = s ? std::string(reinterpret_cast<const char*>(s),
-                                          static_cast<std::size_t>(sb_stemmer_length(stemmer)))
-                            : word;
-        stem_cache.emplace(word, out);
-        return out;
+    bool inflection_of(const std::string& k, const std::string& r) const {
+        if (!inflections || is_number(k) || is_number(r)) return false;
+        if (inflections->same_lemma(k, r, &open_words)) return true;
+        // An inflection of a spelling variant (colours for color).
+        for (const auto& v : variants->partners(r))
+            if (inflections->same_lemma(k, v, &open_words)) return true;
+        return false;
     }
 
-    bool typo_close(const std::string& a, const std::string& b) const {
-        if (is_number(a) || is_number(b)) return false;
-        if (a.size() < settings.typo_min_letters || b.size() < settings.typo_min_letters) return false;
-        return edit_distance(a, b) <= 1;
+    bool typo_of(const std::string& k, const std::string& r) const {
+        if (is_number(k) || is_number(r)) return false;
+        if (k.size() < settings.typo_min_letters || r.size() < settings.typo_min_letters) return false;
+        if (is_word(r)) return false;  // a word of English is never a misspelling
+        return edit_distance(k, r) <= 1;
     }
 
     // Does response word `r` match keyword word `k` under `rule`?
-    bool word_matches(MatchRule rule, const std::string& k, const std::string& r) {
+    bool word_matches(MatchRule rule, const NormalizedWord& k, const NormalizedWord& r) const {
+        const bool equal = k.text == r.text;
         switch (rule) {
-        case MatchRule::Exact:
-        case MatchRule::Alternate: return k == r;
-        case MatchRule::Homophone: return k == r || homophones.are_homophones(k, r);
-        case MatchRule::Stem: return k == r || stem(k) == stem(r);
-        case MatchRule::Typo: return k == r || typo_close(k, r);
+        case MatchRule::Exact: return equal && k.number_in_words == r.number_in_words;
+        case MatchRule::Number: return equal && k.number_in_words != r.number_in_words;
+        case MatchRule::Alternate: return equal;
+        case MatchRule::Variant: return equal || variants->same_group(k.text, r.text);
+        case MatchRule::Homophone: return equal || homophones->same_group(k.text, r.text);
+        case MatchRule::Inflection: return equal || inflection_of(k.text, r.text);
+        case MatchRule::Typo: return equal || typo_of(k.text, r.text);
         case MatchRule::None: return false;
         }
         return false;
     }
 };
 
-KeywordScorer::KeywordScorer(ScoringSettings settings, HomophoneTable homophones)
-    : m_impl(std::make_unique<Impl>()) {
-    m_impl->settings = std::move(settings);
-    m_impl->homophones = std::move(homophones);
-    m_impl->stemmer = sb_stemmer_new("english", nullptr);
-    AVSI_ASSERT(m_impl->stemmer != nullptr);
+KeywordScorer::KeywordScorer(ScoringSettings settings) : m_impl(std::make_unique<Impl>()) {
+    Impl& m = *m_impl;
+    m.settings = std::move(settings);
+    const auto homophones = protocols_file(m.settings.homophones, "homophones.csv");
+    m.homophones = shared_table<WordGroups>({homophones}, [&] { return WordGroups::read(homophones); });
+    const auto variants = protocols_file(m.settings.spelling_variants, "spelling_variants.csv");
+    m.variants = shared_table<WordGroups>({variants}, [&] { return WordGroups::read(variants); });
+    for (const auto& w : m.settings.vocabulary) m.vocabulary.insert(w);
+    if (rule_set_allows(m.settings.rules, MatchRule::Inflection)) {
+        const auto table = protocols_file(m.settings.inflections, "inflections.csv");
+        const auto pos = protocols_file(m.settings.parts_of_speech, "lemma_pos.tsv");
+        m.inflections = shared_table<Inflections>({table, pos}, [&] { return Inflections::read(table, pos); });
+        // Corpus words WordNet lacks (goldfish, doorstep) may be bases, but
+        // not words that are forms of a known lemma themselves (rang, chefs):
+        // "ranged" is no form of "rang".
+        for (const auto& w : m.vocabulary)
+            if (m.inflections->lemmas(w).size() == 1) m.open_words.insert(w);
+    }
+    if (rule_set_allows(m.settings.rules, MatchRule::Typo)) m.lexicon = Lexicon::shared(m.settings.lexicon);
 }
 
-namespace {
-HomophoneTable load_homophones(const ScoringSettings& s) {
-    return HomophoneTable::read(s.homophones.empty()
-                                    ? std::filesystem::path(AVSI_PROTOCOLS_DIR) / "homophones.csv"
-                                    : s.homophones);
-}
-}  // namespace
-
-KeywordScorer::KeywordScorer(ScoringSettings settings)
-    : KeywordScorer(settings, load_homophones(settings)) {}
 KeywordScorer::~KeywordScorer() = default;
 KeywordScorer::KeywordScorer(KeywordScorer&&) noexcept = default;
 KeywordScorer& KeywordScorer::operator=(KeywordScorer&&) noexcept = default;
 
-std::string KeywordScorer::stem(const std::string& word) { return m_impl->stem(word); }
+const ScoringSettings& KeywordScorer::settings() const { return m_impl->settings; }
+bool KeywordScorer::is_word(const std::string& w) const { return m_impl->lexicon && m_impl->is_word(w); }
+std::size_t KeywordScorer::lexicon_size() const { return m_impl->lexicon ? m_impl->lexicon->size() : 0; }
+double KeywordScorer::lexicon_load_ms() const { return m_impl->lexicon ? m_impl->lexicon->load_ms() : 0.0; }
 
-std::vector<KeywordMatch> KeywordScorer::score(const Sentence& sentence, std::string_view response) {
-    const std::vector<std::string> words = normalize_words(response);
+std::vector<KeywordMatch> KeywordScorer::score(const Sentence& sentence, std::string_view response) const {
+    const std::vector<NormalizedWord> words = normalize_tokens(response);
     std::vector<bool> used(words.size(), false);
 
     // Each keyword's candidate phrases: [0] the keyword, then its alternates.
-    std::vector<std::vector<std::vector<std::string>>> phrases;
+    std::vector<std::vector<std::vector<NormalizedWord>>> phrases;
     std::vector<KeywordMatch> result;
     for (std::size_t i = 0; i < sentence.keywords.size(); ++i) {
         const Keyword& kw = sentence.keywords[i];
-        std::vector<std::vector<std::string>> p{normalize_words(kw.word)};
+        std::vector<std::vector<NormalizedWord>> p{normalize_tokens(kw.word)};
+        auto same_text = [](const std::vector<NormalizedWord>& a, const std::vector<NormalizedWord>& b) {
+            return std::equal(a.begin(), a.end(), b.begin(), b.end(),
+                              [](const NormalizedWord& x, const NormalizedWord& y) { return x.text == y.text; });
+        };
         for (const auto& alt : kw.alternates) {
-            auto a = normalize_words(alt);
-            if (!a.empty() && std::find(p.begin(), p.end(), a) == p.end()) p.push_back(std::move(a));
+            auto a = normalize_tokens(alt);
+            if (!a.empty() && std::none_of(p.begin(), p.end(), [&](const auto& q) { return same_text(q, a); }))
+                p.push_back(std::move(a));
         }
         phrases.push_back(std::move(p));
         KeywordMatch m;
@@ -182,7 +287,7 @@ std::vector<KeywordMatch> KeywordScorer::score(const Sentence& sentence, std::st
     }
 
     // The first unused run of words matching `phrase` under `rule`, or npos.
-    auto find_phrase = [&](MatchRule rule, const std::vector<std::string>& phrase) -> std::size_t {
+    auto find_phrase = [&](MatchRule rule, const std::vector<NormalizedWord>& phrase) -> std::size_t {
         if (phrase.empty() || phrase.size() > words.size()) return std::string::npos;
         for (std::size_t start = 0; start + phrase.size() <= words.size(); ++start) {
             bool ok = true;
@@ -193,22 +298,27 @@ std::vector<KeywordMatch> KeywordScorer::score(const Sentence& sentence, std::st
         return std::string::npos;
     };
 
-    static constexpr std::array<MatchRule, 5> kRules = {MatchRule::Exact, MatchRule::Alternate,
-                                                        MatchRule::Homophone, MatchRule::Stem, MatchRule::Typo};
+    static constexpr std::array<MatchRule, 7> kRules = {MatchRule::Exact,     MatchRule::Number,
+                                                        MatchRule::Alternate, MatchRule::Variant,
+                                                        MatchRule::Homophone, MatchRule::Inflection,
+                                                        MatchRule::Typo};
     for (MatchRule rule : kRules) {
-        if (rule == MatchRule::Typo && m_impl->settings.strict) continue;
+        if (!rule_set_allows(m_impl->settings.rules, rule)) continue;
         for (std::size_t i = 0; i < result.size(); ++i) {
             if (result[i].correct) continue;
-            // exact: the keyword only; alternate: alternates only; later
-            // rules: the keyword and its alternates.
+            // exact, number: the keyword only; alternate: alternates only;
+            // later rules: the keyword and its alternates.
+            const bool keyword_only = rule == MatchRule::Exact || rule == MatchRule::Number;
             const std::size_t from = rule == MatchRule::Alternate ? 1 : 0;
-            const std::size_t to = rule == MatchRule::Exact ? 1 : phrases[i].size();
+            const std::size_t to = keyword_only ? 1 : phrases[i].size();
             for (std::size_t p = from; p < to; ++p) {
                 const std::size_t start = find_phrase(rule, phrases[i][p]);
                 if (start == std::string::npos) continue;
-                std::vector<std::string> matched(words.begin() + long(start),
-                                                 words.begin() + long(start + phrases[i][p].size()));
-                for (std::size_t j = 0; j < matched.size(); ++j) used[start + j] = true;
+                std::vector<std::string> matched;
+                for (std::size_t j = 0; j < phrases[i][p].size(); ++j) {
+                    used[start + j] = true;
+                    matched.push_back(words[start + j].text);
+                }
                 result[i].matched_word = join(matched);
                 result[i].rule = rule;
                 result[i].correct = true;
@@ -262,7 +372,7 @@ std::vector<Override> read_overrides(const std::filesystem::path& path) {
     const auto c_sentence = table.column("sentence");
     const std::size_t c_index = table.require_column("keyword_index");
     const std::size_t c_correct = table.require_column("correct");
-    const std::size_t c_reason = table.require_column("reason");
+    const auto c_reason = table.column("reason");
     if (!c_trial && !c_sentence)
         throw InputError(p, 1, 0, "header", "expected a 'trial' or a 'sentence' column to identify the response");
     std::vector<Override> out;
@@ -273,6 +383,8 @@ std::vector<Override> read_overrides(const std::filesystem::path& path) {
         o.subject = trim(row.fields[c_subject]);
         if (c_trial) o.trial = trim(row.fields[*c_trial]);
         if (c_sentence) o.sentence = trim(row.fields[*c_sentence]);
+        if (o.subject.empty())
+            problems.add(p, row.line, int(c_subject) + 1, "subject", "expected a subject id, got \"\"");
         if (o.trial.empty() && o.sentence.empty())
             problems.add(p, row.line, 0, "trial", "expected a trial number or a sentence id, got neither");
         const std::string index = trim(row.fields[c_index]);
@@ -288,10 +400,7 @@ std::vector<Override> read_overrides(const std::filesystem::path& path) {
         else
             problems.add(p, row.line, int(c_correct) + 1, "correct",
                          fmt::format("expected 1/0 or true/false, got \"{}\"", correct));
-        o.reason = trim(row.fields[c_reason]);
-        if (o.reason.empty())
-            problems.add(p, row.line, int(c_reason) + 1, "reason",
-                         "expected a reason for the override (it goes into the audit trail), got \"\"");
+        if (c_reason) o.reason = trim(row.fields[*c_reason]);
         out.push_back(std::move(o));
     }
     problems.throw_if_any();
@@ -312,10 +421,51 @@ Scores aggregate_scores(const std::vector<KeywordRow>& rows) {
     return scores;
 }
 
+namespace {
+
+// The keyword rows a judgment (override or second scorer's mark) names.
+std::vector<std::size_t> rows_of(const std::vector<KeywordRow>& rows, const Override& o) {
+    std::vector<std::size_t> hits;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+        const KeywordRow& row = rows[i];
+        if (row.subject == o.subject && row.match.keyword_index == o.keyword_index &&
+            (o.trial.empty() ? row.sentence == o.sentence : row.trial == o.trial) &&
+            (o.sentence.empty() || row.sentence == o.sentence))
+            hits.push_back(i);
+    }
+    return hits;
+}
+
+// The diagnostic for a judgment that names no keyword or several.
+std::string judgment_mismatch(const Override& o, std::size_t hits) {
+    return hits == 0 ? fmt::format("no scored keyword {} for subject '{}' {} '{}'", o.keyword_index, o.subject,
+                                   o.trial.empty() ? "sentence" : "trial", o.trial.empty() ? o.sentence : o.trial)
+                     : fmt::format("matches {} keywords (subject '{}' saw sentence '{}' more than once); give the "
+                                   "trial",
+                                   hits, o.subject, o.sentence);
+}
+
+}  // namespace
+
 ScoringResult score_responses(const Corpus& corpus, const std::vector<Response>& responses,
                               const std::vector<Override>& overrides, const ScoringSettings& settings) {
-    KeywordScorer scorer(settings);
+    // One scorer per rule set: the chosen one is reported, all feed the
+    // audit and the agreement.
+    ScoringSettings with_vocabulary = settings;
+    const auto vocabulary = corpus_vocabulary(corpus);
+    with_vocabulary.vocabulary.insert(with_vocabulary.vocabulary.end(), vocabulary.begin(), vocabulary.end());
+    std::vector<KeywordScorer> scorers;
+    for (RuleSet set : kRuleSets) {
+        ScoringSettings s = with_vocabulary;
+        s.rules = set;
+        scorers.emplace_back(std::move(s));
+    }
     ScoringResult result;
+    result.rules = settings.rules;
+    const KeywordScorer& lenient = scorers[std::size_t(RuleSet::Lenient)];
+    result.lexicon_words = lenient.lexicon_size();
+    result.lexicon_load_ms = lenient.lexicon_load_ms();
+
     std::map<std::string, const Sentence*> by_id;
     for (const auto& s : corpus.sentences) by_id[s.id] = &s;
     DiagnosticList problems;
@@ -332,7 +482,9 @@ ScoringResult score_responses(const Corpus& corpus, const std::vector<Response>&
             continue;
         }
         ++result.trials_scored;
-        for (auto& m : scorer.score(*it->second, r.response)) {
+        std::array<std::vector<KeywordMatch>, 3> by_set;
+        for (RuleSet set : kRuleSets) by_set[std::size_t(set)] = scorers[std::size_t(set)].score(*it->second, r.response);
+        for (std::size_t k = 0; k < by_set[0].size(); ++k) {
             KeywordRow row;
             row.subject = r.subject;
             row.session = r.session;
@@ -341,47 +493,108 @@ ScoringResult score_responses(const Corpus& corpus, const std::vector<Response>&
             row.list = r.list;
             row.sentence = r.sentence;
             row.response = r.response;
-            row.match = std::move(m);
+            for (RuleSet set : kRuleSets) row.by_set[std::size_t(set)] = by_set[std::size_t(set)][k];
+            row.match = row.by_set[std::size_t(settings.rules)];
             result.keywords.push_back(std::move(row));
         }
     }
     problems.throw_if_any();
 
-    // Overrides, after the rules.
+    // Overrides, after the rules. A row that repeats the automatic verdict
+    // (an unchanged line of audit.csv) needs no reason and changes nothing.
     for (const auto& o : overrides) {
-        std::vector<KeywordRow*> hits;
-        for (auto& row : result.keywords)
-            if (row.subject == o.subject && row.match.keyword_index == o.keyword_index &&
-                (o.trial.empty() ? row.sentence == o.sentence : row.trial == o.trial) &&
-                (o.sentence.empty() || row.sentence == o.sentence))
-                hits.push_back(&row);
+        const auto hits = rows_of(result.keywords, o);
         if (hits.size() != 1) {
-            problems.add("overrides", o.line, 0, "",
-                         hits.empty() ? fmt::format("no scored keyword {} for subject '{}' {} '{}'", o.keyword_index,
-                                                    o.subject, o.trial.empty() ? "sentence" : "trial",
-                                                    o.trial.empty() ? o.sentence : o.trial)
-                                      : fmt::format("matches {} keywords (subject '{}' saw sentence '{}' more than "
-                                                    "once); give the trial",
-                                                    hits.size(), o.subject, o.sentence));
+            problems.add("overrides", o.line, 0, "", judgment_mismatch(o, hits.size()));
             continue;
         }
-        KeywordRow& row = *hits.front();
+        KeywordRow& row = result.keywords[hits.front()];
+        if (o.correct == row.match.correct && o.reason.empty()) continue;
+        if (o.reason.empty()) {
+            problems.add("overrides", o.line, 0, "reason",
+                         fmt::format("expected a reason for changing keyword {} ('{}') of subject '{}' to {} (it "
+                                     "goes into the audit trail), got \"\"",
+                                     o.keyword_index, row.match.keyword, o.subject, o.correct ? 1 : 0));
+            continue;
+        }
         result.overrides.push_back({o, row.match.keyword, row.response, row.match.rule, row.match.correct});
         row.match.correct = o.correct;
         row.override_reason = o.reason;
     }
     problems.throw_if_any();
     result.scores = aggregate_scores(result.keywords);
+    result.scores.rule_set = rule_set_name(settings.rules);
     return result;
 }
 
-void write_keywords_csv(const std::filesystem::path& path, const std::vector<KeywordRow>& rows) {
+std::optional<double> cohens_kappa(std::size_t both, std::size_t a_only, std::size_t b_only, std::size_t neither) {
+    // kappa = (po - pe) / (1 - pe), po = agreements / n, pe = (a_yes b_yes +
+    // a_no b_no) / n^2; multiplied through by n^2 so that the counts stay
+    // integers (exact zero when po = pe).
+    const long long n = static_cast<long long>(both + a_only + b_only + neither);
+    if (n == 0) return std::nullopt;
+    const long long a_yes = static_cast<long long>(both + a_only), b_yes = static_cast<long long>(both + b_only);
+    const long long chance = a_yes * b_yes + (n - a_yes) * (n - b_yes);  // pe * n^2
+    const long long observed = static_cast<long long>(both + neither) * n;  // po * n^2
+    if (chance == n * n) return std::nullopt;
+    return double(observed - chance) / double(n * n - chance);
+}
+
+AgreementResult compare_with_scorer(const ScoringResult& result, const std::vector<Override>& judgments,
+                                    const std::string& path) {
+    AgreementResult out;
+    out.keywords_scored = result.keywords.size();
+    DiagnosticList problems;
+    std::vector<std::pair<std::size_t, bool>> marks;  // (row, second scorer's verdict)
+    std::set<std::size_t> seen;
+    for (const auto& j : judgments) {
+        const auto hits = rows_of(result.keywords, j);
+        if (hits.size() != 1) {
+            problems.add(path, j.line, 0, "", judgment_mismatch(j, hits.size()));
+            continue;
+        }
+        if (!seen.insert(hits.front()).second) {
+            problems.add(path, j.line, 0, "keyword_index",
+                         fmt::format("keyword {} of subject '{}' {} '{}' is judged twice", j.keyword_index, j.subject,
+                                     j.trial.empty() ? "sentence" : "trial", j.trial.empty() ? j.sentence : j.trial));
+            continue;
+        }
+        marks.emplace_back(hits.front(), j.correct);
+    }
+    problems.throw_if_any();
+
+    auto compare = [&](const std::string& name, auto automatic_of) {
+        std::size_t both = 0, a_only = 0, b_only = 0, neither = 0;
+        for (const auto& [row, scorer] : marks) {
+            const bool automatic = automatic_of(result.keywords[row]);
+            (automatic ? (scorer ? both : a_only) : (scorer ? b_only : neither)) += 1;
+            if (automatic != scorer) out.disagreements.push_back({name, row, automatic, scorer});
+        }
+        AgreementRow r;
+        r.scoring = name;
+        r.keywords = marks.size();
+        r.agreements = both + neither;
+        r.automatic_correct = both + a_only;
+        r.scorer_correct = both + b_only;
+        r.percent_agreement = marks.empty() ? 0.0 : 100.0 * double(r.agreements) / double(r.keywords);
+        r.kappa = cohens_kappa(both, a_only, b_only, neither);
+        out.rows.push_back(r);
+    };
+    for (RuleSet set : kRuleSets)
+        compare(rule_set_name(set), [set](const KeywordRow& row) { return row.by_set[std::size_t(set)].correct; });
+    if (!result.overrides.empty())
+        compare(fmt::format("{}+overrides", rule_set_name(result.rules)),
+                [](const KeywordRow& row) { return row.match.correct; });
+    return out;
+}
+
+void write_keywords_csv(const std::filesystem::path& path, const std::vector<KeywordRow>& rows, RuleSet rules) {
     std::string out = csv_line({"subject", "condition", "sentence", "keyword_index", "keyword", "matched_word", "rule",
-                                "correct", "override_reason", "session", "trial", "list", "response"});
+                                "correct", "override_reason", "session", "trial", "list", "response", "rule_set"});
     for (const auto& r : rows)
         out += csv_line({r.subject, r.condition, r.sentence, std::to_string(r.match.keyword_index), r.match.keyword,
                          r.match.matched_word, rule_name(r.match.rule), r.match.correct ? "1" : "0",
-                         r.override_reason, r.session, r.trial, r.list, r.response});
+                         r.override_reason, r.session, r.trial, r.list, r.response, rule_set_name(rules)});
     write_text_file(path, out);
 }
 
@@ -395,14 +608,60 @@ void write_overrides_log(const std::filesystem::path& path, const std::vector<Ov
     write_text_file(path, out);
 }
 
-ScoringResult score_files(const ScoreFilesSettings& s) {
+void write_audit_csv(const std::filesystem::path& path, const ScoringResult& result) {
+    std::string out = csv_line({"subject", "trial", "sentence", "keyword_index", "keyword", "response_word", "rule",
+                                "rule_set", "correct", "reason", "condition", "response"});
+    auto line = [&](const KeywordRow& r, const KeywordMatch& m, RuleSet set, bool correct) {
+        out += csv_line({r.subject, r.trial, r.sentence, std::to_string(m.keyword_index), m.keyword, m.matched_word,
+                         rule_name(m.rule), rule_set_name(set), correct ? "1" : "0", "", r.condition, r.response});
+    };
+    const std::size_t chosen = std::size_t(result.rules);
+    // Credits by a rule other than exact, under the chosen set.
+    for (const auto& r : result.keywords) {
+        const KeywordMatch& m = r.by_set[chosen];
+        if (m.correct && m.rule != MatchRule::Exact) line(r, m, result.rules, true);
+    }
+    // Keywords only a more lenient set credits (the first that does).
+    for (const auto& r : result.keywords) {
+        if (r.by_set[chosen].correct) continue;
+        for (std::size_t s = chosen + 1; s < kRuleSets.size(); ++s)
+            if (r.by_set[s].correct) {
+                line(r, r.by_set[s], kRuleSets[s], false);
+                break;
+            }
+    }
+    write_text_file(path, out);
+}
+
+void write_agreement(const std::filesystem::path& dir, const AgreementResult& agreement, const ScoringResult& result) {
+    std::string a = csv_line({"scoring", "keywords", "agreements", "percent_agreement", "kappa", "automatic_correct",
+                              "scorer_correct"});
+    for (const auto& r : agreement.rows)
+        a += csv_line({r.scoring, std::to_string(r.keywords), std::to_string(r.agreements),
+                       fmt::format("{:.4f}", r.percent_agreement), r.kappa ? fmt::format("{:.6f}", *r.kappa) : "NA",
+                       std::to_string(r.automatic_correct), std::to_string(r.scorer_correct)});
+    write_text_file(dir / "agreement.csv", a);
+    std::string d = csv_line({"scoring", "subject", "trial", "sentence", "keyword_index", "keyword", "response_word",
+                              "rule", "automatic", "scorer", "response"});
+    for (const auto& x : agreement.disagreements) {
+        const KeywordRow& r = result.keywords[x.row];
+        const auto set = parse_rule_set(x.scoring);
+        const KeywordMatch& m = set ? r.by_set[std::size_t(*set)] : r.match;
+        d += csv_line({x.scoring, r.subject, r.trial, r.sentence, std::to_string(m.keyword_index), m.keyword,
+                       m.matched_word, rule_name(m.rule), x.automatic ? "1" : "0", x.scorer ? "1" : "0", r.response});
+    }
+    write_text_file(dir / "disagreements.csv", d);
+}
+
+ScoreFilesResult score_files(const ScoreFilesSettings& s) {
     const Corpus corpus = read_corpus(s.corpus);
     const auto responses = read_responses(s.responses);
-    std::vector<Override> overrides;
+    std::vector<Override> overrides, judgments;
     if (!s.overrides.empty()) overrides = read_overrides(s.overrides);
-    ScoringResult result;
+    if (!s.agreement.empty()) judgments = read_overrides(s.agreement);
+    ScoreFilesResult out;
     try {
-        result = score_responses(corpus, responses, overrides, s.scoring);
+        out.scoring = score_responses(corpus, responses, overrides, s.scoring);
     } catch (const InputError& e) {
         // Put the real file names on the diagnostics.
         std::vector<Diagnostic> d = e.diagnostics();
@@ -412,16 +671,41 @@ ScoringResult score_files(const ScoreFilesSettings& s) {
         }
         throw InputError(d);
     }
-    write_keywords_csv(s.out_dir / "keywords.csv", result.keywords);
+    const ScoringResult& result = out.scoring;
+    if (!s.agreement.empty()) out.agreement = compare_with_scorer(result, judgments, s.agreement.string());
+
+    std::filesystem::create_directories(s.out_dir);
+    write_keywords_csv(s.out_dir / "keywords.csv", result.keywords, result.rules);
     write_scores(s.out_dir / "scores.csv", result.scores);
+    write_audit_csv(s.out_dir / "audit.csv", result);
     if (!s.overrides.empty()) write_overrides_log(s.out_dir / "overrides_applied.csv", result.overrides);
-    std::size_t correct = 0;
-    for (const auto& r : result.keywords) correct += r.match.correct ? 1 : 0;
-    log_info("scored {} test trials, {} keywords, {} correct ({:.1f} %), {} overrides{}", result.trials_scored,
-             result.keywords.size(), correct,
-             result.keywords.empty() ? 0.0 : 100.0 * double(correct) / double(result.keywords.size()),
-             result.overrides.size(), s.scoring.strict ? " (strict)" : "");
-    return result;
+    if (out.agreement) write_agreement(s.out_dir, *out.agreement, result);
+
+    std::size_t correct = 0, non_exact = 0;
+    for (const auto& r : result.keywords) {
+        correct += r.match.correct ? 1 : 0;
+        non_exact += r.match.correct && r.match.rule != MatchRule::Exact && r.override_reason.empty() ? 1 : 0;
+    }
+    log_info("scored {} test trials with the {} rule set: {} keywords, {} correct ({:.1f} %), {} by a rule other "
+             "than exact (audit.csv), {} overrides",
+             result.trials_scored, rule_set_name(result.rules), result.keywords.size(), correct,
+             result.keywords.empty() ? 0.0 : 100.0 * double(correct) / double(result.keywords.size()), non_exact,
+             result.overrides.size());
+    std::vector<std::string> lexicon_files;
+    for (const auto& f : s.scoring.lexicon.empty() ? Lexicon::default_files() : s.scoring.lexicon)
+        lexicon_files.push_back(f.string());
+    log_info("lexicon: {} words from {} (read once per process in {:.1f} ms)", result.lexicon_words,
+             fmt::join(lexicon_files, ", "), result.lexicon_load_ms);
+    if (out.agreement) {
+        const AgreementResult& a = *out.agreement;
+        log_info("second scorer ({}): {} of {} keywords judged", s.agreement.string(),
+                 a.rows.empty() ? 0 : a.rows.front().keywords, a.keywords_scored);
+        for (const auto& r : a.rows)
+            log_info("  {:<18} agreement {:6.2f} %  Cohen's kappa {}  ({} disagreements)", r.scoring,
+                     r.percent_agreement, r.kappa ? fmt::format("{:.3f}", *r.kappa) : "undefined (one verdict throughout)",
+                     r.keywords - r.agreements);
+    }
+    return out;
 }
 
 }  // namespace avsi::analysis

@@ -182,13 +182,13 @@ std::string ordinal_suffix(long long v) {
     return m10 == 1 ? "st" : m10 == 2 ? "nd" : m10 == 3 ? "rd" : "th";
 }
 
-std::vector<std::string> numbers_to_digits(const std::vector<std::string>& words) {
-    std::vector<std::string> out;
+std::vector<NormalizedWord> numbers_to_digits(const std::vector<std::string>& words) {
+    std::vector<NormalizedWord> out;
     std::size_t i = 0;
     while (i < words.size()) {
         auto first = number_word(words[i]);
         if (!first) {
-            out.push_back(words[i++]);
+            out.push_back({words[i++], false});
             continue;
         }
         // One number: total (completed scales) + current (below 1000).
@@ -236,14 +236,14 @@ std::vector<std::string> numbers_to_digits(const std::vector<std::string>& words
             i = next + 1;
         }
         const long long value = total + current;
-        out.push_back(std::to_string(value) + (ordinal ? ordinal_suffix(value) : ""));
+        out.push_back({std::to_string(value) + (ordinal ? ordinal_suffix(value) : ""), true});
     }
     return out;
 }
 
 }  // namespace
 
-std::vector<std::string> normalize_words(std::string_view text) {
+std::vector<NormalizedWord> normalize_tokens(std::string_view text) {
     const std::string ascii = fold_to_ascii(text);
     std::vector<std::string> words;
     std::string w;
@@ -257,6 +257,12 @@ std::vector<std::string> normalize_words(std::string_view text) {
     }
     if (!w.empty()) expand_contraction(std::move(w), words);
     return numbers_to_digits(words);
+}
+
+std::vector<std::string> normalize_words(std::string_view text) {
+    std::vector<std::string> out;
+    for (auto& t : normalize_tokens(text)) out.push_back(std::move(t.text));
+    return out;
 }
 
 std::string normalize_text(std::string_view text) {

@@ -54,6 +54,11 @@ std::string to_string(Counterbalance counterbalance) {
     return counterbalance == Counterbalance::LatinSquare ? "latin-square" : "williams";
 }
 
+const std::vector<std::string>& protocol_rule_sets() {
+    static const std::vector<std::string> names = {"strict", "loose", "lenient"};
+    return names;
+}
+
 int Protocol::condition_index(const std::string& condition) const {
     for (std::size_t i = 0; i < conditions.size(); ++i)
         if (conditions[i].name == condition) return static_cast<int>(i);
@@ -263,9 +268,31 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
     session.check_unknown_keys(problems);
     p.session_section = session;
 
+    // [scoring]
+    ConfigSection scoring_storage;
+    const ConfigSection& scoring = section_or_empty(root, "scoring", scoring_storage, problems);
+    p.scoring.rules = scoring.get_choice("rules", protocol_rule_sets(), p.scoring.rules, problems);
+    if (const std::string table = scoring.get_string("homophones", "", problems); !table.empty()) {
+        p.scoring.homophones = resolve(path, table);
+        if (!fs::is_regular_file(p.scoring.homophones))
+            scoring.report("homophones",
+                           fmt::format("expected an existing homophone table, got \"{}\" (resolved to {}, which "
+                                       "does not exist)",
+                                       table, p.scoring.homophones.string()),
+                           problems);
+    }
+    scoring.check_unknown_keys(problems);
+
+    // [online] — validated by the experiment module (avsi export-web / import-web).
+    if (const ConfigSection* o = root.get_table("online", problems))
+        p.online = *o;
+    else
+        p.online = absent_section(file, "online");
+
     // Top-level keys.
-    root.check_unknown_keys({"experiment", "corpus", "condition", "vocoder", "design", "render", "session"},
-                            problems);
+    root.check_unknown_keys(
+        {"experiment", "corpus", "condition", "vocoder", "design", "render", "session", "scoring", "online"},
+        problems);
 
     // Report in reading order (line, then column); file-level problems first.
     try {

@@ -1,4 +1,4 @@
-// The inner loops of the bounded Cohen-Massaro sum (cohen_massaro.cpp,
+// The inner loops of the bounded Cohen-Massaro sum (cm_bounded_sum.h,
 // eq. 7–8): |τ − t|^c and the dominance-weighted accumulation of one rate's
 // parameters over a run of frames. On x86-64 with glibc they use glibc's
 // vector math library (libmvec: exp, log within 4 ulp), 4 doubles at a time
@@ -23,7 +23,7 @@ void cm_accumulate(const double* u, std::size_t len, double rate, int count, con
 // v[f] = exp(v[f]) for every f < len.
 void cm_exp(double* v, std::size_t len);
 
-// The per-frame step of the c = 1 recursions (cohen_massaro.cpp): states
+// The per-frame step of the c = 1 recursions (cm_bounded_sum.h): states
 // num, den of `rows` rows × `width` columns (row-major), decay likewise.
 // If decay_first, num and den are multiplied elementwise by decay; then
 // acc_num[c] = Σ_r num[r·width + c] and acc_den[c] likewise (c < width).

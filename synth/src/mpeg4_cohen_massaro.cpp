@@ -101,6 +101,12 @@ VisemeSet load_viseme_set(const std::filesystem::path& path) {
     return set;
 }
 
+CmSegment mpeg4_segment(double centre_s, double t0_s, double target, double alpha,
+                        double theta_anticipatory_per_s, double theta_carryover_per_s) {
+    // Eq. 6: the peak at the segment centre plus t0; eq. 5: c = 1.
+    return {centre_s + t0_s, target, alpha, theta_anticipatory_per_s, theta_carryover_per_s, 1.0};
+}
+
 Mpeg4CohenMassaroModel::Mpeg4CohenMassaroModel(VisemeSet visemes, std::string viseme_set_ref,
                                                Mpeg4CmSettings settings)
     : m_visemes(std::move(visemes)), m_viseme_set_ref(std::move(viseme_set_ref)), m_settings(std::move(settings)) {
@@ -116,11 +122,10 @@ std::array<std::vector<CmSegment>, param_count> Mpeg4CohenMassaroModel::segments
         const Viseme& v = m_visemes.visemes[it->second];
         double t0 = m_settings.t0_s;
         if (const auto o = m_settings.t0_s_by_viseme.find(v.name); o != m_settings.t0_s_by_viseme.end()) t0 = o->second;
-        // Eq. 6: the peak at the segment centre plus t0.
-        const double tau = phones[i].start_s + 0.5 * phones[i].duration_s() + t0;
+        const double centre = phones[i].start_s + 0.5 * phones[i].duration_s();
         for (std::size_t p = 0; p < param_count; ++p)
-            out[p].push_back({tau, v.targets[p], m_alphas[it->second], m_settings.theta_anticipatory_per_s,
-                              m_settings.theta_carryover_per_s, 1.0});
+            out[p].push_back(mpeg4_segment(centre, t0, v.targets[p], m_alphas[it->second],
+                                           m_settings.theta_anticipatory_per_s, m_settings.theta_carryover_per_s));
     }
     return out;
 }

@@ -1,9 +1,13 @@
-// Öhman's model (Beskow §4.3, eq. 15–17): vowel track plus consonant
-// gestures with cubic blends; edge and silence decisions in ohman.h.
+// Öhman's model (Beskow §4.3, eq. 15–17): vowel track (eq. 17) plus
+// consonant gestures (eq. 16) with cubic blends, the model's one forward
+// pass (ohman_blends here, ohman_value in ohman.h), and the model file; edge
+// and silence decisions in ohman.h. Training differentiates the same pass
+// (eq. 18–20, learn/src/training.cpp).
 #include "avsi/synth/ohman.h"
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -44,37 +48,38 @@ namespace {
 
 bool is_anchor(const Phone& phone) { return phone.symbol == "sil" || detail::is_vowel_symbol(phone.symbol); }
 
+// Index n of the last centre <= t, or -1 if t is before the first centre.
+long bracket(std::span<const double> centres, double t) {
+    return static_cast<long>(std::upper_bound(centres.begin(), centres.end(), t) - centres.begin()) - 1;
+}
+
 // The resolved utterance: centres, and per segment its vowel targets or
 // consonant parameters.
 struct Resolved {
     std::vector<double> centres;
+    std::vector<bool> anchor;
     std::vector<double> anchor_centres;
     std::vector<const Frame*> anchor_targets;
     std::vector<const OhmanConsonant*> consonant;  // per segment; nullptr for anchors
 };
 
-// Index n of the last centre <= t, or -1 if t is before the first centre.
-long bracket(const std::vector<double>& centres, double t) {
-    return static_cast<long>(std::upper_bound(centres.begin(), centres.end(), t) - centres.begin()) - 1;
-}
-
-// Eq. 17 at t for all parameters (the blend from ohman_vowel_blend); with
-// no anchor the track is neutral.
-Frame vowel_track_at(const Resolved& r, double t) {
-    Frame v{};
-    const VowelBlend b = ohman_vowel_blend(r.anchor_centres, t);
-    if (b.left < 0) {
-        for (const auto& info : params()) v[index(info.param)] = info.neutral;
-        return v;
-    }
-    const Frame& left = *r.anchor_targets[static_cast<std::size_t>(b.left)];
-    if (b.right < 0) return left;
-    const Frame& right = *r.anchor_targets[static_cast<std::size_t>(b.right)];
-    for (std::size_t p = 0; p < param_count; ++p) v[p] = left[p] * b.w_left + right[p] * b.w_right;
-    return v;
-}
-
 }  // namespace
+
+OhmanBlends ohman_blends(std::span<const double> centres, std::span<const double> anchor_centres,
+                         const std::vector<bool>& anchor, double t) {
+    OhmanBlends b;
+    b.vowel = ohman_vowel_blend(anchor_centres, t);
+    const long n = bracket(centres, t);
+    for (long i : {n, n + 1}) {
+        if (i < 0 || static_cast<std::size_t>(i) >= centres.size() || anchor[static_cast<std::size_t>(i)]) continue;
+        const double blend = ohman_consonant_blend(centres, static_cast<std::size_t>(i), t);
+        if (blend == 0.0) continue;
+        b.consonant[static_cast<std::size_t>(b.consonants)] = static_cast<std::size_t>(i);
+        b.k[static_cast<std::size_t>(b.consonants)] = blend;
+        ++b.consonants;
+    }
+    return b;
+}
 
 void OhmanModel::vowel_track(const PhoneSequence& phones, std::span<const double> times_s,
                              std::vector<Frame>& out) const {
@@ -88,7 +93,14 @@ void OhmanModel::vowel_track(const PhoneSequence& phones, std::span<const double
         r.anchor_targets.push_back(a);
     }
     out.resize(times_s.size());
-    for (std::size_t k = 0; k < times_s.size(); ++k) out[k] = vowel_track_at(r, times_s[k]);
+    for (std::size_t k = 0; k < times_s.size(); ++k) {
+        const VowelBlend b = ohman_vowel_blend(r.anchor_centres, times_s[k]);
+        for (const auto& info : params()) {
+            const std::size_t p = index(info.param);
+            out[k][p] = ohman_vowel_value(b, info.neutral,
+                                          [&](long j) { return (*r.anchor_targets[static_cast<std::size_t>(j)])[p]; });
+        }
+    }
 }
 
 void OhmanModel::evaluate(const PhoneSequence& phones, std::span<const double> times_s,
@@ -98,7 +110,8 @@ void OhmanModel::evaluate(const PhoneSequence& phones, std::span<const double> t
     r.consonant.assign(phones.size(), nullptr);
     for (std::size_t i = 0; i < phones.size(); ++i) {
         r.centres.push_back(phones[i].centre_s());
-        if (is_anchor(phones[i])) {
+        r.anchor.push_back(is_anchor(phones[i]));
+        if (r.anchor.back()) {
             const Frame* a = find_phone_entry(m_vowels, phones[i]);
             if (!a) detail::missing_phone(phones[i], i, kind());
             r.anchor_centres.push_back(phones[i].centre_s());
@@ -111,21 +124,18 @@ void OhmanModel::evaluate(const PhoneSequence& phones, std::span<const double> t
     }
     out.resize(times_s.size());
     for (std::size_t k = 0; k < times_s.size(); ++k) {
-        const double t = times_s[k];
-        const Frame v = vowel_track_at(r, t);
-        Frame z = v;
-        // Only the segments whose centres bracket t can have k_i(t) > 0.
-        const long n = bracket(r.centres, t);
-        for (long i : {n, n + 1}) {
-            if (i < 0 || static_cast<std::size_t>(i) >= phones.size()) continue;
-            const OhmanConsonant* c = r.consonant[static_cast<std::size_t>(i)];
-            if (!c) continue;
-            const double blend = ohman_consonant_blend(r.centres, static_cast<std::size_t>(i), t);
-            if (blend == 0.0) continue;
-            for (std::size_t p = 0; p < param_count; ++p)
-                z[p] += (*c)[p].coarticulation_factor * blend * ((*c)[p].target - v[p]);
+        const OhmanBlends b = ohman_blends(r.centres, r.anchor_centres, r.anchor, times_s[k]);
+        for (const auto& info : params()) {
+            const std::size_t p = index(info.param);
+            out[k][p] = ohman_value(
+                            b, info.neutral,
+                            [&](long j) { return (*r.anchor_targets[static_cast<std::size_t>(j)])[p]; },
+                            [&](std::size_t i) {
+                                const OhmanConsonantParam& q = (*r.consonant[i])[p];
+                                return std::pair{q.target, q.coarticulation_factor};
+                            })
+                            .z;
         }
-        out[k] = z;
     }
 }
 

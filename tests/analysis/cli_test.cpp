@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "avsi/core/corpus.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/files.h"
 
@@ -108,6 +109,111 @@ TEST_F(Cli, AnalyzeTakesTheConditionOrderFromTheProtocol) {
     EXPECT_EQ(typo.code, 1) << typo.output;
     EXPECT_NE(typo.output.find("did you mean 'ohman'"), std::string::npos) << typo.output;
     EXPECT_FALSE(fs::exists(dir / "r3"));
+}
+
+TEST_F(Cli, ScoreRuleSetsByNameAndStrictAlias) {
+    avsi::write_text_file(dir / "sentences.csv",
+                          "id,text,keywords\n"
+                          "s1,\"The boys found the garden.\",\"boys;found;garden\"\n");
+    avsi::write_text_file(dir / "responses.csv",
+                          "subject,session,trial,phase,condition,list,sentence,response\n"
+                          "p1,1,1,test,a,1,s1,\"the boy pound the gardne\"\n");
+    const std::string base = fmt::format("score --corpus {0}/sentences.csv --responses {0}/responses.csv", dir.string());
+    // boy: inflection (loose); pound: never; gardne: non-word typo (lenient).
+    const std::vector<std::pair<std::string, std::string>> expected = {
+        {"--rules strict", "0"}, {"--strict", "0"}, {"--rules loose", "1"}, {"--rules lenient", "2"}, {"", "0"}};
+    for (const auto& [option, correct] : expected) {
+        SCOPED_TRACE(option);
+        const CliRun r = run_cli(base + " --out " + (dir / "o").string() + " " + option);
+        ASSERT_EQ(r.code, 0) << r.output;
+        const auto scores = avsi::read_csv(dir / "o" / "scores.csv");
+        ASSERT_EQ(scores.rows.size(), 1u);
+        EXPECT_EQ(scores.rows[0].fields[scores.require_column("correct")], correct);
+        const std::string set = option.empty() ? "strict" : option == "--strict" ? "strict" : option.substr(8);
+        EXPECT_EQ(scores.rows[0].fields[scores.require_column("rule_set")], set);
+        EXPECT_NE(r.output.find("with the " + set + " rule set"), std::string::npos) << r.output;
+    }
+    const CliRun typo = run_cli(base + " --out " + (dir / "x").string() + " --rules lose");
+    EXPECT_EQ(typo.code, 2) << typo.output;
+    EXPECT_NE(typo.output.find("did you mean \"loose\""), std::string::npos) << typo.output;
+    const CliRun both = run_cli(base + " --out " + (dir / "x").string() + " --strict --rules loose");
+    EXPECT_EQ(both.code, 2) << both.output;
+    EXPECT_FALSE(fs::exists(dir / "x"));
+}
+
+TEST_F(Cli, ScoreAgreementWithASecondScorer) {
+    avsi::write_text_file(dir / "sentences.csv",
+                          "id,text,keywords\n"
+                          "s1,\"The boys found the garden.\",\"boys;found;garden\"\n");
+    avsi::write_text_file(dir / "responses.csv",
+                          "subject,session,trial,phase,condition,list,sentence,response\n"
+                          "p1,1,1,test,a,1,s1,\"the boy pound the gardne\"\n");
+    // The second scorer credits only the misspelt garden.
+    avsi::write_text_file(dir / "second.csv", "subject,trial,keyword_index,correct\np1,1,1,0\np1,1,2,0\np1,1,3,1\n");
+    const CliRun r = run_cli(fmt::format("score --corpus {0}/sentences.csv --responses {0}/responses.csv --out {0}/o "
+                                         "--agreement {0}/second.csv",
+                                         dir.string()));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("Cohen's kappa"), std::string::npos) << r.output;
+    const auto agreement = avsi::read_csv(dir / "o" / "agreement.csv");
+    ASSERT_EQ(agreement.rows.size(), 3u);
+    // strict: 0 0 0 vs 0 0 1 -> 2 of 3 agree, kappa 0 (the automatic side has one verdict: pe = po = 2/3).
+    EXPECT_EQ(agreement.rows[0].fields[agreement.require_column("agreements")], "2");
+    EXPECT_EQ(agreement.rows[0].fields[agreement.require_column("kappa")], "0.000000");
+    // lenient: 1 0 1 vs 0 0 1 -> 2 of 3; pa = 2/3, pb = 1/3, pe = 2/9 + 2/9 = 4/9, kappa = (6/9-4/9)/(5/9) = 0.4.
+    EXPECT_EQ(agreement.rows[2].fields[agreement.require_column("kappa")], "0.400000");
+    EXPECT_EQ(avsi::read_csv(dir / "o" / "disagreements.csv").rows.size(), 1u + 2u + 1u);
+}
+
+// The default protocol's dry run, scoring and report part: lists from `avsi
+// design` for one subject, typed answers with an inflection slip and a
+// misspelling, `avsi score --protocol`, `avsi analyze`. The rule set the
+// protocol names is in scores.csv, keywords.csv and the report.
+TEST_F(Cli, DefaultProtocolDryRunReportsItsRuleSet) {
+    const std::string protocol = std::string(AVSI_PROTOCOLS_DIR) + "/beskow2004-en.toml";
+    const CliRun design = run_cli(fmt::format("design {} --subjects 1 --out {}/lists.csv", protocol, dir.string()));
+    ASSERT_EQ(design.code, 0) << design.output;
+    const auto corpus = avsi::read_corpus(std::string(AVSI_PROTOCOLS_DIR) + "/corpus/sentences.csv");
+    const auto lists = avsi::read_csv(dir / "lists.csv");
+    std::string responses = "subject,session,trial,phase,condition,list,sentence,response\n";
+    int trial = 0, test_trials = 0;
+    for (const auto& row : lists.rows) {
+        const std::string phase = row.fields[lists.require_column("phase")];
+        const std::string id = row.fields[lists.require_column("sentence")];
+        std::string answer = corpus.sentence(id).text;
+        ++trial;
+        if (phase == "test" && ++test_trials % 3 == 1) {
+            // Misspell the last keyword by swapping its last two letters.
+            std::string k = corpus.sentence(id).keywords.back().word;
+            const auto at = answer.find(k);
+            if (at != std::string::npos && k.size() >= 5) std::swap(answer[at + k.size() - 1], answer[at + k.size() - 2]);
+        }
+        std::erase(answer, '"');
+        responses += fmt::format("1,1,{},{},{},{},{},\"{}\"\n", trial, phase, row.fields[lists.require_column("condition")],
+                                 row.fields[lists.require_column("list")], id, answer);
+    }
+    avsi::write_text_file(dir / "responses.csv", responses);
+    const CliRun score = run_cli(fmt::format("score --protocol {} --responses {}/responses.csv --out {}/scores", protocol,
+                                             dir.string(), dir.string()));
+    ASSERT_EQ(score.code, 0) << score.output;
+    EXPECT_NE(score.output.find("with the strict rule set"), std::string::npos) << score.output;
+    const auto scores = avsi::read_csv(dir / "scores" / "scores.csv");
+    ASSERT_EQ(scores.rows.size(), 6u);
+    for (const auto& row : scores.rows) EXPECT_EQ(row.fields[scores.require_column("rule_set")], "strict");
+    const auto audit = avsi::read_csv(dir / "scores" / "audit.csv");
+    std::size_t typos = 0;
+    for (const auto& row : audit.rows)
+        if (row.fields[audit.require_column("rule")] == "typo") {
+            ++typos;
+            EXPECT_EQ(row.fields[audit.require_column("correct")], "0");  // strict does not credit them
+        }
+    EXPECT_GT(typos, 10u);
+    const CliRun analyze = run_cli(fmt::format("analyze {0}/scores/scores.csv --out {0}/report --protocol {1}",
+                                               dir.string(), protocol));
+    ASSERT_EQ(analyze.code, 0) << analyze.output;
+    const std::string report = avsi::read_text_file(dir / "report" / "report.md");
+    EXPECT_NE(report.find("Keywords scored with the strict rule set"), std::string::npos) << report;
+    EXPECT_NE(avsi::read_text_file(dir / "report" / "index.html").find("strict rule set"), std::string::npos);
 }
 
 TEST_F(Cli, AnalyzeRefusesDatabase) {

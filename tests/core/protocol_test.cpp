@@ -73,6 +73,22 @@ TEST(Protocol, GoldenErrorUnknownKeys) { check_golden("unknown_keys"); }
 TEST(Protocol, GoldenErrorReferences) { check_golden("references"); }
 TEST(Protocol, GoldenErrorSyntax) { check_golden("syntax"); }
 
+TEST(Protocol, GoldenErrorScoring) { check_golden("scoring"); }
+
+TEST(Protocol, ScoringRuleSetAndHomophoneTable) {
+    EXPECT_EQ(load_protocol(data_dir / "valid.toml").scoring.rules, "strict");  // the default
+    EXPECT_TRUE(load_protocol(data_dir / "valid.toml").scoring.homophones.empty());
+    const std::string text = "[experiment]\nname = \"s\"\n[corpus]\nsentences = \"corpus.csv\"\n"
+                             "[[condition]]\nname = \"a\"\n[scoring]\nrules = \"lenient\"\n"
+                             "homophones = \"corpus.csv\"\n";
+    const Protocol p = parse_protocol(text, data_dir / "inline.toml");
+    EXPECT_EQ(p.scoring.rules, "lenient");
+    EXPECT_EQ(p.scoring.homophones, data_dir / "corpus.csv");
+    EXPECT_EQ(protocol_rule_sets(), (std::vector<std::string>{"strict", "loose", "lenient"}));
+    // The shipped default protocol names its rule set.
+    EXPECT_EQ(load_protocol(fs::path(AVSI_PROTOCOLS_DIR) / "beskow2004-en.toml").scoring.rules, "strict");
+}
+
 TEST(Protocol, MissingFileIsAnInputError) {
     EXPECT_THROW(load_protocol(data_dir / "does-not-exist.toml"), InputError);
 }

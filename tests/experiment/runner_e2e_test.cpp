@@ -143,6 +143,16 @@ TEST_F(RunnerE2E, ScriptedSessionsForTwoSubjectsCompleteAndExportEveryResponse) 
         EXPECT_EQ(f[2], std::to_string(trial));
         EXPECT_EQ(f[7], trial % 5 == 0 ? "" : fmt::format("answer {} {}", subject, trial));
     }
+    // The dry run's scoring names the protocol's rule set (strict: no [scoring] table).
+    ASSERT_EQ(run({"score", "--protocol", protocol.string(), "--responses", (dir / "export" / "responses.csv").string(),
+                   "--out", (dir / "scores").string()},
+                  dir / "log.txt"),
+              0)
+        << read_text_file(dir / "log.txt");
+    const CsvTable scores = read_csv(dir / "scores" / "scores.csv");
+    ASSERT_FALSE(scores.rows.empty());
+    for (const auto& row : scores.rows) EXPECT_EQ(row.fields[scores.require_column("rule_set")], "strict");
+    EXPECT_TRUE(fs::exists(dir / "scores" / "audit.csv"));
     // Timing against the simulated 60 Hz clock: every frame shown, in sync.
     const CsvTable timing = read_csv(dir / "export" / "timing.csv");
     ASSERT_EQ(timing.rows.size(), 20u);

@@ -45,6 +45,7 @@ struct ReportSettings {
     std::filesystem::path keywords_csv;  // for glmer.R; empty: keywords.csv beside the source
     std::string title = "Keyword intelligibility by condition";
     double confidence = 0.95;
+    std::string rule_set;  // keyword-scoring rule set of the scores ("" unknown), named in the report
 };
 
 // The anova.json document (as text) for a result.

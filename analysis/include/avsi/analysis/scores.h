@@ -1,7 +1,7 @@
 // Subject × condition scores (percent of keywords correct) and the complete
 // within-subject data matrix the ANOVA works on.
 //
-//   scores.csv: subject,condition,keywords,correct,percent   (long format)
+//   scores.csv: subject,condition,keywords,correct,percent[,rule_set]   (long format)
 //
 // Conditions keep the order in which they first appear in the file, so every
 // table, plot and contrast ("b - a") follows the order the user gave.
@@ -25,10 +25,13 @@ struct ScoreCell {
 
 struct Scores {
     std::vector<ScoreCell> cells;
+    // The keyword-scoring rule set that produced them ("strict", "loose",
+    // "lenient"; scoring.h), "" when not known (a scores file from elsewhere).
+    std::string rule_set;
 };
 
-// Reads scores.csv. Requires columns subject, condition, percent; keywords and
-// correct are optional. "NA" or an empty percent is a missing cell. Duplicate
+// Reads scores.csv. Requires columns subject, condition, percent; keywords,
+// correct and rule_set (the same on every row) are optional. "NA" or an empty percent is a missing cell. Duplicate
 // subject × condition rows and percentages outside [0, 100] are errors.
 Scores read_scores(const std::filesystem::path& path);
 

@@ -22,6 +22,15 @@ namespace avsi::analysis {
 // The normalised words of a text (steps 1-5 above).
 std::vector<std::string> normalize_words(std::string_view text);
 
+// One normalised word and how it was written.
+struct NormalizedWord {
+    std::string text;
+    bool number_in_words = false;  // a number written in words ("seven" -> "7", "first" -> "1st")
+};
+
+// normalize_words with, for each word, whether step 5 made it from number words.
+std::vector<NormalizedWord> normalize_tokens(std::string_view text);
+
 // The normalised words joined by single spaces.
 std::string normalize_text(std::string_view text);
 

@@ -7,7 +7,8 @@
 //
 // Sections: [experiment], [corpus], [[condition]], [vocoder] (kept as a
 // ConfigSection; the vocoder module validates it), [design], [render],
-// [session]. Paths in the file are relative to the protocol file.
+// [session], [scoring], [online] (kept as a ConfigSection; the experiment
+// module's web study export validates it). Paths in the file are relative to the protocol file.
 #pragma once
 
 #include <cstdint>
@@ -79,6 +80,19 @@ struct RenderSettings {
     bool check_articulation = true;
 };
 
+// [scoring]: how typed answers are scored (`avsi score`, live scoring).
+struct ScoringProtocol {
+    // Keyword-scoring rule set, one of protocol_rule_sets(): "strict",
+    // "loose" or "lenient" (analysis/include/avsi/analysis/scoring.h).
+    std::string rules = "strict";
+    // Homophone table, resolved against the protocol folder; empty: the
+    // shipped General American table (protocols/homophones.csv).
+    std::filesystem::path homophones;
+};
+
+// The rule-set names [scoring] rules accepts.
+const std::vector<std::string>& protocol_rule_sets();
+
 enum class ResponseMode { Subject, Experimenter };
 
 struct SessionSettings {
@@ -109,10 +123,12 @@ struct Protocol {
     DesignSettings design;
     RenderSettings render;
     SessionSettings session;
+    ScoringProtocol scoring;
     // The raw sections, for modules that validate their own settings.
     ConfigSection vocoder;         // [vocoder], validated by the vocoder module
     ConfigSection render_section;  // [render]
     ConfigSection session_section; // [session]
+    ConfigSection online;          // [online], validated by the experiment module (web study export/import)
 
     // Index of the condition with that name, or -1.
     int condition_index(const std::string& name) const;

@@ -17,7 +17,7 @@
 //
 // This header is the inference side: plain C++ (Eigen), no libtorch. The
 // training side (backpropagation through time with libtorch) is in
-// ann_training.h. Model file (kind "ann", read by load_model):
+// learn/include/avsi/learn/ann_training.h. Model file (kind "ann", read by load_model):
 //
 //     {"kind": "ann", "version": 1, "provenance": {…},
 //      "config": {"fps": 60, "look_ahead": 2, "look_back": 28, "delays": 5},

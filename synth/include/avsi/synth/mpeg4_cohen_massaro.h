@@ -64,6 +64,13 @@ struct VisemeSet {
 // widths/heights positive, targets in range). Errors name file and field.
 VisemeSet load_viseme_set(const std::filesystem::path& path);
 
+// One segment of eq. 5–6 for one parameter: the dominance peak at the
+// segment centre plus t0, θ← before it and θ→ after it, c = 1; T and α from
+// the viseme (α by eq. 8). The model builds its segments with this, and
+// training (learn/src/training.cpp) differentiates the same segments.
+CmSegment mpeg4_segment(double centre_s, double t0_s, double target, double alpha,
+                        double theta_anticipatory_per_s, double theta_carryover_per_s);
+
 struct Mpeg4CmSettings {
     double theta_anticipatory_per_s = 25.0;  // θ←, before the peak
     double theta_carryover_per_s = 25.0;     // θ→, after the peak

@@ -33,9 +33,11 @@
 //      "consonants": {"P": {"jaw_rotation": {"target": 0.1, "w": 0.9}, …}, …}}
 #pragma once
 
+#include <array>
 #include <map>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "avsi/synth/control_model.h"
 
@@ -66,6 +68,55 @@ VowelBlend ohman_vowel_blend(std::span<const double> anchor_centres, double t);
 // k_i(t) of eq. 16 for the consonant at segment i (centres ascending): 1 at
 // τ_i, 0 with zero slope at τ_{i−1} and τ_{i+1}, held at 1 toward an edge.
 double ohman_consonant_blend(std::span<const double> centres, std::size_t i, double t);
+
+// The blends at t over one utterance (eq. 16–17): the vowel track's anchors
+// and weights, and the consonants with k_i(t) > 0 (only the segments whose
+// centres bracket t can have one) with their k_i(t).
+struct OhmanBlends {
+    VowelBlend vowel;
+    int consonants = 0;                      // entries used below
+    std::array<std::size_t, 2> consonant{};  // segment indices
+    std::array<double, 2> k{};               // k_i(t) > 0
+};
+// centres ascending (every segment), anchor_centres those of the anchors
+// (vowels and silence), anchor[i] whether segment i is one.
+OhmanBlends ohman_blends(std::span<const double> centres, std::span<const double> anchor_centres,
+                         const std::vector<bool>& anchor, double t);
+
+// One parameter at one time: z(t) of eq. 16, the vowel track v(t) of eq. 17
+// and the consonants' total pull Σ w_ci·k_i(t) (what eq. 20 needs).
+struct OhmanValue {
+    double z = 0.0;
+    double v = 0.0;
+    double pull = 0.0;
+};
+
+// The vowel track of eq. 17 from the blends: anchor_target(j) is anchor j's
+// target a_j; `neutral` where the utterance has no anchor.
+template <class AnchorTarget>
+double ohman_vowel_value(const VowelBlend& b, double neutral, const AnchorTarget& anchor_target) {
+    if (b.left < 0) return neutral;
+    if (b.right < 0) return anchor_target(b.left);
+    return anchor_target(b.left) * b.w_left + anchor_target(b.right) * b.w_right;
+}
+
+// Eq. 16–17 for one parameter from the blends: the model's one forward pass,
+// evaluated by OhmanModel and differentiated by training (eq. 18–20,
+// learn/src/training.cpp). consonant(i) gives segment i's (c_i, w_ci).
+template <class AnchorTarget, class Consonant>
+OhmanValue ohman_value(const OhmanBlends& b, double neutral, const AnchorTarget& anchor_target,
+                       const Consonant& consonant) {
+    OhmanValue out;
+    out.v = ohman_vowel_value(b.vowel, neutral, anchor_target);
+    out.z = out.v;
+    for (int e = 0; e < b.consonants; ++e) {
+        const auto ue = static_cast<std::size_t>(e);
+        const auto [c, w] = consonant(b.consonant[ue]);
+        out.z += w * b.k[ue] * (c - out.v);
+        out.pull += w * b.k[ue];
+    }
+    return out;
+}
 
 class OhmanModel : public ControlModel {
 public:
