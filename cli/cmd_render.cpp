@@ -29,11 +29,11 @@ const bool registered_render = register_command({
         sub.add_option("--width", o->render.width, "Frame width in pixels")->capture_default_str();
         sub.add_option("--height", o->render.height, "Frame height in pixels")->capture_default_str();
         sub.add_option("--camera", o->camera, "Camera: front or three-quarter")->capture_default_str();
-        sub.add_option("--samples", o->render.samples, "MSAA samples per pixel (1 = off; 4 costs ~2.5x per frame)")
+        sub.add_option("--samples", o->render.samples, "MSAA samples per pixel (1 = off; 4 costs many times a frame on llvmpipe)")
             ->capture_default_str();
         sub.add_flag("!--no-fxaa", o->render.fxaa, "Do not anti-alias with FXAA");
         sub.add_flag("--per-pixel-lighting", o->render.per_pixel_lighting,
-                     "Blinn-Phong per pixel instead of per vertex (~2x per frame)")
+                     "Light per pixel instead of per vertex (~1.6x per frame)")
             ->capture_default_str();
         sub.add_option("--crf", o->video.crf, "x264 constant rate factor")->capture_default_str();
         sub.add_option("--blink-seed", o->blinks.seed, "Seed of the blink times")->capture_default_str();

@@ -1,7 +1,11 @@
-// Rendering the talking head with OpenGL 3.3 core: Blinn-Phong shading with
-// key, fill and rim lights (per vertex by default, per pixel on request),
-// anti-aliasing by a post-process pass (FXAA: Lottes 2009, "FXAA", NVIDIA
-// white paper) and/or multisampling, a frontal or three-quarter camera. HeadDrawer holds the GL drawing code and works in any
+// Rendering the talking head with OpenGL 3.3 core: the head's texture and a
+// lighting model for skin (key, fill and rim lights, a sky/ground ambient,
+// wrapped diffuse light tinted red past the terminator, a soft Blinn-Phong
+// highlight with Fresnel; per vertex by default, per pixel on request and
+// for glossy materials), alpha-blended hair, brows and lashes drawn back to
+// front, anti-aliasing by a post-process pass (FXAA: Lottes 2009, "FXAA",
+// NVIDIA white paper) and/or multisampling, a frontal or three-quarter
+// camera. HeadDrawer holds the GL drawing code and works in any
 // current GL 3.3 core context (OSMesa offscreen here, a GLFW window in the
 // session runner); OffscreenRenderer owns an OSMesa context (llvmpipe, no
 // display) and returns images. No GL header is included here.
@@ -51,7 +55,7 @@ struct RenderSettings {
     // default is FXAA, a post-process pass over the finished image.
     int samples = 1;                 // MSAA samples per pixel (1 = off)
     bool fxaa = true;                // FXAA post-process pass
-    bool per_pixel_lighting = false; // Blinn-Phong per pixel instead of per vertex
+    bool per_pixel_lighting = false; // the lights per pixel instead of per vertex
     // Draw the static part of the head (DrawPart) once per renderer and per
     // frame only the moving triangles over its cached colour and depth, read
     // back and anti-alias only the rectangles they cover. The same picture as
