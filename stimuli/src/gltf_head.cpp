@@ -38,12 +38,15 @@ std::vector<std::string> channel_names() {
     for (const auto& info : synth::params()) names.emplace_back(info.name);
     names.emplace_back("blink");
     names.emplace_back("tongue_tip");
+    names.emplace_back("gaze_left");
+    names.emplace_back("gaze_up");
     return names;
 }
 
-// The channel's range ends (blink and tongue tip: 0 to 1).
+// The channel's range ends (blink and tongue tip: 0 to 1; gaze: −1 to 1).
 std::pair<double, double> channel_range(const std::string& channel) {
     if (const auto p = synth::param_from_name(channel)) return {synth::param_info(*p).min, synth::param_info(*p).max};
+    if (channel == "gaze_left" || channel == "gaze_up") return {-1.0, 1.0};
     return {0.0, 1.0};
 }
 
@@ -238,7 +241,7 @@ BlendshapeMapping read_blendshape_mapping(const std::filesystem::path& path) {
             const std::string field = "parameters." + channel;
             if (std::find(channels.begin(), channels.end(), channel) == channels.end()) {
                 const auto hint = closest_match(channel, channels);
-                problem(field, "expected a parameter name, \"blink\" or \"tongue_tip\"" +
+                problem(field, "expected a parameter name, \"blink\", \"tongue_tip\", \"gaze_left\" or \"gaze_up\"" +
                                    (hint.empty() ? std::string() : " (did you mean '" + hint + "'?)"));
                 continue;
             }
@@ -489,6 +492,8 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
             Pose pose;
             if (const auto p = synth::param_from_name(channel)) pose.params[synth::index(*p)] = value;
             else if (channel == "blink") pose.blink = value;
+            else if (channel == "gaze_left") pose.gaze_left = value;
+            else if (channel == "gaze_up") pose.gaze_up = value;
             else pose.tongue_tip = value;
             std::vector<glm::vec3> posed;
             pose_positions(bare, pose, posed);
@@ -496,8 +501,9 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
             // An _L/_R pair shares the shape across the midline (the speaker's left is +x).
             std::vector<std::string> names;
             for (const auto& [t, w] : weights) names.push_back(t);
-            const bool pair = names.size() == 2 && names[0].size() > 2 && names[0].substr(0, names[0].size() - 2) ==
-                                                                              names[1].substr(0, names[1].size() - 2);
+            auto ends = [](const std::string& t, const char* suffix) { return t.size() > 2 && t.substr(t.size() - 2) == suffix; };
+            const bool pair = names.size() == 2 && ((ends(names[0], "_L") && ends(names[1], "_R")) ||
+                                                    (ends(names[0], "_R") && ends(names[1], "_L")));
             for (const auto& [t, w] : weights) {
                 const std::string where = channel + (value > 0 ? " positive" : value < 0 ? " negative" : "");
                 if (!owner.emplace(t, where).second)

@@ -531,6 +531,8 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
     for (const auto& info : synth::params()) channels.emplace_back(info.name);
     channels.emplace_back("blink");
     channels.emplace_back("tongue_tip");
+    channels.emplace_back("gaze_left");
+    channels.emplace_back("gaze_up");
     AVSI_ASSERT(channels.size() == channel_count);
 
     int k = 0;
@@ -541,7 +543,7 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
         const auto it = std::find(channels.begin(), channels.end(), rt.channel);
         if (it == channels.end()) {
             const auto hint = closest_match(rt.channel, channels);
-            rig.problem(field + ".channel", "expected a parameter name, \"blink\" or \"tongue_tip\", got \"" +
+            rig.problem(field + ".channel", "expected a parameter name, \"blink\", \"tongue_tip\", \"gaze_left\" or \"gaze_up\", got \"" +
                                                 rt.channel + "\"" +
                                                 (hint.empty() ? "" : " (did you mean '" + hint + "'?)"));
             continue;
@@ -675,7 +677,11 @@ void compute_normals(const std::vector<glm::vec3>& positions, const std::vector<
 
 double channel_amount(const RigTransform& t, const Pose& pose) {
     const auto c = static_cast<std::size_t>(t.channel_index);
-    const double value = c < synth::param_count ? pose.params[c] : c == blink_channel ? pose.blink : pose.tongue_tip;
+    const double value = c < synth::param_count     ? pose.params[c]
+                         : c == blink_channel       ? pose.blink
+                         : c == tongue_tip_channel  ? pose.tongue_tip
+                         : c == gaze_left_channel   ? pose.gaze_left
+                                                    : pose.gaze_up;
     switch (t.side) {
         case ChannelSide::Positive: return std::max(value, 0.0);
         case ChannelSide::Negative: return std::min(value, 0.0);

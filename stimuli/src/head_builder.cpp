@@ -343,7 +343,7 @@ void build_head(const HeadBuildSettings& settings) {
 
     const MhSkeleton skeleton = read_skeleton(dir / "rig" / "default.mhskel", dir / "rig" / "default_weights.mhw");
     // The shape targets part the lips slightly; at rest they just meet: the
-    // lower lip's bones' region is raised until the midline gap is 0.1 mm.
+    // lower lip's bones' region is raised until the midline gap is 0.02 mm.
     {
         const int lip = skeleton.bone_index("special04");
         if (lip < 0) throw InputError(dir / "rig" / "default.mhskel", "no bone \"special04\" (the lower lip's)");
@@ -354,7 +354,7 @@ void build_head(const HeadBuildSettings& settings) {
                 total[v] += w;
                 if (skeleton.descends_from(int(b), lip)) in[v] += w;
             }
-        const float gap = shaped[upper_lip_edge_vertex].y - shaped[lower_lip_inner_vertex].y - 0.1f / mm_per_unit;
+        const float gap = shaped[upper_lip_edge_vertex].y - shaped[lower_lip_inner_vertex].y - 0.02f / mm_per_unit;
         if (gap > 0)
             for (std::size_t v = 0; v < shaped.size(); ++v)
                 if (total[v] > 0) shaped[v].y += gap * in[v] / total[v];
@@ -465,17 +465,24 @@ void build_head(const HeadBuildSettings& settings) {
         return out;
     };
     const auto rest_proxies = fitted(shaped);
-    // The origin: between the eyes' centres (the eye proxy's two halves).
+    // The origin: between the means of the eye proxy's two halves (the
+    // frame of the committed heads). Each eyeball's centre, its pivot: the
+    // middle of its bounding box (the vertices crowd at the back, so their
+    // mean lies about 5 mm in front of it).
     glm::vec3 eye_sum[2] = {glm::vec3(0.0f), glm::vec3(0.0f)};
     float eye_count[2] = {0, 0};
+    glm::vec3 eye_lo[2] = {glm::vec3(1e9f), glm::vec3(1e9f)}, eye_hi[2] = {glm::vec3(-1e9f), glm::vec3(-1e9f)};
     for (const auto& p : rest_proxies[0]) {
         const int side = p.x > 0 ? 0 : 1;  // 0: the speaker's left (+x)
         eye_sum[side] += p;
         eye_count[side] += 1;
+        eye_lo[side] = glm::min(eye_lo[side], p);
+        eye_hi[side] = glm::max(eye_hi[side], p);
     }
     if (eye_count[0] == 0 || eye_count[1] == 0) throw InputError(dir / "proxies" / "high-poly.mhclo", "expected two eyes");
-    const glm::vec3 eye_left = eye_sum[0] / eye_count[0], eye_right = eye_sum[1] / eye_count[1];
-    const glm::vec3 origin(0.0f, 0.5f * (eye_left.y + eye_right.y), 0.5f * (eye_left.z + eye_right.z));
+    const glm::vec3 eye_mean_left = eye_sum[0] / eye_count[0], eye_mean_right = eye_sum[1] / eye_count[1];
+    const glm::vec3 eye_left = 0.5f * (eye_lo[0] + eye_hi[0]), eye_right = 0.5f * (eye_lo[1] + eye_hi[1]);
+    const glm::vec3 origin(0.0f, 0.5f * (eye_mean_left.y + eye_mean_right.y), 0.5f * (eye_mean_left.z + eye_mean_right.z));
     auto to_mm = [&](glm::vec3 p) { return (p - origin) * mm_per_unit; };
 
     // 5. The output mesh: the kept body faces and the proxies, split at UV seams.
@@ -685,7 +692,7 @@ void build_head(const HeadBuildSettings& settings) {
     // the upper incisal edge 5 mm above the lip line and 10 mm behind it.
     // Both rows move forward and the upper one down, so the upper incisors'
     // edge sits about 2 mm above the lip line as in a young adult at rest.
-    const glm::vec3 upper_teeth_shift(0.0f, -3.0f, 3.5f), lower_teeth_shift(0.0f, -1.0f, 3.5f);
+    const glm::vec3 upper_teeth_shift(0.0f, -3.0f, 3.5f), lower_teeth_shift(0.0f, -1.5f, 2.5f);
     constexpr int teeth_proxy = 3;
     auto positions_of = [&](const std::vector<glm::vec3>& b) {
         const auto px = fitted(b);
@@ -886,7 +893,7 @@ void build_head(const HeadBuildSettings& settings) {
     auto blendshape = [&](const std::string& channel, const std::vector<glm::vec3>& d, float per_unit,
                           const char* side, const std::string& note) {
         json vertices = json::array(), offsets = json::array();
-        const bool speech = channel != "blink";
+        const bool speech = channel != "blink" && channel.rfind("gaze", 0) != 0;
         for (std::size_t i = 0; i < n; ++i) {
             const glm::vec3 o = d[i] * per_unit * (speech ? speech_mask[i] : 1.0f);
             if (glm::length(o) < keep_offset_mm) continue;
@@ -909,9 +916,21 @@ void build_head(const HeadBuildSettings& settings) {
         const float angle = glm::degrees(glm::angle(q));
         const glm::vec3 axis = glm::axis(q);
         const int b = skeleton.bone_index(bone);
-        const glm::vec3 pivot = to_mm(glm::vec3(rest[static_cast<std::size_t>(b)][3]));
+        glm::vec3 pivot = to_mm(glm::vec3(rest[static_cast<std::size_t>(b)][3]));
         auto weights = subtree_weight(bone);
         auto d = displacement(pose);
+        if (bone == "eye.L" || bone == "eye.R") {
+            // An eyeball turns about its own centre (the bone's head lies
+            // 8 mm behind the proxy's), rigidly: no rest for its vertices.
+            pivot = to_mm(bone == "eye.L" ? eye_left : eye_right);
+            for (std::size_t i = 0; i < n; ++i)
+                if (out.vertices[i].proxy == 0) {
+                    const bool same_side = (rest_pos[i].x > 0) == (bone == "eye.L");
+                    weights[i] = same_side ? 1.0f : 0.0f;
+                    const glm::quat r = glm::angleAxis(glm::radians(angle) * weights[i], axis);
+                    d[i] = (pivot + r * (rest_pos[i] - pivot)) - rest_pos[i];
+                }
+        }
         if (bone == "jaw")
             for (std::size_t i = 0; i < n; ++i)
                 if (teeth_row[i] != 0) {
@@ -924,7 +943,8 @@ void build_head(const HeadBuildSettings& settings) {
                 }
         json vertices = json::array(), w = json::array();
         for (std::size_t i = 0; i < n; ++i) {
-            const float wi = float(round_to(weights[i] * (channel != "blink" ? speech_mask[i] : 1.0f), 0.0001));
+            const bool speech = channel != "blink" && channel.rfind("gaze", 0) != 0;
+            const float wi = float(round_to(weights[i] * (speech ? speech_mask[i] : 1.0f), 0.0001));
             if (wi <= 0.0f) continue;
             vertices.push_back(i);
             w.push_back(wi);
@@ -1027,6 +1047,11 @@ void build_head(const HeadBuildSettings& settings) {
     // Eyelids and the tongue tip.
     rotation_and_rest("blink", "LeftUpperLidClosed", "orbicularis03.L", 1.0f, "LeftUpperLidClosed: the upper lid closes");
     rotation_and_rest("blink", "RightUpperLidClosed", "orbicularis03.R", 1.0f, "RightUpperLidClosed: the upper lid closes");
+    // Gaze: each eye turns on its bone, the lids follow (the units' other bones).
+    rotation_and_rest("gaze_left", "LeftEyeturnLeft", "eye.L", 1.0f, "LeftEyeturnLeft: the eyes turn to the speaker's left");
+    rotation_and_rest("gaze_left", "RightEyeturnLeft", "eye.R", 1.0f, "RightEyeturnLeft");
+    rotation_and_rest("gaze_up", "LeftEyeUp", "eye.L", 1.0f, "LeftEyeUp: the eyes turn up (negative: down)");
+    rotation_and_rest("gaze_up", "RightEyeUp", "eye.R", 1.0f, "RightEyeUp");
     blendshape("tongue_tip", displacement(pose_of({{"TonguePointUp", 0.6f}, {"TongueOut", 0.6f}})), 1.0f, nullptr,
                "TonguePointUp and a little TongueOut: the tip raised and forward to the upper teeth and alveolar ridge");
 

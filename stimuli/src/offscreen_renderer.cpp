@@ -207,7 +207,7 @@ void OffscreenRenderer::render(const Pose& pose, Image& out, RenderMode mode) {
     d.context.make_current();
     pose_head(m_head, pose, m_posed);
     if (d.cached && mode == RenderMode::Shaded) {
-        render_cached(out, d.has_lids && pose.blink == 0.0);  // pose_head leaves a zero channel at rest
+        render_cached(out, d.has_lids && pose.eyes_at_rest());  // pose_head leaves a zero channel at rest
         return;
     }
     d.scene_base = -1;

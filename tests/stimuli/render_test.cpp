@@ -155,6 +155,55 @@ TEST(Renderer, TongueTipShowsForAlveolarsWhenTheMouthIsOpen) {
     EXPECT_LT(track[7], 1.0);
 }
 
+// Gaze turns each eyeball on its bone about its centre: the iris moves
+// toward where the eyes look, and the eyeball turns rigidly about its
+// centre (so it stays in its socket).
+TEST(Renderer, GazeTurnsTheEyesAboutTheirCentres) {
+    const int eyes = head().mesh.group_index("eyes");
+    ASSERT_GE(eyes, 0);
+    // The speaker's left eyeball: its front (the iris side) and the middle of its bounding box.
+    // (the eyeball and its cornea shell together)
+    const int cornea = head().mesh.group_index("cornea");
+    std::vector<std::uint32_t> eye_vertices, ball_vertices;
+    for (std::size_t t = 0; t < head().mesh.triangle_group.size(); ++t)
+        if (head().mesh.triangle_group[t] == eyes || head().mesh.triangle_group[t] == cornea)
+            for (int k = 0; k < 3; ++k) {
+                const auto v = head().mesh.indices[3 * t + std::size_t(k)];
+                if (head().mesh.positions[v].x <= 0) continue;
+                ball_vertices.push_back(v);
+                if (head().mesh.triangle_group[t] == eyes) eye_vertices.push_back(v);
+            }
+    const float centre_z = head().landmarks.left_eye.z;
+    auto front = [&](const PosedMesh& m) {
+        glm::vec3 sum(0.0f);
+        int n = 0;
+        for (auto v : eye_vertices)
+            if (head().mesh.positions[v].z > centre_z + 6.0f) sum += m.positions[v], ++n;
+        return sum / float(std::max(n, 1));
+    };
+    // A rotation about the eye's centre (the left_eye landmark) keeps every
+    // point's distance to it.
+    auto worst_distance_change = [&](const PosedMesh& m) {
+        const glm::vec3 c = head().landmarks.left_eye;
+        float worst = 0.0f;
+        for (auto v : ball_vertices)
+            worst = std::max(worst, std::abs(glm::length(m.positions[v] - c) - glm::length(head().mesh.positions[v] - c)));
+        return worst;
+    };
+    PosedMesh rest, left, up;
+    pose_head(head(), Pose{}, rest);
+    Pose p;
+    p.gaze_left = 1.0;
+    pose_head(head(), p, left);
+    p.gaze_left = 0.0;
+    p.gaze_up = 1.0;
+    pose_head(head(), p, up);
+    EXPECT_GT(front(left).x - front(rest).x, 2.0f);  // the front turns to the speaker's left
+    EXPECT_GT(front(up).y - front(rest).y, 2.0f);
+    EXPECT_LT(worst_distance_change(left), 0.05f);  // rigid, about the centre
+    EXPECT_LT(worst_distance_change(up), 0.05f);
+}
+
 TEST(Renderer, BlinkClosesTheEyes) {
     RenderSettings rs;
     rs.width = 320;

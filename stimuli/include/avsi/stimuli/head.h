@@ -19,7 +19,8 @@
 //                   (Material; groups not named get defaults by their name);
 //   "landmarks"     neutral-face points for the FAPUs and the camera (Landmarks);
 //   "transforms"    the weighted transforms, applied in order (RigTransform):
-//                   {"channel": <parameter, "blink" or "tongue_tip">,
+//                   {"channel": <parameter, "blink", "tongue_tip", "gaze_left"
+//                    or "gaze_up">,
 //                    "side": "positive" | "negative" (optional: the transform
 //                    acts only on that side of the channel's value),
 //                    "rotate" | "translate" | "scale": …,
@@ -101,7 +102,14 @@ enum class ChannelSide { Both, Positive, Negative };
 // The channels beyond the 10 parameters, in channel-index order after them.
 inline constexpr std::size_t blink_channel = synth::param_count;
 inline constexpr std::size_t tongue_tip_channel = synth::param_count + 1;
-inline constexpr std::size_t channel_count = synth::param_count + 2;
+inline constexpr std::size_t gaze_left_channel = synth::param_count + 2;
+inline constexpr std::size_t gaze_up_channel = synth::param_count + 3;
+inline constexpr std::size_t channel_count = synth::param_count + 4;
+// Whether a channel moves the eyes and lids only (blink, gaze): the renderer
+// caches those parts at rest.
+inline constexpr bool is_eye_channel(std::size_t c) {
+    return c == blink_channel || c == gaze_left_channel || c == gaze_up_channel;
+}
 
 // One weighted transform of the rig, driven by one channel (a parameter name,
 // "blink" or "tongue_tip") at `amount` per unit of the channel.
@@ -118,7 +126,7 @@ struct RigTransform {
     std::vector<std::uint32_t> vertices;
     std::vector<float> weights;
     std::vector<glm::vec3> offsets;  // Blendshape: per entry of `vertices`, mesh units per unit
-    int channel_index = -1;    // resolved: parameter index, blink_channel or tongue_tip_channel
+    int channel_index = -1;    // resolved: parameter index or one of the *_channel constants
 };
 
 // Landmarks of the neutral head (mesh units), for the FAPUs and the camera.
@@ -215,6 +223,10 @@ struct Pose {
     synth::Frame params{};   // normalised units, 0 = rest
     double blink = 0.0;      // 0 = eyes open, 1 = closed
     double tongue_tip = 0.0; // 0 = at rest, 1 = raised to the teeth / alveolar ridge
+    double gaze_left = 0.0;  // 0 = at the camera; 1 = the eyes turned to the speaker's left by their pose unit (about 19°), −1 right
+    double gaze_up = 0.0;    // 0 = at the camera; 1 = up by the pose unit, −1 down
+    // Whether the eyes and lids are at rest (no blink, no gaze).
+    bool eyes_at_rest() const { return blink == 0.0 && gaze_left == 0.0 && gaze_up == 0.0; }
 };
 
 // The value of a transform's channel in a pose, with its side applied (the
