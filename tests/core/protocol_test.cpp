@@ -47,7 +47,8 @@ TEST(Protocol, LoadsAValidProtocol) {
     EXPECT_EQ(p.name, "test-study");
     EXPECT_EQ(p.seed, 42u);
     EXPECT_EQ(p.corpus.sentences, data_dir / "corpus.csv");
-    EXPECT_EQ(p.corpus.voice, "en-gb");
+    EXPECT_EQ(p.corpus.tts_engine, TtsEngine::Espeak);
+    EXPECT_EQ(p.corpus.tts_voice, "en-gb");
     ASSERT_EQ(p.conditions.size(), 2u);
     EXPECT_EQ(p.conditions[0].face, FaceMode::Still);
     EXPECT_TRUE(p.conditions[0].model.empty());
