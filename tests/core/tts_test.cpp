@@ -1,5 +1,7 @@
-// The espeak-ng front end: text -> audio + a contiguous phone sequence in the
-// project phone set, covering the audio, with stress from espeak's marks.
+// The TTS front end, espeak-ng and Festival: text -> audio + a contiguous
+// phone sequence in the project phone set, covering the audio, with stress
+// (espeak-ng's marks; Festival's syllable stress); the same speech in any
+// order and from any thread.
 #include "avsi/core/tts.h"
 
 #include <gtest/gtest.h>
@@ -162,6 +164,157 @@ TEST(Tts, SpeechDoesNotDependOnWhatWasSpokenBefore) {
         EXPECT_EQ(again.phones[i].start_s, first.phones[i].start_s);
         EXPECT_EQ(again.phones[i].end_s, first.phones[i].end_s);
     }
+}
+
+// --- Festival --------------------------------------------------------------
+
+TtsSettings festival(const std::string& voice = "cmu_us_slt_arctic_hts") {
+    TtsSettings s;
+    set_tts_voice(s, "festival:" + voice);
+    return s;
+}
+
+void expect_same_speech(const TtsResult& got, const TtsResult& want) {
+    EXPECT_EQ(got.audio.sample_rate_hz, want.audio.sample_rate_hz);
+    EXPECT_EQ(got.audio.samples, want.audio.samples);
+    ASSERT_EQ(got.phones.size(), want.phones.size());
+    for (std::size_t i = 0; i < want.phones.size(); ++i) EXPECT_EQ(got.phones[i], want.phones[i]) << i;
+}
+
+TEST(TtsVoiceSpec, ParsesEngineAndVoice) {
+    TtsSettings s;
+    set_tts_voice(s, "festival:kal_diphone");
+    EXPECT_EQ(s.engine, TtsEngine::Festival);
+    EXPECT_EQ(s.voice, "kal_diphone");
+    EXPECT_EQ(tts_voice_spec(s), "festival:kal_diphone");
+    set_tts_voice(s, "espeak:en-gb-x-rp");
+    EXPECT_EQ(s.engine, TtsEngine::Espeak);
+    EXPECT_EQ(s.voice, "en-gb-x-rp");
+    EXPECT_EQ(tts_voice_spec(s), "espeak:en-gb-x-rp");
+    for (const char* bad : {"en-us", "mary:slt", "festival:", ":en-us", "festival:a b", "festival:(quit)"}) {
+        SCOPED_TRACE(bad);
+        try {
+            set_tts_voice(s, bad, "study.toml");
+            ADD_FAILURE() << "accepted";
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.first().path, "study.toml");
+            EXPECT_EQ(e.first().field, "tts");
+            EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+        }
+    }
+    EXPECT_EQ(tts_voice_spec(s), "espeak:en-gb-x-rp");  // unchanged by the failures
+}
+
+TEST(TtsFestival, ComeHereJohnGivesItsPhonesCoveringTheAudio) {
+    const TtsResult r = synthesize_speech("Come here John.", festival());
+    EXPECT_EQ(r.audio.sample_rate_hz, 32000);  // the SLT HTS voice's own rate
+    EXPECT_EQ(r.audio.channels, 1);
+    EXPECT_EQ(speech_labels(r.phones),
+              (std::vector<std::string>{"K", "AH1", "M", "HH", "IH1", "R", "JH", "AA1", "N"}));
+    ASSERT_FALSE(r.phones.empty());
+    EXPECT_EQ(r.phones.front().symbol, "sil");
+    EXPECT_EQ(r.phones.back().symbol, "sil");
+    EXPECT_EQ(r.phones.front().start_s, 0.0);
+    EXPECT_NEAR(r.phones.back().end_s, r.audio.duration_s(), 1e-9);
+    EXPECT_NO_THROW(check_phone_sequence(r.phones, "tts"));
+    const TtsSettings defaults;
+    const double rate = r.audio.sample_rate_hz;
+    EXPECT_NEAR(r.phones.front().end_s, defaults.lead_silence_s, 1.0 / rate);
+    EXPECT_NEAR(r.phones.back().duration_s(), defaults.trail_silence_s, 1.0 / rate);
+    const auto lead_end = static_cast<std::size_t>(r.phones.front().end_s * rate);
+    const auto trail_start = static_cast<std::size_t>(r.phones.back().start_s * rate);
+    EXPECT_LT(rms(r.audio.samples, 0, lead_end), 2e-3);  // HTS pauses are near-silent, not digital zero
+    EXPECT_GT(rms(r.audio.samples, lead_end, trail_start), 0.02);
+    for (const auto& p : r.phones) EXPECT_GT(p.duration_s(), 0.02) << p.symbol;
+    // Vowels carry energy where the labels put them.
+    for (const auto& p : r.phones) {
+        if (!PhoneInventory::builtin().is_vowel(p.symbol)) continue;
+        EXPECT_GT(rms(r.audio.samples, static_cast<std::size_t>(p.start_s * rate), static_cast<std::size_t>(p.end_s * rate)),
+                  0.03)
+            << p.symbol << " at " << p.start_s;
+    }
+}
+
+TEST(TtsFestival, DiphoneVoiceAndReducedAndSyllabicPhonesMap) {
+    // kal_diphone reduces vowels (ax) and writes syllabic consonants; both voices
+    // speak at their own rate.
+    const std::string text = "The button and the bottle, butter and rhythm, the university's water.";
+    for (const char* voice : {"cmu_us_slt_arctic_hts", "kal_diphone"}) {
+        SCOPED_TRACE(voice);
+        const TtsResult r = synthesize_speech(text, festival(voice));
+        EXPECT_EQ(r.audio.sample_rate_hz, std::string(voice) == "kal_diphone" ? 16000 : 32000);
+        EXPECT_NO_THROW(check_phone_sequence(r.phones, voice));
+        const auto labels = speech_labels(r.phones);
+        EXPECT_GT(labels.size(), 40u);
+        EXPECT_NE(std::find(labels.begin(), labels.end(), "AH0"), labels.end());  // ax, reduced
+        EXPECT_NEAR(r.phones.back().end_s, r.audio.duration_s(), 1e-9);
+    }
+}
+
+TEST(TtsFestival, SpeechDoesNotDependOnWhatWasSpokenBefore) {
+    const TtsResult first = synthesize_speech("The boy fell from the window.", festival());
+    (void)synthesize_speech("Okay, and now something else entirely, with a question?", festival());
+    (void)synthesize_speech("A diphone voice in between.", festival("kal_diphone"));
+    (void)synthesize_speech("And espeak-ng.", TtsSettings{});
+    expect_same_speech(synthesize_speech("The boy fell from the window.", festival()), first);
+}
+
+TEST(TtsFestival, ConcurrentCallsGiveTheSameSpeechAsSequentialOnes) {
+    const TtsResult want = synthesize_speech("Come here John.", festival());
+    std::vector<TtsResult> got(4);
+    std::vector<std::thread> threads;
+    for (std::size_t i = 0; i < got.size(); ++i)
+        threads.emplace_back([&got, i] {
+            // Other voices and engines interleaved with the one compared.
+            if (i % 2) (void)synthesize_speech("Something else.", i == 1 ? festival("kal_diphone") : TtsSettings{});
+            got[i] = synthesize_speech("Come here John.", festival());
+        });
+    for (auto& t : threads) t.join();
+    for (const auto& g : got) expect_same_speech(g, want);
+}
+
+TEST(TtsFestival, UnknownVoiceListsTheInstalledOnes) {
+    try {
+        (void)synthesize_speech("hello", festival("cmu_us_slt_arctic"));
+        FAIL() << "unknown voice accepted";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.first().field, "voice");
+        const std::string what = e.what();
+        EXPECT_NE(what.find("unknown Festival voice \"cmu_us_slt_arctic\""), std::string::npos) << what;
+        EXPECT_NE(what.find("did you mean \"cmu_us_slt_arctic_hts\""), std::string::npos) << what;
+        EXPECT_NE(what.find("installed Festival voices: "), std::string::npos) << what;
+        for (const auto& v : installed_tts_voices(TtsEngine::Festival))
+            EXPECT_NE(what.find(v), std::string::npos) << v << " missing from: " << what;
+    }
+    EXPECT_THROW((void)describe_tts_voice(festival("no_such_voice")), InputError);
+    const auto voices = installed_tts_voices(TtsEngine::Festival);
+    EXPECT_NE(std::find(voices.begin(), voices.end(), "cmu_us_slt_arctic_hts"), voices.end());
+    EXPECT_NE(std::find(voices.begin(), voices.end(), "kal_diphone"), voices.end());
+    // espeak-ng settings do not apply to Festival voices.
+    TtsSettings rate = festival();
+    rate.rate_wpm = 120;
+    EXPECT_THROW((void)synthesize_speech("hello", rate), InputError);
+    // A failed call leaves Festival usable.
+    EXPECT_EQ(speech_labels(synthesize_speech("Come here John.", festival()).phones).size(), 9u);
+}
+
+TEST(TtsFestival, DescribesEngineAndVoiceWithVersions) {
+    const TtsVoiceInfo slt = describe_tts_voice(festival());
+    EXPECT_EQ(slt.engine, "festival");
+    EXPECT_EQ(slt.engine_version.rfind("2.", 0), 0u) << slt.engine_version;
+    EXPECT_EQ(slt.voice, "cmu_us_slt_arctic_hts");
+    EXPECT_EQ(slt.voice_sha256.size(), 64u);
+    const TtsVoiceInfo kal = describe_tts_voice(festival("kal_diphone"));
+    EXPECT_EQ(kal.voice_sha256.size(), 64u);
+    EXPECT_NE(kal.voice_sha256, slt.voice_sha256);
+    EXPECT_EQ(describe_tts_voice(festival()).voice_sha256, slt.voice_sha256);
+    const TtsVoiceInfo espeak = describe_tts_voice(TtsSettings{});
+    EXPECT_EQ(espeak.engine, "espeak-ng");
+    EXPECT_EQ(espeak.voice, "en-us");
+    EXPECT_FALSE(espeak.engine_version.empty());
+    TtsSettings bad;
+    bad.voice = "en-uss";
+    EXPECT_THROW((void)describe_tts_voice(bad), InputError);
 }
 
 }  // namespace
