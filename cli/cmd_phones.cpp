@@ -27,7 +27,8 @@ struct PhonesOptions {
     std::string wav;
     std::string out;
     std::string tts_spec = "espeak:en-us";
-    std::string voice;  // the older --voice: an espeak-ng voice
+    bool tts_given = false;  // --tts was on the command line
+    std::string voice;       // the older --voice: an espeak-ng voice
     bool list_voices = false;
     TtsSettings tts;
 };
@@ -54,7 +55,7 @@ int list_voices() {
 int run_phones(PhonesOptions o) {
     if (o.list_voices) return list_voices();
     if (o.out.empty()) throw UsageError("--out is required");
-    if (!o.voice.empty() && o.tts_spec != "espeak:en-us")
+    if (!o.voice.empty() && o.tts_given)
         throw UsageError("give --tts or the older --voice (an espeak-ng voice), not both");
     set_tts_voice(o.tts, o.voice.empty() ? o.tts_spec : "espeak:" + o.voice, "--tts");
     const int inputs = int(!o.text.empty()) + int(!o.textgrid.empty()) + int(!o.lab.empty()) + int(!o.tsv.empty());
@@ -103,7 +104,7 @@ const bool registered_phones = register_command({
         sub.add_option("--tsv", o->tsv, "TSV label file to read phones from (start_s end_s phone)")
             ->capture_default_str();
         sub.add_option("--tier", o->tier, "TextGrid tier holding the phones")->capture_default_str();
-        sub.add_option("--tts", o->tts_spec,
+        CLI::Option* tts = sub.add_option("--tts", o->tts_spec,
                        "Synthesiser and voice: espeak:<voice> (en-us, en, en-gb-x-rp, ...) or festival:<voice> "
                        "(cmu_us_slt_arctic_hts, kal_diphone); --list-voices shows the installed ones")
             ->capture_default_str();
@@ -120,7 +121,10 @@ const bool registered_phones = register_command({
             ->capture_default_str();
         sub.add_option("--out", o->out, "Output phones: .tsv (start_s end_s phone) or .TextGrid (required)")
             ->capture_default_str();
-        return [o] { return run_phones(*o); };
+        return [o, tts] {
+            o->tts_given = tts->count() > 0;
+            return run_phones(*o);
+        };
     }});
 
 }  // namespace

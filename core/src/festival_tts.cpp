@@ -259,7 +259,10 @@ bool receive_request(Request& r, int& fd, bool& closed) {
         for (int fd = 0; fd <= 2; ++fd) ::dup2(null_fd, fd);
         if (null_fd > 2 && null_fd != k_server_fd) ::close(null_fd);
     }
-    ::close_range(k_server_fd + 1, ~0U, 0);
+    if (::close_range(k_server_fd + 1, ~0U, 0) != 0) {  // kernels before 5.9
+        const long limit = std::min(::sysconf(_SC_OPEN_MAX), 65536L);
+        for (int fd = k_server_fd + 1; fd < limit; ++fd) ::close(fd);
+    }
     sigset_t all;
     sigemptyset(&all);
     ::sigprocmask(SIG_SETMASK, &all, nullptr);

@@ -475,6 +475,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     // Synthesised on several threads (espeak-ng serialises its calls itself,
     // Festival's run in parallel processes); recordings are read the same way.
     {
+        const auto speech_start = std::chrono::steady_clock::now();
         const int threads = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
                                                                         : static_cast<int>(std::thread::hardware_concurrency()),
                                                       static_cast<int>(to_speak.size())));
@@ -514,6 +515,10 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         speak();
         for (auto& t : speakers) t.join();
         if (speak_error) std::rethrow_exception(speak_error);
+        if (!to_speak.empty())
+            log_info("build-stimuli: speech for {} sentences ({}) in {:.1f} s on {} thread(s)", to_speak.size(),
+                     protocol.corpus.audio == CorpusAudio::Tts ? tts_voice_spec(tts) : "recordings",
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - speech_start).count(), threads);
     }
 
     const int workers = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
