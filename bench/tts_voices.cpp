@@ -6,7 +6,7 @@
 // and fricative's acoustic onset after a vowel lies from its label
 // (core/onsets.h). Prints a Markdown table; --csv writes per-sentence rows.
 //
-//   build/bench/bench_tts_voices [--protocol P] [--corpus C] [--voices a,b] [--csv out.csv]
+//   build/bench/tts_voices [--protocol P] [--corpus C] [--voices a,b] [--csv out.csv]
 //
 // Defaults: protocols/beskow2004-en.toml, its corpus, and the voices
 // espeak:en-us, festival:cmu_us_slt_arctic_hts and festival:kal_diphone (each
@@ -94,7 +94,7 @@ vocoder::VocoderSettings protocol_vocoder(const Protocol& protocol) {
     for (const auto& key : section.keys())
         if (key != "bands" && key != "low_hz" && key != "high_hz" && key != "seed")
             problems.add(protocol.path.string(), section.find(key)->line, section.find(key)->column,
-                         "vocoder." + key, "bench_tts_voices maps only bands, low_hz, high_hz and seed");
+                         "vocoder." + key, "expected only bands, low_hz, high_hz and seed (tts_voices maps no other key), got " + key);
     problems.throw_if_any();
     return v;
 }
@@ -222,7 +222,7 @@ int main(int argc, char** argv) {
     try {
         return run(argc, argv);
     } catch (const avsi::UsageError& e) {
-        std::fprintf(stderr, "bench_tts_voices: %s\n", e.what());
+        std::fprintf(stderr, "tts_voices: %s\n", e.what());
         return 2;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "%s\n", e.what());

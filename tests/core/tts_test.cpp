@@ -357,7 +357,7 @@ TEST(Onsets, FindAnAbruptClosureWhereItIs) {
 
 // The Festival path keeps the audio and the phone times from one synthesis
 // (HTS state durations give both), so they never drift apart. Measured on
-// the default corpus (bench_tts_voices, README "Choosing the voice"), the
+// the default corpus (bench/tts_voices.cpp, README "Choosing the voice"), the
 // acoustic closure or frication of a stop or fricative after a vowel comes a
 // median 19 ms after its label with SLT (p5 +7.5, p95 +36 ms): HTS voices
 // assign the vowel-to-consonant formant transition to the consonant. The
