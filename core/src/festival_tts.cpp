@@ -270,6 +270,9 @@ bool receive_request(Request& r, int& fd, bool& closed) {
     ::signal(SIGPIPE, SIG_IGN);
     ::signal(SIGCHLD, SIG_IGN);  // workers are reaped by the kernel
 
+    // Festival's init.scm loads $HOME/.festivalrc: a user's own settings would
+    // make the speech depend on who builds it. The server has no HOME.
+    ::setenv("HOME", "/nonexistent", 1);
     festival_initialize(1, k_heap_cells);
     const char ready = 1;
     if (::send(k_server_fd, &ready, 1, MSG_NOSIGNAL) != 1) ::_exit(0);

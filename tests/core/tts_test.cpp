@@ -6,12 +6,17 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <thread>
 
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
+#include "avsi/core/files.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/onsets.h"
 
@@ -273,6 +278,25 @@ TEST(TtsFestival, ConcurrentCallsGiveTheSameSpeechAsSequentialOnes) {
         });
     for (auto& t : threads) t.join();
     for (const auto& g : got) expect_same_speech(g, want);
+}
+
+// A user's ~/.festivalrc must not change the speech: this one would break
+// the voice if Festival loaded it. (ctest runs each test in a process of its
+// own, so the Festival server starts here, with this HOME.)
+TEST(TtsFestival, IgnoresTheUsersFestivalrc) {
+    const std::filesystem::path home =
+        std::filesystem::temp_directory_path() / ("avsi_festivalrc_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(home);
+    write_text_file(home / ".festivalrc", "(set! voice_cmu_us_slt_arctic_hts nil)\n(set! voice_kal_diphone nil)\n");
+    const char* old_home = std::getenv("HOME");
+    const std::string saved = old_home ? old_home : "";
+    ::setenv("HOME", home.c_str(), 1);
+    TtsResult r;
+    EXPECT_NO_THROW(r = synthesize_speech("Come here John.", festival()));
+    EXPECT_EQ(speech_labels(r.phones).size(), 9u);
+    if (old_home) ::setenv("HOME", saved.c_str(), 1);
+    else ::unsetenv("HOME");
+    std::filesystem::remove_all(home);
 }
 
 TEST(TtsFestival, UnknownVoiceListsTheInstalledOnes) {
