@@ -320,6 +320,9 @@ TEST(TtsFestival, UnknownVoiceListsTheInstalledOnes) {
     TtsSettings rate = festival();
     rate.rate_wpm = 120;
     EXPECT_THROW((void)synthesize_speech("hello", rate), InputError);
+    // Text with nothing to say, and text too long for one request.
+    EXPECT_THROW((void)synthesize_speech("...", festival()), InputError);
+    EXPECT_THROW((void)synthesize_speech(std::string(70000, 'a'), festival()), InputError);
     // A failed call leaves Festival usable.
     EXPECT_EQ(speech_labels(synthesize_speech("Come here John.", festival()).phones).size(), 9u);
 }
