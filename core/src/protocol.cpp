@@ -297,8 +297,14 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
     session.check_unknown_keys(problems);
     p.session_section = session;
 
+    // [online] — validated by the experiment module (avsi export-web / import-web).
+    if (const ConfigSection* o = root.get_table("online", problems))
+        p.online = *o;
+    else
+        p.online = absent_section(file, "online");
+
     // Top-level keys.
-    root.check_unknown_keys({"experiment", "corpus", "condition", "vocoder", "design", "render", "session"},
+    root.check_unknown_keys({"experiment", "corpus", "condition", "vocoder", "design", "render", "session", "online"},
                             problems);
 
     // Report in reading order (line, then column); file-level problems first.

@@ -52,6 +52,7 @@ public:
         return p ? std::string(reinterpret_cast<const char*>(p)) : std::string();
     }
     bool null(int c) const { return sqlite3_column_type(m_stmt, c) == SQLITE_NULL; }
+    sqlite3_stmt* handle() const { return m_stmt; }
 
 private:
     Statement& check(int rc) {
@@ -136,6 +137,45 @@ CREATE TABLE events(
   session INTEGER, subject INTEGER, time_utc TEXT NOT NULL, kind TEXT NOT NULL, detail TEXT NOT NULL);
 )sql";
 
+// Version 1 → 2: online sessions (avsi import-web).
+const char* migration_v2 = R"sql(
+ALTER TABLE sessions ADD COLUMN mode TEXT NOT NULL DEFAULT 'lab';
+ALTER TABLE sessions ADD COLUMN external_id TEXT;
+CREATE TABLE web_presentations(
+  subject INTEGER NOT NULL,
+  position INTEGER NOT NULL,
+  frame_callbacks INTEGER NOT NULL,
+  presented_frames INTEGER NOT NULL,
+  missed_callbacks INTEGER NOT NULL,
+  browser_dropped_frames INTEGER NOT NULL,
+  browser_total_frames INTEGER NOT NULL,
+  output_latency_ms REAL NOT NULL,
+  base_latency_ms REAL NOT NULL,
+  audio_path_ms REAL NOT NULL,
+  audio_path_measured INTEGER NOT NULL,
+  PRIMARY KEY(subject, position),
+  FOREIGN KEY(subject, position) REFERENCES planned_trials(subject, position));
+CREATE TABLE screening_trials(
+  subject INTEGER NOT NULL,
+  session INTEGER NOT NULL REFERENCES sessions(session),
+  test TEXT NOT NULL,
+  trial INTEGER NOT NULL,
+  answer INTEGER NOT NULL,
+  response INTEGER NOT NULL,
+  correct INTEGER NOT NULL,
+  response_time_ms REAL NOT NULL,
+  PRIMARY KEY(subject, session, test, trial));
+CREATE TABLE screening(
+  subject INTEGER NOT NULL,
+  session INTEGER NOT NULL REFERENCES sessions(session),
+  test TEXT NOT NULL,
+  trials INTEGER NOT NULL,
+  correct INTEGER NOT NULL,
+  required INTEGER NOT NULL,
+  passed INTEGER NOT NULL,
+  PRIMARY KEY(subject, session, test));
+)sql";
+
 }  // namespace
 
 std::string utc_now() {
@@ -185,8 +225,21 @@ Store::Store(const std::filesystem::path& path) : m_path(path) {
                 if (tables != 0)
                     throw InputError(path, "not an avsi session database (it has tables but no avsi schema version)");
                 exec(schema_v1);
+                exec(migration_v2);
                 exec(fmt::format("PRAGMA user_version={}", store_schema_version));
             }
+            tx.commit();
+        } else if (version < store_schema_version) {
+            // Migrate an older database in place, in one transaction (checking
+            // the version again under the write lock).
+            Transaction tx(m_db);
+            int current = 0;
+            {
+                Statement again(m_db, "PRAGMA user_version");
+                if (again.step()) current = again.integer(0);
+            }
+            if (current == 1) exec(migration_v2);
+            exec(fmt::format("PRAGMA user_version={}", store_schema_version));
             tx.commit();
         }
     } catch (const InputError&) {
@@ -277,8 +330,8 @@ std::vector<int> Store::answered_positions(int subject) const {
 
 namespace {
 std::vector<SessionInfo> read_sessions(sqlite3* db, const std::string& where, int subject) {
-    Statement s(db, "SELECT session, subject, started_utc, ended_utc, end_reason, first_position FROM sessions "
-                    "WHERE subject = ? " + where + " ORDER BY session");
+    Statement s(db, "SELECT session, subject, started_utc, ended_utc, end_reason, first_position, mode, "
+                    "external_id, details FROM sessions WHERE subject = ? " + where + " ORDER BY session");
     s.bind(1, subject);
     std::vector<SessionInfo> out;
     while (s.step()) {
@@ -289,6 +342,9 @@ std::vector<SessionInfo> read_sessions(sqlite3* db, const std::string& where, in
         i.ended_utc = s.text(3);
         i.end_reason = s.text(4);
         i.first_position = s.integer(5);
+        i.mode = s.text(6);
+        i.external_id = s.text(7);
+        i.details = s.text(8);
         out.push_back(std::move(i));
     }
     return out;
@@ -296,7 +352,7 @@ std::vector<SessionInfo> read_sessions(sqlite3* db, const std::string& where, in
 }  // namespace
 
 std::vector<SessionInfo> Store::open_sessions(int subject) const {
-    return read_sessions(m_db, "AND end_reason IS NULL", subject);
+    return read_sessions(m_db, "AND end_reason IS NULL AND mode = 'lab'", subject);
 }
 
 std::vector<SessionInfo> Store::sessions(int subject) const { return read_sessions(m_db, "", subject); }
@@ -322,6 +378,41 @@ void Store::add_event(int session, int subject, const std::string& kind, const s
         .bind(1, session).bind(2, subject).bind(3, utc_now()).bind(4, kind).bind(5, detail).run();
 }
 
+namespace {
+
+// The presentation, frames and response rows of one trial (inside the caller's transaction).
+void insert_trial(sqlite3* db, int session, const PlannedTrial& trial, const Presentation& p, const Response& r,
+                  const std::string& answered_utc) {
+    Statement(db, "DELETE FROM presentations WHERE subject = ? AND position = ?")
+        .bind(1, trial.subject).bind(2, trial.position).run();
+    Statement(db, "DELETE FROM frames WHERE subject = ? AND position = ?")
+        .bind(1, trial.subject).bind(2, trial.position).run();
+    Statement pres(db,
+                   "INSERT INTO presentations(subject, position, session, audio_onset_s, video_onset_s, "
+                   "duration_s, refresh_hz, frames_total, frames_shown, dropped_frames, repeated_frames, "
+                   "mean_offset_ms, max_abs_offset_ms) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+    pres.bind(1, trial.subject).bind(2, trial.position).bind(3, session).bind(4, p.audio_onset_s);
+    pres.bind(5, p.video_onset_s).bind(6, p.duration_s).bind(7, p.refresh_hz).bind(8, p.frames_total);
+    pres.bind(9, p.frames_shown).bind(10, p.dropped_frames).bind(11, p.repeated_frames);
+    pres.bind(12, p.mean_offset_ms).bind(13, p.max_abs_offset_ms);
+    pres.run();
+    Statement frame(db, "INSERT INTO frames(subject, position, frame, pts_s, flip_s, offset_ms) VALUES(?, ?, ?, ?, ?, ?)");
+    for (const auto& f : p.flips) {
+        sqlite3_reset(frame.handle());
+        frame.bind(1, trial.subject).bind(2, trial.position).bind(3, f.frame).bind(4, f.pts_s).bind(5, f.flip_s);
+        frame.bind(6, f.offset_ms);
+        frame.run();
+    }
+    Statement resp(db,
+                   "INSERT INTO responses(subject, position, session, response, response_time_ms, "
+                   "confirmed_empty, answered_utc) VALUES(?, ?, ?, ?, ?, ?, ?)");
+    resp.bind(1, trial.subject).bind(2, trial.position).bind(3, session).bind(4, r.text);
+    resp.bind(5, r.response_time_ms).bind(6, r.confirmed_empty ? 1 : 0).bind(7, answered_utc);
+    resp.run();
+}
+
+}  // namespace
+
 void Store::commit_trial(int session, const PlannedTrial& trial, const Presentation& p, const Response& r) {
     Transaction tx(m_db);
     {
@@ -332,40 +423,114 @@ void Store::commit_trial(int session, const PlannedTrial& trial, const Presentat
             throw std::runtime_error(fmt::format("trial {} of subject {} already has a response",
                                                  trial.position, trial.subject));
     }
-    Statement(m_db, "DELETE FROM presentations WHERE subject = ? AND position = ?")
-        .bind(1, trial.subject).bind(2, trial.position).run();
-    Statement(m_db, "DELETE FROM frames WHERE subject = ? AND position = ?")
-        .bind(1, trial.subject).bind(2, trial.position).run();
-    Statement pres(m_db,
-                   "INSERT INTO presentations(subject, position, session, audio_onset_s, video_onset_s, "
-                   "duration_s, refresh_hz, frames_total, frames_shown, dropped_frames, repeated_frames, "
-                   "mean_offset_ms, max_abs_offset_ms) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
-    pres.bind(1, trial.subject).bind(2, trial.position).bind(3, session).bind(4, p.audio_onset_s);
-    pres.bind(5, p.video_onset_s).bind(6, p.duration_s).bind(7, p.refresh_hz).bind(8, p.frames_total);
-    pres.bind(9, p.frames_shown).bind(10, p.dropped_frames).bind(11, p.repeated_frames);
-    pres.bind(12, p.mean_offset_ms).bind(13, p.max_abs_offset_ms);
-    pres.run();
-    for (const auto& f : p.flips) {
-        Statement s(m_db, "INSERT INTO frames(subject, position, frame, pts_s, flip_s, offset_ms) VALUES(?, ?, ?, ?, ?, ?)");
-        s.bind(1, trial.subject).bind(2, trial.position).bind(3, f.frame).bind(4, f.pts_s).bind(5, f.flip_s);
-        s.bind(6, f.offset_ms);
-        s.run();
-    }
-    Statement resp(m_db,
-                   "INSERT INTO responses(subject, position, session, response, response_time_ms, "
-                   "confirmed_empty, answered_utc) VALUES(?, ?, ?, ?, ?, ?, ?)");
-    resp.bind(1, trial.subject).bind(2, trial.position).bind(3, session).bind(4, r.text);
-    resp.bind(5, r.response_time_ms).bind(6, r.confirmed_empty ? 1 : 0).bind(7, utc_now());
-    resp.run();
+    insert_trial(m_db, session, trial, p, r, utc_now());
     tx.commit();
+}
+
+OnlineImportCounts Store::import_online(const std::vector<OnlineSubject>& subjects, const std::string& event_detail) {
+    OnlineImportCounts counts;
+    Transaction tx(m_db);
+    for (const OnlineSubject& subject : subjects) {
+        const int id = subject.subject;
+        // The plan: new subjects get it; a known subject must have the same.
+        const std::vector<PlannedTrial> stored = planned_trials(id);
+        if (stored.empty()) {
+            Statement(m_db, "INSERT INTO subjects(subject, created_utc) VALUES(?, ?)").bind(1, id).bind(2, utc_now()).run();
+            for (const auto& t : subject.plan) {
+                Statement s(m_db,
+                            "INSERT INTO planned_trials(subject, position, phase, block, list, condition, sentence, "
+                            "stimulus) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
+                s.bind(1, id).bind(2, t.position).bind(3, to_string(t.phase)).bind(4, t.block);
+                s.bind(5, t.list).bind(6, t.condition).bind(7, t.sentence).bind(8, t.stimulus);
+                s.run();
+            }
+            ++counts.subjects_added;
+        } else if (stored != subject.plan) {
+            throw InputError(m_path, fmt::format("subject {} is already stored with another trial list (a lab "
+                                                 "session or an import from another export of the study); nothing "
+                                                 "was imported",
+                                                 id));
+        }
+        for (const OnlineSession& session : subject.sessions) {
+            // One database session per browser session; a repeated import reuses it.
+            int session_id = 0;
+            {
+                Statement find(m_db, "SELECT session, mode FROM sessions WHERE subject = ? AND external_id = ?");
+                find.bind(1, id).bind(2, session.external_id);
+                if (find.step()) session_id = find.integer(0);
+            }
+            if (session_id == 0) {
+                Statement(m_db,
+                          "INSERT INTO sessions(subject, started_utc, ended_utc, end_reason, first_position, details, "
+                          "mode, external_id) VALUES(?, ?, ?, ?, ?, ?, 'online', ?)")
+                    .bind(1, id).bind(2, session.started_utc).bind(3, session.ended_utc).bind(4, session.end_reason)
+                    .bind(5, session.first_position).bind(6, session.details).bind(7, session.external_id).run();
+                session_id = static_cast<int>(sqlite3_last_insert_rowid(m_db));
+                ++counts.sessions_added;
+                Statement(m_db, "INSERT INTO events(session, subject, time_utc, kind, detail) VALUES(?, ?, ?, ?, ?)")
+                    .bind(1, session_id).bind(2, id).bind(3, utc_now()).bind(4, std::string("import-web"))
+                    .bind(5, event_detail).run();
+                for (const auto& [kind, detail] : session.events)
+                    Statement(m_db, "INSERT INTO events(session, subject, time_utc, kind, detail) VALUES(?, ?, ?, ?, ?)")
+                        .bind(1, session_id).bind(2, id).bind(3, session.started_utc).bind(4, kind).bind(5, detail).run();
+            } else {
+                // A later import may know more of the session (it went on after the first export).
+                Statement(m_db, "UPDATE sessions SET ended_utc = ?, end_reason = ?, details = ? WHERE session = ?")
+                    .bind(1, session.ended_utc).bind(2, session.end_reason).bind(3, session.details)
+                    .bind(4, session_id).run();
+            }
+            for (const ScreeningTrial& t : session.screening_trials)
+                Statement(m_db,
+                          "INSERT OR REPLACE INTO screening_trials(subject, session, test, trial, answer, response, "
+                          "correct, response_time_ms) VALUES(?, ?, ?, ?, ?, ?, ?, ?)")
+                    .bind(1, id).bind(2, session_id).bind(3, t.test).bind(4, t.trial).bind(5, t.answer)
+                    .bind(6, t.response).bind(7, t.correct ? 1 : 0).bind(8, t.response_time_ms).run();
+            for (const ScreeningResult& r : session.screening)
+                Statement(m_db,
+                          "INSERT OR REPLACE INTO screening(subject, session, test, trials, correct, required, passed) "
+                          "VALUES(?, ?, ?, ?, ?, ?, ?)")
+                    .bind(1, id).bind(2, session_id).bind(3, r.test).bind(4, r.trials).bind(5, r.correct)
+                    .bind(6, r.required).bind(7, r.passed ? 1 : 0).run();
+            for (const auto& t : session.trials) {
+                Statement existing(m_db,
+                                   "SELECT r.response, r.confirmed_empty, r.answered_utc, s.mode FROM responses r "
+                                   "JOIN sessions s ON s.session = r.session WHERE r.subject = ? AND r.position = ?");
+                existing.bind(1, id).bind(2, t.trial.position);
+                if (existing.step()) {
+                    const bool same = existing.text(0) == t.response.text &&
+                                      (existing.integer(1) != 0) == t.response.confirmed_empty &&
+                                      existing.text(2) == t.answered_utc && existing.text(3) == "online";
+                    if (!same)
+                        throw InputError(m_path, fmt::format("subject {} trial {} already has another response in the "
+                                                             "database ({} session, answered {}); nothing was imported",
+                                                             id, t.trial.position, existing.text(3), existing.text(2)));
+                    ++counts.trials_present;
+                    continue;
+                }
+                insert_trial(m_db, session_id, t.trial, t.presentation, t.response, t.answered_utc);
+                const WebPresentation& w = t.web;
+                Statement(m_db,
+                          "INSERT OR REPLACE INTO web_presentations(subject, position, frame_callbacks, presented_frames, "
+                          "missed_callbacks, browser_dropped_frames, browser_total_frames, output_latency_ms, "
+                          "base_latency_ms, audio_path_ms, audio_path_measured) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
+                    .bind(1, id).bind(2, t.trial.position).bind(3, w.frame_callbacks ? 1 : 0).bind(4, w.presented_frames)
+                    .bind(5, w.missed_callbacks).bind(6, w.browser_dropped_frames).bind(7, w.browser_total_frames)
+                    .bind(8, w.output_latency_ms).bind(9, w.base_latency_ms).bind(10, w.audio_path_ms)
+                    .bind(11, w.audio_path_measured ? 1 : 0).run();
+                ++counts.trials_added;
+            }
+        }
+    }
+    tx.commit();
+    return counts;
 }
 
 std::vector<ResponseRow> Store::responses() const {
     Statement s(m_db,
                 "SELECT p.subject, p.position, p.phase, p.block, p.list, p.condition, p.sentence, p.stimulus, "
-                "r.session, r.response, r.response_time_ms, r.confirmed_empty, r.answered_utc "
+                "r.session, r.response, r.response_time_ms, r.confirmed_empty, r.answered_utc, s.mode "
                 "FROM responses r JOIN planned_trials p ON p.subject = r.subject AND p.position = r.position "
-                "ORDER BY p.subject, p.position");
+                "JOIN sessions s ON s.session = r.session ORDER BY p.subject, p.position");
     std::vector<ResponseRow> out;
     while (s.step()) {
         ResponseRow row;
@@ -382,6 +547,7 @@ std::vector<ResponseRow> Store::responses() const {
         row.response.response_time_ms = s.real(10);
         row.response.confirmed_empty = s.integer(11) != 0;
         row.answered_utc = s.text(12);
+        row.mode = s.text(13);
         out.push_back(std::move(row));
     }
     return out;
@@ -420,6 +586,49 @@ std::vector<Store::TimingRow> Store::timing(bool with_frames) const {
     return out;
 }
 
+std::vector<Store::WebTimingRow> Store::web_timing() const {
+    Statement s(m_db,
+                "SELECT subject, position, frame_callbacks, presented_frames, missed_callbacks, browser_dropped_frames, "
+                "browser_total_frames, output_latency_ms, base_latency_ms, audio_path_ms, audio_path_measured FROM web_presentations "
+                "ORDER BY subject, position");
+    std::vector<WebTimingRow> out;
+    while (s.step()) {
+        WebTimingRow row;
+        row.subject = s.integer(0);
+        row.position = s.integer(1);
+        row.web.frame_callbacks = s.integer(2) != 0;
+        row.web.presented_frames = s.integer(3);
+        row.web.missed_callbacks = s.integer(4);
+        row.web.browser_dropped_frames = s.integer(5);
+        row.web.browser_total_frames = s.integer(6);
+        row.web.output_latency_ms = s.real(7);
+        row.web.base_latency_ms = s.real(8);
+        row.web.audio_path_ms = s.real(9);
+        row.web.audio_path_measured = s.integer(10) != 0;
+        out.push_back(row);
+    }
+    return out;
+}
+
+std::vector<Store::ScreeningRow> Store::screening() const {
+    Statement s(m_db, "SELECT subject, session, test, trials, correct, required, passed FROM screening "
+                      "ORDER BY subject, session, test");
+    std::vector<ScreeningRow> out;
+    while (s.step())
+        out.push_back({s.integer(0), s.integer(1), {s.text(2), s.integer(3), s.integer(4), s.integer(5), s.integer(6) != 0}});
+    return out;
+}
+
+std::vector<Store::ScreeningTrialRow> Store::screening_trials() const {
+    Statement s(m_db, "SELECT subject, session, test, trial, answer, response, correct, response_time_ms "
+                      "FROM screening_trials ORDER BY subject, session, test, trial");
+    std::vector<ScreeningTrialRow> out;
+    while (s.step())
+        out.push_back({s.integer(0), s.integer(1),
+                       {s.text(2), s.integer(3), s.integer(4), s.integer(5), s.integer(6) != 0, s.real(7)}});
+    return out;
+}
+
 std::vector<Store::EventRow> Store::events() const {
     Statement s(m_db, "SELECT session, subject, time_utc, kind, detail FROM events ORDER BY id");
     std::vector<EventRow> out;
@@ -442,13 +651,13 @@ std::vector<std::filesystem::path> export_store(const Store& store, const std::f
     // responses.csv: the analysis input columns first, then extras.
     std::string responses = csv_line({"subject", "session", "trial", "phase", "condition", "list", "sentence",
                                       "response", "response_time_ms", "block", "stimulus", "confirmed_empty",
-                                      "answered_utc"});
+                                      "answered_utc", "mode"});
     for (const auto& r : store.responses())
         responses += csv_line({std::to_string(r.trial.subject), std::to_string(r.session),
                                std::to_string(r.trial.position), to_string(r.trial.phase), r.trial.condition,
                                r.trial.list, r.trial.sentence, r.response.text, ms(r.response.response_time_ms),
                                std::to_string(r.trial.block), r.trial.stimulus,
-                               r.response.confirmed_empty ? "1" : "0", r.answered_utc});
+                               r.response.confirmed_empty ? "1" : "0", r.answered_utc, r.mode});
     written.push_back(out_dir / "responses.csv");
     write_text_file(written.back(), responses);
 
@@ -502,12 +711,12 @@ std::vector<std::filesystem::path> export_store(const Store& store, const std::f
     write_text_file(written.back(), frames_csv);
 
     std::string sessions_csv =
-        csv_line({"subject", "session", "started_utc", "ended_utc", "end_reason", "first_trial"});
+        csv_line({"subject", "session", "started_utc", "ended_utc", "end_reason", "first_trial", "mode", "details"});
     for (int subject : store.subjects())
         for (const auto& s : store.sessions(subject))
             sessions_csv += csv_line({std::to_string(s.subject), std::to_string(s.session), s.started_utc,
                                       s.ended_utc, s.end_reason.empty() ? "open" : s.end_reason,
-                                      std::to_string(s.first_position)});
+                                      std::to_string(s.first_position), s.mode, s.details});
     written.push_back(out_dir / "sessions.csv");
     write_text_file(written.back(), sessions_csv);
 
@@ -516,6 +725,40 @@ std::vector<std::filesystem::path> export_store(const Store& store, const std::f
         events_csv += csv_line({std::to_string(e.session), std::to_string(e.subject), e.time_utc, e.kind, e.detail});
     written.push_back(out_dir / "events.csv");
     write_text_file(written.back(), events_csv);
+
+    // Online sessions: browser timing and headphone checks.
+    const auto web = store.web_timing();
+    const auto screening = store.screening();
+    const auto screening_trials = store.screening_trials();
+    if (!web.empty() || !screening.empty() || !screening_trials.empty()) {
+        std::string web_csv = csv_line({"subject", "trial", "frame_callbacks", "presented_frames", "missed_callbacks",
+                                        "browser_dropped_frames", "browser_total_frames", "output_latency_ms",
+                                        "base_latency_ms", "audio_path_ms", "audio_path_measured"});
+        for (const auto& w : web)
+            web_csv += csv_line({std::to_string(w.subject), std::to_string(w.position), w.web.frame_callbacks ? "1" : "0",
+                                 std::to_string(w.web.presented_frames), std::to_string(w.web.missed_callbacks),
+                                 std::to_string(w.web.browser_dropped_frames), std::to_string(w.web.browser_total_frames),
+                                 ms(w.web.output_latency_ms), ms(w.web.base_latency_ms), ms(w.web.audio_path_ms),
+                                 w.web.audio_path_measured ? "1" : "0"});
+        written.push_back(out_dir / "web_timing.csv");
+        write_text_file(written.back(), web_csv);
+        std::string screening_csv = csv_line({"subject", "session", "test", "trials", "correct", "required", "passed"});
+        for (const auto& r : screening)
+            screening_csv += csv_line({std::to_string(r.subject), std::to_string(r.session), r.result.test,
+                                       std::to_string(r.result.trials), std::to_string(r.result.correct),
+                                       std::to_string(r.result.required), r.result.passed ? "1" : "0"});
+        written.push_back(out_dir / "screening.csv");
+        write_text_file(written.back(), screening_csv);
+        std::string trials_csv = csv_line({"subject", "session", "test", "trial", "answer", "response", "correct",
+                                           "response_time_ms"});
+        for (const auto& t : screening_trials)
+            trials_csv += csv_line({std::to_string(t.subject), std::to_string(t.session), t.trial.test,
+                                    std::to_string(t.trial.trial), std::to_string(t.trial.answer),
+                                    std::to_string(t.trial.response), t.trial.correct ? "1" : "0",
+                                    ms(t.trial.response_time_ms)});
+        written.push_back(out_dir / "screening_trials.csv");
+        write_text_file(written.back(), trials_csv);
+    }
     return written;
 }
 

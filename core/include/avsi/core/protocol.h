@@ -7,7 +7,8 @@
 //
 // Sections: [experiment], [corpus], [[condition]], [vocoder] (kept as a
 // ConfigSection; the vocoder module validates it), [design], [render],
-// [session]. Paths in the file are relative to the protocol file.
+// [session], [online] (kept as a ConfigSection; the experiment module's web
+// study export validates it). Paths in the file are relative to the protocol file.
 #pragma once
 
 #include <cstdint>
@@ -106,6 +107,7 @@ struct Protocol {
     ConfigSection vocoder;         // [vocoder], validated by the vocoder module
     ConfigSection render_section;  // [render]
     ConfigSection session_section; // [session]
+    ConfigSection online;          // [online], validated by the experiment module (web study export/import)
 
     // Index of the condition with that name, or -1.
     int condition_index(const std::string& name) const;

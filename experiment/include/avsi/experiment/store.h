@@ -1,9 +1,16 @@
 // Session storage: one SQLite database per experiment (WAL journal,
 // synchronous = FULL, so a committed response survives a crash or power
 // loss), schema-versioned through PRAGMA user_version. Tables: subjects,
-// sessions, planned_trials, presentations (timing summary per trial),
-// frames (each frame's flip), responses, events. A response and its
-// presentation are committed in one transaction before the next trial starts.
+// sessions (lab or online), planned_trials, presentations (timing summary per
+// trial), frames (each frame's flip), responses, events; since version 2 also
+// web_presentations (browser timing of online trials), screening_trials and
+// screening (headphone checks of online sessions). A response and its
+// presentation are committed in one transaction before the next trial starts;
+// an online import (`avsi import-web`) is one transaction for all its subjects.
+//
+// Schema history: 1 = the lab runner's tables; 2 = sessions.mode and
+// sessions.external_id, web_presentations, screening_trials, screening.
+// Opening a version-1 database migrates it in place (one transaction).
 #pragma once
 
 #include <filesystem>
@@ -21,7 +28,7 @@ namespace avsi::experiment {
 
 // The schema version this build writes; older databases are migrated, newer
 // ones are refused.
-constexpr int store_schema_version = 1;
+constexpr int store_schema_version = 2;
 
 // Timing of one frame of a presented stimulus, in seconds on the audio clock.
 struct FrameFlip {
@@ -57,8 +64,81 @@ struct SessionInfo {
     int subject = 0;
     std::string started_utc;
     std::string ended_utc;   // "" while running or after a crash
-    std::string end_reason;  // completed, quit, interrupted
+    std::string end_reason;  // completed, quit, interrupted (online: completed, incomplete)
     int first_position = 0;  // the trial it started (resumed) at
+    std::string mode = "lab";  // "lab" (avsi run) or "online" (avsi import-web)
+    std::string external_id;   // online: the browser session's id
+    std::string details;
+};
+
+// What a browser measured about one presentation beyond the Presentation
+// fields (online sessions): the AudioContext's latencies and the video
+// element's own frame counts.
+struct WebPresentation {
+    bool frame_callbacks = true;       // requestVideoFrameCallback was available
+    int presented_frames = 0;          // frames the compositor presented (rVFC presentedFrames)
+    int missed_callbacks = 0;          // presented frames without a callback (presentedFrames jumps)
+    int browser_dropped_frames = 0;    // getVideoPlaybackQuality().droppedVideoFrames during the clip
+    int browser_total_frames = 0;      // getVideoPlaybackQuality().totalVideoFrames during the clip
+    double output_latency_ms = 0.0;    // AudioContext.outputLatency
+    double base_latency_ms = 0.0;      // AudioContext.baseLatency
+    double audio_path_ms = 0.0;        // output path used for the A/V offsets (from getOutputTimestamp when measured)
+    bool audio_path_measured = false;  // audio_path_ms came from getOutputTimestamp (else outputLatency + baseLatency)
+};
+
+// One trial of a headphone check (online sessions).
+struct ScreeningTrial {
+    std::string test;        // "antiphase" or "huggins"
+    int trial = 0;           // 1-based
+    int answer = 0;          // the correct interval (1–3)
+    int response = 0;        // the interval chosen (1–3)
+    bool correct = false;
+    double response_time_ms = 0.0;
+};
+
+// The outcome of one headphone check (online sessions).
+struct ScreeningResult {
+    std::string test;
+    int trials = 0;
+    int correct = 0;
+    int required = 0;        // the protocol's pass criterion
+    bool passed = false;
+};
+
+// One browser session (a page load) to store with `Store::import_online`.
+struct OnlineSession {
+    std::string external_id;  // the browser's session id
+    std::string started_utc;
+    std::string ended_utc;
+    std::string end_reason;   // completed, incomplete
+    std::string details;      // browser, refresh rate, audio latencies, study id
+    int first_position = 0;
+    struct Trial {
+        PlannedTrial trial;
+        Presentation presentation;
+        WebPresentation web;
+        Response response;
+        std::string answered_utc;
+    };
+    std::vector<Trial> trials;
+    std::vector<ScreeningTrial> screening_trials;
+    std::vector<ScreeningResult> screening;
+    std::vector<std::pair<std::string, std::string>> events;  // kind, detail
+};
+
+// One online subject: the plan and the sessions to store.
+struct OnlineSubject {
+    int subject = 0;
+    std::vector<PlannedTrial> plan;
+    std::vector<OnlineSession> sessions;
+};
+
+// What an online import changed.
+struct OnlineImportCounts {
+    int subjects_added = 0;
+    int sessions_added = 0;
+    int trials_added = 0;
+    int trials_present = 0;   // already stored, identical (a repeated import)
 };
 
 // One row of the responses export.
@@ -67,6 +147,7 @@ struct ResponseRow {
     int session = 0;
     Response response;
     std::string answered_utc;
+    std::string mode;  // of the session that answered: lab or online
 };
 
 class Store {
@@ -109,6 +190,16 @@ public:
     void commit_trial(int session, const PlannedTrial& trial, const Presentation& presentation,
                       const Response& response);
 
+    // Stores imported online subjects in one transaction: new subjects with
+    // their plan, each browser session (marked online; one already stored
+    // under the same external id is reused), each new trial's response,
+    // presentation, frames and browser timing, screening results and events.
+    // A response already stored identically is skipped. Throws InputError
+    // naming the database, and changes nothing, if a subject's stored plan
+    // differs or a stored response at the same position differs (or came
+    // from a lab session).
+    OnlineImportCounts import_online(const std::vector<OnlineSubject>& subjects, const std::string& event_detail);
+
     // Every response (ordered by subject, position) and every presentation.
     std::vector<ResponseRow> responses() const;
     struct TimingRow {
@@ -118,6 +209,24 @@ public:
         Presentation presentation;
     };
     std::vector<TimingRow> timing(bool with_frames) const;
+    struct WebTimingRow {
+        int subject = 0;
+        int position = 0;
+        WebPresentation web;
+    };
+    std::vector<WebTimingRow> web_timing() const;
+    struct ScreeningRow {
+        int subject = 0;
+        int session = 0;
+        ScreeningResult result;
+    };
+    std::vector<ScreeningRow> screening() const;
+    struct ScreeningTrialRow {
+        int subject = 0;
+        int session = 0;
+        ScreeningTrial trial;
+    };
+    std::vector<ScreeningTrialRow> screening_trials() const;
     struct EventRow {
         int session = 0;
         int subject = 0;
@@ -134,8 +243,11 @@ private:
     sqlite3* m_db = nullptr;
 };
 
-// Writes responses.csv, timing.csv, frames.csv, sessions.csv and events.csv
-// into `out_dir`; returns the files written.
+// Writes responses.csv, timing.csv, timing_summary.csv, frames.csv,
+// sessions.csv and events.csv into `out_dir`, and for databases with online
+// sessions web_timing.csv, screening.csv and screening_trials.csv; returns
+// the files written. responses.csv and sessions.csv end with a `mode` column
+// (lab or online).
 std::vector<std::filesystem::path> export_store(const Store& store, const std::filesystem::path& out_dir);
 
 // UTC now as ISO 8601 with milliseconds.

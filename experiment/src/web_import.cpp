@@ -1,0 +1,537 @@
+// `avsi import-web`: online results back into the session database (see
+// web_study.h). The study runtime (web/src/avsi-study.js) sends one JSON
+// object per event, each followed by a newline: under JATOS through
+// jatos.appendResultData (so JATOS' "data only" export is JSON Lines, and its
+// results archive holds the same lines in study_result_*/comp_result_*/data.txt),
+// otherwise to a POST endpoint or into a download. jsPsych's own JSON export
+// (an array of every trial's data) holds the same objects among other
+// plugins' rows. Every record carries "avsi" (its kind), the study id, the
+// experiment, the subject, the browser session and a per-subject sequence
+// number, so the answers' order survives reloads and mixed sources.
+#include <algorithm>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "avsi/core/corpus.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/core/log.h"
+#include "avsi/experiment/design.h"
+#include "avsi/experiment/runner.h"
+#include "avsi/experiment/store.h"
+#include "avsi/experiment/web_study.h"
+#include "zip_archive.h"
+
+namespace avsi::experiment {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr std::size_t max_frames_per_trial = 100000;
+
+// One JSON object read from a results file, with where it starts.
+struct Record {
+    json value;
+    std::string file;
+    int line = 0;
+    int column = 0;
+    std::string where;  // "" or "[i]" for an element of a top-level array
+
+    // The field name in messages: "[i].key" inside an array, else "key".
+    std::string field(const std::string& key) const { return where.empty() ? key : where + "." + key; }
+};
+
+// Line and column (1-based) of a byte offset.
+std::pair<int, int> line_column(const std::string& text, std::size_t offset) {
+    int line = 1, column = 1;
+    for (std::size_t i = 0; i < offset && i < text.size(); ++i) {
+        if (text[i] == '\n') {
+            ++line;
+            column = 1;
+        } else {
+            ++column;
+        }
+    }
+    return {line, column};
+}
+
+// The JSON values of a text: JSON Lines, concatenated objects, or arrays of
+// objects (jsPsych's export). Objects with an "avsi" key are records; others
+// are counted in `ignored`.
+void parse_records(const std::string& text, const std::string& file, std::vector<Record>& out, int& ignored) {
+    std::istringstream in(text);
+    bool any = false;
+    while (true) {
+        in >> std::ws;
+        if (in.peek() == std::char_traits<char>::eof()) break;
+        const auto start = static_cast<std::size_t>(in.tellg());
+        json value;
+        try {
+            in >> value;
+        } catch (const json::parse_error& e) {
+            const auto [line, column] = line_column(text, start + (e.byte > 0 ? e.byte - 1 : 0));
+            // nlohmann's text without its own (value-relative) position: "syntax error while parsing …".
+            std::string what = e.what();
+            if (const auto p = what.find("syntax error"); p != std::string::npos) what = what.substr(p);
+            throw InputError(file, line, column, "",
+                             fmt::format("not valid JSON, the file is truncated or damaged ({}); nothing was imported",
+                                         what));
+        }
+        any = true;
+        const auto [line, column] = line_column(text, start);
+        auto take = [&](json&& v, const std::string& where) {
+            if (v.is_object() && v.contains("avsi"))
+                out.push_back({std::move(v), file, line, column, where});
+            else
+                ++ignored;
+        };
+        if (value.is_array()) {
+            for (std::size_t i = 0; i < value.size(); ++i) take(std::move(value[i]), fmt::format("[{}]", i));
+        } else {
+            take(std::move(value), "");
+        }
+    }
+    if (!any) throw InputError(fs::path(file), "empty: no results in this file");
+}
+
+// Reads a results file: a ZIP (JATOS results archive) or text.
+void read_results_file(const fs::path& path, std::vector<Record>& out, int& ignored) {
+    if (!fs::is_regular_file(path)) throw InputError(path, "no such results file");
+    const std::string bytes = read_text_file(path);
+    if (bytes.rfind("PK\x03\x04", 0) == 0 || bytes.rfind("PK\x05\x06", 0) == 0) {
+        const detail::ZipReader zip(path);
+        std::vector<std::string> names;
+        for (const auto& name : zip.names()) {
+            if (name.empty() || name.back() == '/' || fs::path(name).filename() == "metadata.json") continue;
+            const std::string ext = fs::path(name).extension().string();
+            if (ext == ".txt" || ext == ".json" || ext == ".jsonl") names.push_back(name);
+        }
+        if (names.empty())
+            throw InputError(path, "the archive holds no result data (expected study_result_*/comp_result_*/data.txt, "
+                                   "JATOS' results archive layout)");
+        std::sort(names.begin(), names.end());
+        for (const auto& name : names) {
+            const std::string text = zip.read(name);
+            if (text.find_first_not_of(" \t\r\n") == std::string::npos) continue;  // a component result without data
+            parse_records(text, path.string() + ":" + name, out, ignored);
+        }
+        return;
+    }
+    parse_records(bytes, path.string(), out, ignored);
+}
+
+// Typed access to a record's fields; problems are collected with the record's location.
+class Fields {
+public:
+    Fields(const Record& r, const json& object, std::string prefix, DiagnosticList& problems)
+        : m_record(r), m_object(object), m_prefix(std::move(prefix)), m_problems(problems) {}
+
+    const json* find(const std::string& key, bool required = true) const {
+        const auto it = m_object.find(key);
+        if (it == m_object.end() || it->is_null()) {
+            if (required) report(key, "missing");
+            return nullptr;
+        }
+        return &*it;
+    }
+    std::string str(const std::string& key, bool required = true) const {
+        const json* v = find(key, required);
+        if (!v) return "";
+        if (!v->is_string()) {
+            report(key, fmt::format("expected a string, got {}", v->dump()));
+            return "";
+        }
+        return v->get<std::string>();
+    }
+    long long integer(const std::string& key, long long lo, long long hi, bool required = true) const {
+        const json* v = find(key, required);
+        if (!v) return lo;
+        if (!v->is_number_integer() || v->get<long long>() < lo || v->get<long long>() > hi) {
+            report(key, fmt::format("expected an integer in [{}, {}], got {}", lo, hi, v->dump()));
+            return lo;
+        }
+        return v->get<long long>();
+    }
+    double number(const std::string& key, bool required = true) const {
+        const json* v = find(key, required);
+        if (!v) return 0.0;
+        if (!v->is_number()) {
+            report(key, fmt::format("expected a number, got {}", v->dump()));
+            return 0.0;
+        }
+        return v->get<double>();
+    }
+    bool boolean(const std::string& key, bool required = true) const {
+        const json* v = find(key, required);
+        if (!v) return false;
+        if (!v->is_boolean()) {
+            report(key, fmt::format("expected true or false, got {}", v->dump()));
+            return false;
+        }
+        return v->get<bool>();
+    }
+    const json* object(const std::string& key) const {
+        const json* v = find(key);
+        if (v && !v->is_object()) {
+            report(key, fmt::format("expected an object, got {}", v->dump().substr(0, 60)));
+            return nullptr;
+        }
+        return v;
+    }
+    void report(const std::string& key, const std::string& message) const {
+        m_problems.add(m_record.file, m_record.line, m_record.column,
+                       m_record.field(m_prefix.empty() ? key : m_prefix + "." + key), message);
+    }
+    const Record& record() const { return m_record; }
+
+private:
+    const Record& m_record;
+    const json& m_object;
+    std::string m_prefix;
+    DiagnosticList& m_problems;
+};
+
+// A trial record, parsed.
+struct TrialRecord {
+    const Record* record = nullptr;
+    long long seq = 0;
+    std::string session;
+    PlannedTrial trial;
+    std::string stimulus_sha256;
+    Response response;
+    std::string answered_utc;
+    Presentation presentation;
+    WebPresentation web;
+};
+
+struct SessionRecord {
+    const Record* record = nullptr;
+    std::string time_utc;
+    int first_position = 0;
+    std::string details;
+};
+
+struct SubjectRecords {
+    std::string study;
+    const Record* first = nullptr;
+    std::vector<TrialRecord> trials;
+    std::map<std::string, SessionRecord> sessions;       // by browser session id
+    std::map<std::string, std::string> last_time;        // latest record time per session
+    std::map<std::string, std::vector<ScreeningTrial>> screening_trials;
+    std::map<std::string, std::vector<ScreeningResult>> screening;
+    std::map<std::string, std::vector<std::pair<std::string, std::string>>> events;
+};
+
+std::string describe_browser(const json& j) {
+    std::string out;
+    for (const auto& [key, value] : j.items()) {
+        if (!out.empty()) out += "; ";
+        out += key + "=" + (value.is_string() ? value.get<std::string>() : value.dump());
+    }
+    return out;
+}
+
+}  // namespace
+
+ImportWebResult import_web(const ImportWebSettings& settings) {
+    if (settings.results.empty()) throw UsageError("give at least one results file");
+    const Protocol protocol = load_protocol(settings.protocol);
+    const Corpus corpus = read_corpus(protocol.corpus.sentences);
+    const ListAssignment assignment = assign_lists(corpus, protocol.design);
+    if (settings.stimuli.empty())
+        throw UsageError("--stimuli: give the stimulus folder (or the exported study folder) whose manifest.json "
+                         "the study was exported from; the trials' stimulus hashes are checked against it");
+    const StimulusManifest manifest = read_stimulus_manifest(settings.stimuli);
+
+    ImportWebResult result;
+    std::vector<Record> records;
+    for (const auto& path : settings.results) read_results_file(path, records, result.ignored);
+    result.records = static_cast<int>(records.size());
+    if (records.empty())
+        throw InputError(settings.results.front(), "no avsi records in the results (objects with an \"avsi\" field, "
+                                                   "written by a study from `avsi export-web`)");
+
+    // Parse and check each record on its own.
+    DiagnosticList problems;
+    std::map<int, SubjectRecords> subjects;
+    for (const Record& r : records) {
+        const Fields f(r, r.value, "", problems);
+        const std::string kind = f.str("avsi");
+        const std::string experiment = f.str("experiment");
+        if (!experiment.empty() && experiment != protocol.name) {
+            f.report("experiment", fmt::format("expected \"{}\" (the protocol's experiment), got \"{}\": these are "
+                                               "another study's results",
+                                               protocol.name, experiment));
+            continue;
+        }
+        const int subject = static_cast<int>(f.integer("subject", 1, 1000000));
+        const std::string study = f.str("study");
+        const std::string session = f.str("session");
+        const long long seq = f.integer("seq", 0, 1LL << 40);
+        const std::string time_utc = f.str("time_utc");
+        SubjectRecords& s = subjects[subject];
+        if (!s.first) {
+            s.first = &r;
+            s.study = study;
+        } else if (study != s.study && !study.empty()) {
+            f.report("study", fmt::format("subject {} has records of two study exports ({} and {}, the first at {}:{}); "
+                                          "import each export's results into its own database",
+                                          subject, s.study, study, s.first->file, s.first->line));
+            continue;
+        }
+        if (!session.empty() && time_utc > s.last_time[session]) s.last_time[session] = time_utc;
+        if (kind == "session") {
+            SessionRecord sr;
+            sr.record = &r;
+            sr.time_utc = time_utc;
+            sr.first_position = static_cast<int>(f.integer("position", 0, 1000000));
+            std::string details = "mode=online; study=" + study;
+            if (const json* browser = f.object("browser")) details += "; " + describe_browser(*browser);
+            sr.details = details;
+            if (!s.sessions.count(session) || time_utc < s.sessions[session].time_utc) s.sessions[session] = sr;
+        } else if (kind == "trial") {
+            TrialRecord t;
+            t.record = &r;
+            t.seq = seq;
+            t.session = session;
+            t.trial.subject = subject;
+            t.trial.position = static_cast<int>(f.integer("position", 1, 1000000));
+            const std::string phase = f.str("phase");
+            if (!phase.empty() && !parse_phase(phase, t.trial.phase))
+                f.report("phase", fmt::format("expected \"warmup\", \"practice\" or \"test\", got \"{}\"", phase));
+            t.trial.block = static_cast<int>(f.integer("block", 0, 1000000));
+            t.trial.list = f.str("list");
+            t.trial.condition = f.str("condition");
+            t.trial.sentence = f.str("sentence");
+            t.trial.stimulus = f.str("stimulus");
+            t.stimulus_sha256 = f.str("stimulus_sha256");
+            t.response.text = f.str("response");
+            t.response.response_time_ms = f.number("response_time_ms");
+            t.response.confirmed_empty = f.boolean("confirmed_empty");
+            t.answered_utc = time_utc;
+            if (const json* timing = f.object("timing")) {
+                const Fields g(r, *timing, "timing", problems);
+                Presentation& p = t.presentation;
+                p.audio_onset_s = g.number("audio_onset_s");
+                p.video_onset_s = g.number("video_onset_s");
+                p.duration_s = g.number("duration_s");
+                p.refresh_hz = g.number("refresh_hz");
+                p.frames_total = static_cast<int>(g.integer("frames_total", 0, max_frames_per_trial));
+                p.frames_shown = static_cast<int>(g.integer("frames_shown", 0, max_frames_per_trial));
+                p.dropped_frames = static_cast<int>(g.integer("dropped_frames", 0, max_frames_per_trial));
+                p.repeated_frames = static_cast<int>(g.integer("repeated_frames", 0, max_frames_per_trial));
+                p.mean_offset_ms = g.number("mean_offset_ms");
+                p.max_abs_offset_ms = g.number("max_abs_offset_ms");
+                WebPresentation& w = t.web;
+                w.frame_callbacks = g.boolean("frame_callbacks");
+                w.presented_frames = static_cast<int>(g.integer("presented_frames", 0, max_frames_per_trial));
+                w.missed_callbacks = static_cast<int>(g.integer("missed_callbacks", 0, max_frames_per_trial));
+                w.browser_dropped_frames = static_cast<int>(g.integer("browser_dropped_frames", 0, max_frames_per_trial));
+                w.browser_total_frames = static_cast<int>(g.integer("browser_total_frames", 0, max_frames_per_trial));
+                w.output_latency_ms = g.number("output_latency_ms");
+                w.base_latency_ms = g.number("base_latency_ms");
+                w.audio_path_ms = g.number("audio_path_ms");
+                w.audio_path_measured = g.boolean("audio_path_measured");
+            }
+            if (const json* frames = f.find("frames")) {
+                if (!frames->is_array() || frames->size() > max_frames_per_trial) {
+                    f.report("frames", fmt::format("expected an array of at most {} [frame, pts_s, display_s, "
+                                                   "offset_ms] rows",
+                                                   max_frames_per_trial));
+                } else {
+                    for (const auto& row : *frames) {
+                        if (!row.is_array() || row.size() != 4 || !row[0].is_number_integer() || !row[1].is_number() ||
+                            !row[2].is_number() || !row[3].is_number()) {
+                            f.report("frames", fmt::format("expected [frame, pts_s, display_s, offset_ms] rows, got {}",
+                                                           row.dump().substr(0, 60)));
+                            break;
+                        }
+                        t.presentation.flips.push_back(
+                            {row[0].get<int>(), row[1].get<double>(), row[2].get<double>(), row[3].get<double>()});
+                    }
+                }
+            }
+            s.trials.push_back(std::move(t));
+        } else if (kind == "screening-trial") {
+            ScreeningTrial t;
+            t.test = f.str("test");
+            t.trial = static_cast<int>(f.integer("trial", 1, 100));
+            t.answer = static_cast<int>(f.integer("answer", 1, 3));
+            t.response = static_cast<int>(f.integer("response", 1, 3));
+            t.correct = f.boolean("correct");
+            t.response_time_ms = f.number("response_time_ms");
+            if (t.correct != (t.answer == t.response))
+                f.report("correct", fmt::format("says {} but the answer is {} and the response {}", t.correct, t.answer,
+                                                t.response));
+            s.screening_trials[session].push_back(t);
+        } else if (kind == "screening") {
+            ScreeningResult sr;
+            sr.test = f.str("test");
+            sr.trials = static_cast<int>(f.integer("trials", 1, 100));
+            sr.correct = static_cast<int>(f.integer("correct", 0, 100));
+            sr.required = static_cast<int>(f.integer("required", 0, 100));
+            sr.passed = f.boolean("passed");
+            if (sr.passed != (sr.correct >= sr.required))
+                f.report("passed", fmt::format("says {} with {} of {} correct and {} required", sr.passed, sr.correct,
+                                               sr.trials, sr.required));
+            s.screening[session].push_back(sr);
+            s.events[session].emplace_back("screening", fmt::format("{}: {} of {} correct, {} required: {}", sr.test,
+                                                                    sr.correct, sr.trials, sr.required,
+                                                                    sr.passed ? "passed" : "failed"));
+        } else if (kind == "level") {
+            s.events[session].emplace_back("level-setting", fmt::format("calibration noise played {:.1f} s until "
+                                                                        "confirmed comfortable",
+                                                                        f.number("played_ms") / 1000.0));
+        } else if (kind == "preload-failed") {
+            s.events[session].emplace_back("preload-failed", r.value.dump());
+        } else if (kind == "end") {
+            s.events[session].emplace_back("end", fmt::format("{} of {} answered", f.integer("answered", 0, 1000000),
+                                                              f.integer("total", 0, 1000000)));
+        } else if (!kind.empty()) {
+            f.report("avsi", fmt::format("expected a record kind (session, level, screening-trial, screening, trial, "
+                                         "preload-failed, end), got \"{}\"",
+                                         kind));
+        }
+    }
+    problems.throw_if_any();
+
+    // Each subject against the design: plan order, lists, stimulus hashes.
+    std::vector<OnlineSubject> online;
+    for (auto& [subject, s] : subjects) {
+        const std::vector<PlannedTrial> plan = design_subject(protocol, assignment, subject);
+        // Duplicates (the same trial sent twice, or from two sources) collapse.
+        std::stable_sort(s.trials.begin(), s.trials.end(),
+                         [](const TrialRecord& a, const TrialRecord& b) { return a.seq < b.seq; });
+        std::map<int, const TrialRecord*> by_position;
+        std::vector<TrialRecord*> unique;
+        for (auto& t : s.trials) {
+            const auto [it, inserted] = by_position.emplace(t.trial.position, &t);
+            if (inserted) {
+                unique.push_back(&t);
+                continue;
+            }
+            const TrialRecord& first = *it->second;
+            if (first.response.text == t.response.text && first.answered_utc == t.answered_utc &&
+                first.session == t.session) {
+                ++result.duplicates;
+                continue;
+            }
+            problems.add(t.record->file, t.record->line, t.record->column, t.record->field("position"),
+                         fmt::format("subject {} trial {} has two different answers (\"{}\" at {}:{}, \"{}\" here)",
+                                     subject, t.trial.position, first.response.text, first.record->file,
+                                     first.record->line, t.response.text));
+        }
+        int expected = 1;
+        for (const TrialRecord* t : unique) {
+            const Record& r = *t->record;
+            const int position = t->trial.position;
+            if (position != expected) {
+                problems.add(r.file, r.line, r.column, r.field("position"),
+                             fmt::format("subject {}: expected trial {} next in plan order, got trial {} (answers out "
+                                         "of plan order or missing; the study answers trials in order and resumes "
+                                         "at the first unanswered one)",
+                                         subject, expected, position));
+                break;
+            }
+            ++expected;
+            if (position > static_cast<int>(plan.size())) {
+                problems.add(r.file, r.line, r.column, r.field("position"),
+                             fmt::format("subject {} has {} planned trials, got trial {}", subject, plan.size(), position));
+                break;
+            }
+            const PlannedTrial& planned = plan[static_cast<std::size_t>(position - 1)];
+            if (!(t->trial == planned)) {
+                problems.add(r.file, r.line, r.column, r.field("trial"),
+                             fmt::format("subject {} trial {} is {} {} list {} {} in the results, the design of {} has "
+                                         "{} {} list {} {} (results of another export or design?)",
+                                         subject, position, to_string(t->trial.phase), t->trial.condition,
+                                         t->trial.list, t->trial.sentence, settings.protocol.string(),
+                                         to_string(planned.phase), planned.condition, planned.list, planned.sentence));
+                continue;
+            }
+            const auto entry = manifest.stimuli.find(planned.stimulus);
+            if (entry == manifest.stimuli.end())
+                problems.add(r.file, r.line, r.column, r.field("stimulus"),
+                             fmt::format("{} is not in {}", planned.stimulus,
+                                         (settings.stimuli / "manifest.json").string()));
+            else if (entry->second.sha256 != t->stimulus_sha256)
+                problems.add(r.file, r.line, r.column, r.field("stimulus_sha256"),
+                             fmt::format("expected {} ({} in the manifest), got {}: the participant saw another file",
+                                         entry->second.sha256, planned.stimulus, t->stimulus_sha256));
+            if (!t->session.empty() && !s.sessions.count(t->session))
+                problems.add(r.file, r.line, r.column, r.field("session"),
+                             fmt::format("browser session {} has trials but no session record: part of the results "
+                                         "is missing (give every results file)",
+                                         t->session));
+        }
+        if (!problems.empty()) continue;
+
+        OnlineSubject o;
+        o.subject = subject;
+        o.plan = plan;
+        std::map<std::string, std::size_t> session_index;
+        std::vector<std::pair<std::string, SessionRecord>> chronological(s.sessions.begin(), s.sessions.end());
+        std::stable_sort(chronological.begin(), chronological.end(),
+                         [](const auto& a, const auto& b) { return a.second.time_utc < b.second.time_utc; });
+        for (const auto& [id, sr] : chronological) {
+            OnlineSession os;
+            os.external_id = id;
+            os.started_utc = sr.time_utc;
+            os.ended_utc = s.last_time[id];
+            os.details = sr.details;
+            os.first_position = sr.first_position;
+            os.end_reason = "incomplete";
+            os.screening_trials = s.screening_trials[id];
+            os.screening = s.screening[id];
+            os.events = s.events[id];
+            for (const auto& r : os.screening)
+                if (!r.passed) ++result.screening_failed;
+            session_index[id] = o.sessions.size();
+            o.sessions.push_back(std::move(os));
+        }
+        for (const TrialRecord* t : unique) {
+            OnlineSession::Trial trial{t->trial, t->presentation, t->web, t->response, t->answered_utc};
+            OnlineSession& os = o.sessions[session_index.at(t->session)];
+            if (t->trial.position == static_cast<int>(plan.size())) os.end_reason = "completed";
+            os.trials.push_back(std::move(trial));
+        }
+        const int answered = static_cast<int>(unique.size());
+        std::string screening_note;
+        for (const auto& os : o.sessions)
+            for (const auto& r : os.screening)
+                screening_note += fmt::format(", {} {}/{} {}", r.test, r.correct, r.trials, r.passed ? "passed" : "FAILED");
+        result.notes.push_back(fmt::format("subject {}: {} of {} trials answered{}, {} browser session(s){}", subject,
+                                           answered, plan.size(), answered == static_cast<int>(plan.size()) ? " (complete)" : "",
+                                           o.sessions.size(), screening_note));
+        online.push_back(std::move(o));
+    }
+    problems.throw_if_any();
+    result.subjects = static_cast<int>(online.size());
+
+    // The database: the same experiment, then everything in one transaction.
+    Store store(settings.database);
+    if (const auto name = store.meta("experiment"); name && *name != protocol.name)
+        throw InputError(settings.database, fmt::format("this database belongs to experiment \"{}\", the protocol is "
+                                                        "\"{}\"; give another --db",
+                                                        *name, protocol.name));
+    std::string sources;
+    for (const auto& p : settings.results) sources += (sources.empty() ? "" : ", ") + p.filename().string();
+    const OnlineImportCounts counts = store.import_online(online, "imported from " + sources);
+    if (!store.meta("experiment")) {
+        store.set_meta("experiment", protocol.name);
+        store.set_meta("protocol_sha256", sha256_file(settings.protocol));
+    }
+    result.subjects_added = counts.subjects_added;
+    result.sessions_added = counts.sessions_added;
+    result.trials_added = counts.trials_added;
+    result.trials_present = counts.trials_present;
+    return result;
+}
+
+}  // namespace avsi::experiment
