@@ -369,9 +369,7 @@ Plan::Plan(const BuildSettings& settings)
 
 PhoneSequence Plan::phones(const Sentence& sentence) const {
     if (protocol.corpus.audio != CorpusAudio::Tts) return read_phones(sentence.labels);
-    TtsSettings tts;
-    tts.voice = protocol.corpus.voice;
-    return synthesize_speech(sentence.text, tts).phones;
+    return synthesize_speech(sentence.text, tts_settings(protocol)).phones;
 }
 
 ArticulationSummary Plan::articulation(const synth::Trajectory& trajectory, const PhoneSequence& phones,
@@ -462,9 +460,9 @@ constexpr std::size_t qc_plots = 12;
 
 // The articulation of every model stimulus of the plan, measured afresh
 // (synthesis and landmark posing: ~1 ms a stimulus), in plan order; the
-// phones of each sentence are made once.
-std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures) {
-    std::map<std::string, PhoneSequence> phones;
+// phones of each sentence are made once (`phones` may hold some already).
+std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures,
+                                    std::map<std::string, PhoneSequence> phones = {}) {
     std::vector<QcStimulus> out;
     for (const auto& job : plan.jobs) {
         const auto& c = *job.condition;
@@ -486,8 +484,9 @@ std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures) {
 
 // Writes <out>/qc/articulation.html: the set's articulation by condition,
 // every violation, and the aperture plots of the worst stimuli.
-void write_articulation_qc(const Plan& plan, const std::filesystem::path& out_dir) {
-    auto stimuli = measure_set(plan, true);
+void write_articulation_qc(const Plan& plan, const std::filesystem::path& out_dir,
+                           std::map<std::string, PhoneSequence> phones) {
+    auto stimuli = measure_set(plan, true, std::move(phones));
     std::vector<std::size_t> order(stimuli.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
@@ -768,7 +767,11 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                      {"stimuli", json::array()}};
     for (const auto& job : jobs) manifest["stimuli"].push_back(job.entry);
     write_text_file(manifest_path, manifest.dump(2) + "\n");
-    if (plan.meter) write_articulation_qc(plan, settings.out_dir);
+    if (plan.meter) {
+        std::map<std::string, PhoneSequence> phones;
+        for (const auto& [id, sp] : speech) phones[id] = sp.phones;
+        write_articulation_qc(plan, settings.out_dir, std::move(phones));
+    }
 
     report.rendered = todo.size();
     report.frames_rendered = frames_total;
