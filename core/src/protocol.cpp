@@ -35,6 +35,53 @@ const ConfigSection& section_or_empty(const ConfigSection& root, const std::stri
     return storage;
 }
 
+// [corpus] tts = "<engine>:<voice>", or the older voice = "<espeak-ng voice>".
+void read_tts(const ConfigSection& corpus, CorpusSettings& out, DiagnosticList& problems) {
+    const std::string tts = corpus.get_string("tts", "", problems);
+    const std::string voice = corpus.get_string("voice", "", problems);
+    const ConfigValue* tts_value = corpus.find("tts");
+    const ConfigValue* voice_value = corpus.find("voice");
+    const bool has_tts = tts_value && tts_value->type == ConfigValue::Type::String;
+    const bool has_voice = voice_value && voice_value->type == ConfigValue::Type::String;
+    if (has_tts && has_voice) {
+        corpus.report("voice",
+                      fmt::format("expected either tts or voice, got both (voice = \"{}\" is the older spelling of "
+                                  "tts = \"espeak:{}\"); remove voice",
+                                  voice, voice),
+                      problems);
+        return;
+    }
+    TtsSettings settings;
+    if (has_tts) {
+        try {
+            set_tts_voice(settings, tts);
+        } catch (const InputError& e) {
+            corpus.report("tts", e.first().message, problems);
+            return;
+        }
+        out.tts_line = tts_value->line;
+        out.tts_column = tts_value->column;
+    } else if (has_voice) {
+        if (voice.empty() || voice.find(':') != std::string::npos) {
+            corpus.report("voice",
+                          fmt::format("expected an espeak-ng voice name (en-us, en, ...), got \"{}\"{}", voice,
+                                      voice.find(':') != std::string::npos
+                                          ? fmt::format(" (did you mean tts = \"{}\"?)", voice)
+                                          : ""),
+                          problems);
+            return;
+        }
+        settings.engine = TtsEngine::Espeak;
+        settings.voice = voice;
+        out.tts_line = voice_value->line;
+        out.tts_column = voice_value->column;
+    } else {
+        return;  // the default voice
+    }
+    out.tts_engine = settings.engine;
+    out.tts_voice = settings.voice;
+}
+
 }  // namespace
 
 std::string to_string(FaceMode face) {
@@ -109,7 +156,7 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         p.corpus.audio = corpus.get_choice("audio", {"tts", "recordings"}, "tts", problems) == "recordings"
                              ? CorpusAudio::Recordings
                              : CorpusAudio::Tts;
-        p.corpus.voice = corpus.get_string("voice", p.corpus.voice, problems);
+        read_tts(corpus, p.corpus, problems);
         p.corpus.level_dbfs = corpus.get_number("level_dbfs", p.corpus.level_dbfs, -60.0, -6.0, problems);
         if (const ConfigValue* level = corpus.find("level_dbfs")) {
             p.corpus.level_line = level->line;

@@ -243,12 +243,14 @@ std::vector<Frame> simulate_commands(const std::vector<Command>& cmds, const Utt
         // A command takes over at start_s minus its lead; an early gesture
         // may take over before the commands just ahead of it, which it then
         // skips (the jaw closes for /b/ without first going to /l/'s height).
-        // The gesture after a constriction does not release it before the
-        // constriction's centre (a stop is released, not anticipated away).
+        // The gesture after a constriction does not release it before
+        // hold_s after the constriction's centre (a stop is released, not
+        // anticipated away).
+        const double hold_s = settings.closure_hold_s;
         auto takes_over = [&](std::size_t j) {
             const Command& c = cmds[j];
             double t = c.start_s - dyn.anticipation_s - (task_parameter(c.task, p) ? c.extra_lead_s : 0.0);
-            if (j > 0 && task_parameter(cmds[j - 1].task, p)) t = std::max(t, cmds[j - 1].centre_s);
+            if (j > 0 && task_parameter(cmds[j - 1].task, p)) t = std::max(t, cmds[j - 1].centre_s + hold_s);
             return t;
         };
         const double lookahead = settings.max_closure_lead_s;
@@ -283,17 +285,23 @@ ParamTrack simulate_reference_speaker(const PhoneSequence& phones, const Utteran
 
     // Speakers close the lips for every bilabial and bring the lower lip to
     // the upper incisors for every /f v/, however short the segment: each
-    // such gesture starts early enough that its task is achieved at the
-    // segment's centre (the lip aperture closure_margin_mm beyond contact;
-    // the lower lip within 1 mm of its labiodental height), found by
-    // lengthening its lead 5 ms at a time, up to max_closure_lead_s.
+    // such gesture starts early enough that its task is achieved from
+    // closure_hold_s before the segment's centre to closure_hold_s after it
+    // (the lip aperture closure_margin_mm beyond contact; the lower lip
+    // within 1 mm of its labiodental height), found by lengthening its lead
+    // 5 ms at a time, up to max_closure_lead_s.
     track.frames = simulate_commands(cmds, variation, settings, frames);
+    auto achieved = [&](const Command& c) {
+        for (double t : {c.centre_s - settings.closure_hold_s, c.centre_s, c.centre_s + settings.closure_hold_s}) {
+            const auto k = std::min(frames - 1, static_cast<std::size_t>(std::lround(std::max(t, 0.0) * settings.fps)));
+            if (task_shortfall_mm(c, track.frames[k], settings.closure_margin_mm) > 0.0) return false;
+        }
+        return true;
+    };
     for (int round = 0; round < 64; ++round) {
         bool changed = false;
         for (auto& c : cmds) {
-            if (c.task == Task::None) continue;
-            const auto k = std::min(frames - 1, static_cast<std::size_t>(std::lround(c.centre_s * settings.fps)));
-            if (task_shortfall_mm(c, track.frames[k], settings.closure_margin_mm) <= 0.0) continue;
+            if (c.task == Task::None || achieved(c)) continue;
             if (c.extra_lead_s + 0.005 > settings.max_closure_lead_s) continue;
             c.extra_lead_s += 0.005;
             changed = true;

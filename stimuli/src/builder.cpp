@@ -212,6 +212,36 @@ nlohmann::json head_hashes(const Head& head, const std::filesystem::path& mappin
     return j;
 }
 
+// A TTS error about the voice, placed at the protocol's [corpus] tts (or voice) key.
+InputError at_tts_key(const Protocol& protocol, const InputError& e) {
+    if (e.first().field != "voice") return e;
+    return InputError(protocol.path.string(), protocol.corpus.tts_line, protocol.corpus.tts_column, "corpus.tts",
+                      e.first().message);
+}
+
+TtsSettings tts_settings(const Protocol& protocol) {
+    TtsSettings tts;
+    tts.engine = protocol.corpus.tts_engine;
+    tts.voice = protocol.corpus.tts_voice;
+    return tts;
+}
+
+// The synthesiser and voice with their versions, recorded in the manifest's
+// settings and so hashed into every stimulus: another voice or version
+// rebuilds. Null when the corpus brings its own recordings.
+json tts_json(const Protocol& protocol) {
+    if (protocol.corpus.audio != CorpusAudio::Tts) return nullptr;
+    const TtsSettings tts = tts_settings(protocol);
+    TtsVoiceInfo info;
+    try {
+        info = describe_tts_voice(tts);
+    } catch (const InputError& e) {
+        throw at_tts_key(protocol, e);
+    }
+    return {{"tts", tts_voice_spec(tts)}, {"engine", info.engine}, {"engine_version", info.engine_version},
+            {"voice", info.voice}, {"voice_sha256", info.voice_sha256}};
+}
+
 // What a protocol asks to be built: the loaded protocol, corpus, head and
 // models, the settings every stimulus shares, and one Job per sentence ×
 // condition the design shows, with the hash of everything it depends on.
@@ -294,7 +324,7 @@ Plan::Plan(const BuildSettings& settings)
                    {"preset", VideoSettings{}.preset}, {"audio", "aac"}}},
         {"vocoder", vocoder_json(vocoder_base)},
         {"head", head_hashes(head, pr.head_mapping)},
-        {"tts", {{"voice", protocol.corpus.voice}}},
+        {"tts", tts_json(protocol)},
         {"level", {{"speech_dbfs", protocol.corpus.level_dbfs},
                    {"measure", "active-speech RMS: 20 ms frames within 40 dB of the loudest"},
                    {"max_peak_dbfs", max_peak_dbfs}}},
@@ -325,7 +355,7 @@ Plan::Plan(const BuildSettings& settings)
     for (std::size_t si = 0; si < n_sentences; ++si) {
         const Sentence& s = corpus.sentences[si];
         const std::string audio_key = protocol.corpus.audio == CorpusAudio::Tts
-                                          ? "tts:" + protocol.corpus.voice + ":" + s.text
+                                          ? "tts:" + tts_voice_spec(tts_settings(protocol)) + ":" + s.text
                                           : "rec:" + sha256_file(s.audio) + ":" + sha256_file(s.labels);
         for (const auto& c : protocol.conditions) {
             if (!shown(s, c)) {
@@ -352,9 +382,7 @@ Plan::Plan(const BuildSettings& settings)
 
 PhoneSequence Plan::phones(const Sentence& sentence) const {
     if (protocol.corpus.audio != CorpusAudio::Tts) return read_phones(sentence.labels);
-    TtsSettings tts;
-    tts.voice = protocol.corpus.voice;
-    return synthesize_speech(sentence.text, tts).phones;
+    return synthesize_speech(sentence.text, tts_settings(protocol)).phones;
 }
 
 ArticulationSummary Plan::articulation(const synth::Trajectory& trajectory, const PhoneSequence& phones,
@@ -445,9 +473,9 @@ constexpr std::size_t qc_plots = 12;
 
 // The articulation of every model stimulus of the plan, measured afresh
 // (synthesis and landmark posing: ~1 ms a stimulus), in plan order; the
-// phones of each sentence are made once.
-std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures) {
-    std::map<std::string, PhoneSequence> phones;
+// phones of each sentence are made once (`phones` may hold some already).
+std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures,
+                                    std::map<std::string, PhoneSequence> phones = {}) {
     std::vector<QcStimulus> out;
     for (const auto& job : plan.jobs) {
         const auto& c = *job.condition;
@@ -469,8 +497,9 @@ std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures) {
 
 // Writes <out>/qc/articulation.html: the set's articulation by condition,
 // every violation, and the aperture plots of the worst stimuli.
-void write_articulation_qc(const Plan& plan, const std::filesystem::path& out_dir) {
-    auto stimuli = measure_set(plan, true);
+void write_articulation_qc(const Plan& plan, const std::filesystem::path& out_dir,
+                           std::map<std::string, PhoneSequence> phones) {
+    auto stimuli = measure_set(plan, true, std::move(phones));
     std::vector<std::size_t> order(stimuli.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
@@ -546,10 +575,10 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         }
     }
 
-    // Speech per sentence, made serially (espeak-ng is not thread-safe).
-    // The audio a condition presents — clean or vocoded (the vocoder's seed
-    // is derived from the sentence id), at the speech level — depends only
-    // on the sentence and that kind, so each is made once and shared.
+    // Speech per sentence. The audio a condition presents — clean or
+    // vocoded (the vocoder's seed is derived from the sentence id), at the
+    // speech level — depends only on the sentence and that kind, so each is
+    // made once and shared.
     struct Presented {
         Audio audio;
         Level level;
@@ -578,20 +607,58 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         }
     };
     std::map<std::string, Speech> speech;
+    std::vector<std::pair<const Sentence*, Speech*>> to_speak;
     for (const auto i : todo) {
         const Sentence& s = *jobs[i].sentence;
-        if (speech.count(s.id)) continue;
-        Speech& sp = speech[s.id];
-        if (protocol.corpus.audio == CorpusAudio::Tts) {
-            TtsSettings tts;
-            tts.voice = protocol.corpus.voice;
-            auto r = synthesize_speech(s.text, tts);
-            sp.audio = std::move(r.audio);
-            sp.phones = std::move(r.phones);
-        } else {
-            sp.audio = read_audio(s.audio);
-            sp.phones = read_phones(s.labels);
-        }
+        if (!speech.count(s.id)) to_speak.emplace_back(&s, &speech[s.id]);
+    }
+    // Synthesised on several threads (espeak-ng serialises its calls itself,
+    // Festival's run in parallel processes); recordings are read the same way.
+    {
+        const auto speech_start = std::chrono::steady_clock::now();
+        const int threads = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
+                                                                        : static_cast<int>(std::thread::hardware_concurrency()),
+                                                      static_cast<int>(to_speak.size())));
+        const TtsSettings tts = tts_settings(protocol);
+        std::atomic<std::size_t> next_sentence{0};
+        std::mutex speak_error_mutex;
+        std::exception_ptr speak_error;
+        auto speak = [&] {
+            for (std::size_t k; (k = next_sentence.fetch_add(1)) < to_speak.size();) {
+                {
+                    std::lock_guard lock(speak_error_mutex);
+                    if (speak_error) return;
+                }
+                const auto [sentence, sp] = to_speak[k];
+                try {
+                    if (protocol.corpus.audio == CorpusAudio::Tts) {
+                        auto r = synthesize_speech(sentence->text, tts);
+                        sp->audio = std::move(r.audio);
+                        sp->phones = std::move(r.phones);
+                    } else {
+                        sp->audio = read_audio(sentence->audio);
+                        sp->phones = read_phones(sentence->labels);
+                    }
+                } catch (const InputError& e) {
+                    std::lock_guard lock(speak_error_mutex);
+                    if (!speak_error) speak_error = std::make_exception_ptr(at_tts_key(protocol, e));
+                    return;
+                } catch (...) {
+                    std::lock_guard lock(speak_error_mutex);
+                    if (!speak_error) speak_error = std::current_exception();
+                    return;
+                }
+            }
+        };
+        std::vector<std::thread> speakers;
+        for (int t = 1; t < threads; ++t) speakers.emplace_back(speak);
+        speak();
+        for (auto& t : speakers) t.join();
+        if (speak_error) std::rethrow_exception(speak_error);
+        if (!to_speak.empty())
+            log_info("build-stimuli: speech for {} sentences ({}) in {:.1f} s on {} thread(s)", to_speak.size(),
+                     protocol.corpus.audio == CorpusAudio::Tts ? tts_voice_spec(tts) : "recordings",
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - speech_start).count(), threads);
     }
 
     const int workers = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
@@ -713,7 +780,11 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                      {"stimuli", json::array()}};
     for (const auto& job : jobs) manifest["stimuli"].push_back(job.entry);
     write_text_file(manifest_path, manifest.dump(2) + "\n");
-    if (plan.meter) write_articulation_qc(plan, settings.out_dir);
+    if (plan.meter) {
+        std::map<std::string, PhoneSequence> phones;
+        for (const auto& [id, sp] : speech) phones[id] = sp.phones;
+        write_articulation_qc(plan, settings.out_dir, std::move(phones));
+    }
 
     report.rendered = todo.size();
     report.frames_rendered = frames_total;

@@ -1007,7 +1007,7 @@ void build_head(const HeadBuildSettings& settings) {
          glm::vec3(0.0f, 6.0f, -3.0f), glm::vec3(0.0f)},
         {"lower_lip_depression", {{"lowerLipDown", 1.0f}}, {{"lowerLipUp", 1.0f}},
          "lowerLipDown; negative: lowerLipUp and the lower lip lifted against the upper", false, glm::vec3(0.0f),
-         glm::vec3(0.0f, 10.0f, 0.0f)},
+         glm::vec3(0.0f, 12.0f, 0.0f)},
         {"mouth_corner_stretch_left", {{"MouthLeftPullSide", 1.0f}}, {}, "MouthLeftPullSide (corner bones); negative: inward",
          false, glm::vec3(0.0f), glm::vec3(0.0f), midline_lip_bones},
         {"mouth_corner_stretch_right", {{"MouthRightPullSide", 1.0f}}, {}, "MouthRightPullSide (corner bones); negative: inward",

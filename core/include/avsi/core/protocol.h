@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "avsi/core/config.h"
+#include "avsi/core/tts.h"
 
 namespace avsi {
 
@@ -28,7 +29,12 @@ enum class Counterbalance { LatinSquare, Williams };
 struct CorpusSettings {
     std::filesystem::path sentences;  // resolved against the protocol folder
     CorpusAudio audio = CorpusAudio::Tts;
-    std::string voice = "en-us";
+    // The synthesiser and voice for audio = "tts": `tts = "festival:cmu_us_slt_arctic_hts"`
+    // or `"espeak:en-us"`; the older `voice = "<espeak-ng voice>"` means
+    // tts = "espeak:<voice>". Without either: espeak:en-us.
+    TtsEngine tts_engine = TtsEngine::Espeak;
+    std::string tts_voice = "en-us";
+    int tts_line = 0, tts_column = 0;  // where tts (or voice) is set (0: the default)
     // Every stimulus's speech level after the condition's processing: the
     // active-speech RMS (vocoder::speech_level_rms, ActiveFrames) in dBFS,
     // 20·log10(RMS) with full scale 1.0; set by the stimulus builder.

@@ -13,7 +13,8 @@
 //   constrictions: a bilabial aims beyond contact (a virtual target) and its
 //   closing gesture (jaw, upper lip raise, lower lip depression) starts as
 //   early as it must for the lip aperture to be closure_margin_mm beyond
-//   contact at the segment's centre, and a labiodental's gesture (jaw, lower
+//   contact from closure_hold_s before the segment's centre to as long after
+//   (the release comes no earlier), and a labiodental's gesture (jaw, lower
 //   lip retraction and depression) as early as it must for the lower lip to
 //   be within 1 mm of its height under the upper incisors, as real speakers
 //   close the lips for every /p b m/ (the planning is in
@@ -74,8 +75,11 @@ struct ReferenceSpeakerSettings {
     // centre is at least this far beyond contact; a bilabial's or
     // labiodental's gesture starts up to max_closure_lead_s earlier than the
     // parameters' anticipation.
-    double closure_margin_mm = 1.5;
+    double closure_margin_mm = 2.0;
     double max_closure_lead_s = 0.15;
+    // ... from this long before the centre to this long after it (a closure
+    // a video frame can show, whatever the frame rate from 25 fps up).
+    double closure_hold_s = 0.02;
     std::uint64_t split_seed = 2004;
     double test_fraction = 0.3;
 };
