@@ -290,7 +290,7 @@ TEST_P(Golden, MatchesReferenceImage) {
                      static_cast<unsigned long long>(result.nwarn));
 }
 
-INSTANTIATE_TEST_SUITE_P(Articulations, Golden, ::testing::Values("sil", "P", "F", "UW", "IY", "AA"));
+INSTANTIATE_TEST_SUITE_P(Articulations, Golden, ::testing::Values("sil", "P", "F", "TH", "S", "SH", "W", "UW", "IY", "AA"));
 
 }  // namespace
 }  // namespace avsi::stimuli
