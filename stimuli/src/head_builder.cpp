@@ -958,7 +958,11 @@ void build_head(const HeadBuildSettings& settings) {
                                 {"axis", vec3_json(axis, 1e-6)},
                                 {"angle_deg", round_to(angle * per_unit, 1e-4)}}},
                               {"weights", {{"vertices", vertices}, {"values", w}}}});
-        blendshape(channel, d, per_unit, nullptr, note + " (the unit's other bones)");
+        // The eye units' other bones (lids, brows and the skin round the
+        // orbit) are left out: moved by the gaze, the skin under the brows
+        // left the static part and was drawn over the blended brows.
+        if (bone != "eye.L" && bone != "eye.R")
+            blendshape(channel, d, per_unit, nullptr, note + " (the unit's other bones)");
         return std::make_pair(angle, pivot);
     };
 
@@ -1047,7 +1051,7 @@ void build_head(const HeadBuildSettings& settings) {
     // Eyelids and the tongue tip.
     rotation_and_rest("blink", "LeftUpperLidClosed", "orbicularis03.L", 1.0f, "LeftUpperLidClosed: the upper lid closes");
     rotation_and_rest("blink", "RightUpperLidClosed", "orbicularis03.R", 1.0f, "RightUpperLidClosed: the upper lid closes");
-    // Gaze: each eye turns on its bone, the lids follow (the units' other bones).
+    // Gaze: each eyeball turns about its centre on its bone.
     rotation_and_rest("gaze_left", "LeftEyeturnLeft", "eye.L", 1.0f, "LeftEyeturnLeft: the eyes turn to the speaker's left");
     rotation_and_rest("gaze_left", "RightEyeturnLeft", "eye.R", 1.0f, "RightEyeturnLeft");
     rotation_and_rest("gaze_up", "LeftEyeUp", "eye.L", 1.0f, "LeftEyeUp: the eyes turn up (negative: down)");

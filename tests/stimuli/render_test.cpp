@@ -204,6 +204,31 @@ TEST(Renderer, GazeTurnsTheEyesAboutTheirCentres) {
     EXPECT_LT(worst_distance_change(up), 0.05f);
 }
 
+// The blended brows show over the skin: where the region mask sees brows,
+// the shaded picture is clearly darker than the skin round it (a skin
+// triangle drawn after the brows once hid them in every frame: 0.77 of
+// the skin then, 0.37 now).
+TEST(Renderer, BrowsShowDarkerThanTheSkin) {
+    const Image regions = closeup().render(Pose{}, RenderMode::Regions);
+    const Image shaded = closeup().render(Pose{});
+    const int brows = head().mesh.group_index("brows") + 1, skin = head().mesh.group_index("skin") + 1;
+    double brow_sum = 0.0, skin_sum = 0.0;
+    int brow_n = 0, skin_n = 0;
+    for (int y = 0; y < regions.height; ++y)
+        for (int x = 0; x < regions.width; ++x) {
+            const int id = regions.pixel(x, y)[0];
+            const auto* p = shaded.pixel(x, y);
+            const double luma = 0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2];
+            if (id == brows) brow_sum += luma, ++brow_n;
+            else if (id == skin && y < regions.height / 3) skin_sum += luma, ++skin_n;  // the upper face
+        }
+    ASSERT_GT(brow_n, 200);
+    ASSERT_GT(skin_n, 1000);
+    std::printf("mean luma: brows %.1f, upper-face skin %.1f\n", brow_sum / brow_n, skin_sum / skin_n);
+    EXPECT_LT(brow_sum / brow_n, 0.6 * (skin_sum / skin_n))
+        << "brows " << brow_sum / brow_n << ", skin " << skin_sum / skin_n;
+}
+
 TEST(Renderer, BlinkClosesTheEyes) {
     RenderSettings rs;
     rs.width = 320;
