@@ -701,10 +701,15 @@ std::vector<ListedSentence> read_sentence_lines(const std::filesystem::path& pat
                                     std::regex::icase);
     // "1.", "1)", "(1)", "[1]", "1:", "1<TAB>", "-", "*", "•" before the sentence.
     static const std::regex numbering(R"(^(\(\d+\)|\[\d+\]|\d+[.):]|\d+\t|[-*]|\xE2\x80\xA2)\s*)");
+    // A Markdown rule or heading underline ("---", "***", "===").
+    static const std::regex rule(R"(^[-*_=\s]{3,}$)");
+    const std::string file = path.string();
     std::istringstream in(read_text_file(path));
     std::vector<ListedSentence> out;
     std::string line, list;
     int number = 0;
+    long long last_item = 0;  // the last item number in the current list (0: none yet)
+    int last_item_line = 0;
     while (std::getline(in, line)) {
         ++number;
         if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -713,19 +718,36 @@ std::vector<ListedSentence> read_sentence_lines(const std::filesystem::path& pat
         std::smatch m;
         if (std::regex_match(trimmed, m, heading)) {
             list = m[1].str();
+            last_item = 0;
             continue;
         }
-        if (trimmed[0] == '#') continue;
+        if (trimmed[0] == '#' || std::regex_match(trimmed, rule)) continue;
         ListedSentence s;
         s.line = number;
         s.list = list;
         std::string text = trimmed;
-        if (std::regex_search(text, m, numbering) && m.position(0) == 0 && m.length(0) < static_cast<long>(text.size())) {
+        if (std::regex_search(text, m, numbering) && m.position(0) == 0) {
             s.numbering = trim(m[1].str());
             text = text.substr(static_cast<std::size_t>(m.length(0)));
+            if (trim(text).empty())
+                throw InputError(file, number, 1, "sentence",
+                                 fmt::format("expected a sentence after the numbering \"{}\", got nothing", s.numbering));
+            // Item numbers rise within a list; a repeated or falling number is
+            // a pasted or misplaced line (a list may start again at 1).
+            const std::string digits = std::regex_replace(s.numbering, std::regex(R"(\D)"), "");
+            if (const auto item = digits.empty() ? std::nullopt : parse_int(digits)) {
+                if (last_item > 0 && *item <= last_item && *item != 1)
+                    throw InputError(file, number, 1, "numbering",
+                                     fmt::format("expected an item number above {} (line {}{}), got {}; a new list "
+                                                 "starts at 1 or with a heading such as \"List 2\"",
+                                                 last_item, last_item_line,
+                                                 list.empty() ? std::string() : fmt::format(", list {}", list), *item));
+                last_item = *item;
+                last_item_line = number;
+            }
         }
         s.text = trim(text);
-        if (!s.text.empty()) out.push_back(std::move(s));
+        out.push_back(std::move(s));
     }
     if (out.empty()) throw InputError(path, "expected one sentence a line, got no sentences");
     return out;

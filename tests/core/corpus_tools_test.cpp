@@ -229,6 +229,40 @@ TEST(ImportSentences, NumberedAndHeadedListsAsPeopleWriteThem) {
     // A file with headings only is an error naming it.
     write_text_file(dir / "empty.md", "## List 1\n# nothing\n");
     EXPECT_THROW((void)read_sentence_lines(dir / "empty.md"), InputError);
+    // A list may start again at 1 without a heading; a Markdown rule is not a sentence.
+    write_text_file(dir / "restart.md", "1. The birch canoe slid on the smooth planks.\n2. Glue the sheet.\n---\n"
+                                        "1. Hemp is a weed.\n");
+    EXPECT_EQ(read_sentence_lines(dir / "restart.md").size(), 3u);
+    // Damaged copies: a line pasted twice (item 2 again, line 5), and a number whose sentence was lost (line 6).
+    auto error_of = [&](const std::string& name, const std::string& text) {
+        write_text_file(dir / name, text);
+        try {
+            (void)read_sentence_lines(dir / name);
+        } catch (const InputError& e) {
+            return e.first();
+        }
+        ADD_FAILURE() << name << " was read";
+        return Diagnostic{};
+    };
+    const std::string harvard = read_text_file(dir / "harvard.md");
+    const Diagnostic repeated = error_of("repeated.md", "## List 1\n1. The birch canoe slid on the smooth planks.\n"
+                                                        "2. Glue the sheet to the dark blue background.\n"
+                                                        "3. It is easy to tell the depth of a well.\n"
+                                                        "2. Glue the sheet to the dark blue background.\n");
+    EXPECT_EQ(repeated.line, 5);
+    EXPECT_EQ(repeated.field, "numbering");
+    EXPECT_NE(repeated.format().find("repeated.md:5:1: error: numbering: expected an item number above 3 (line 4, "
+                                     "list 1), got 2"),
+              std::string::npos)
+        << repeated.format();
+    std::string lost = harvard;
+    lost.replace(lost.find("12 men sailed"), std::string("12 men sailed to the island.").size(), "(12)");
+    const Diagnostic empty_item = error_of("lost.md", lost);
+    EXPECT_EQ(empty_item.line, 9);
+    EXPECT_NE(empty_item.format().find("lost.md:9:1: error: sentence: expected a sentence after the numbering "
+                                       "\"(12)\", got nothing"),
+              std::string::npos)
+        << empty_item.format();
     fs::remove_all(dir);
 }
 

@@ -244,8 +244,11 @@ ImportOutcome import_listed_sentences(const std::vector<ListedSentence>& sentenc
 // Reads a sentence list as people write it: one sentence a line; blank lines
 // and '#' comments skipped; numbering ("1.", "1)", "(1)", "[1]", "1:", a
 // number and a tab) and bullets ("-", "*", "•") removed; a heading "List N"
-// (also "## List 1", "Harvard list 2:", "LIST 3") starts list N. Throws
-// InputError if it cannot be read or holds no sentence.
+// (also "## List 1", "Harvard list 2:", "LIST 3") starts list N; Markdown
+// rules ("---") are skipped. Throws InputError if it cannot be read or holds
+// no sentence, and with file:line for a numbering with no sentence after it
+// ("4." alone) and for an item number that repeats or falls within a list
+// (a pasted or misplaced line; a list may start again at 1).
 std::vector<ListedSentence> read_sentence_lines(const std::filesystem::path& path);
 // The texts of read_sentence_lines.
 std::vector<std::string> read_sentence_list(const std::filesystem::path& path);
