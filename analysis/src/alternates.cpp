@@ -33,16 +33,29 @@ std::vector<AlternateProposal> AlternateFinder::propose(const std::string& w) co
     };
     const Inflections& inf = m_impl->inflections;
     // The lemmas the keyword is a form of: its singular or base form.
+    bool is_plural = false;  // w is the regular plural of a noun ("bowls")
     for (const auto& lemma : inf.lemmas(w)) {
         if (lemma == w) continue;
         const auto plurals = Inflections::regular_forms(lemma, Suffix::S);
         const bool singular = inf.is_noun(lemma) && std::find(plurals.begin(), plurals.end(), w) != plurals.end();
+        is_plural = is_plural || singular;
         add(lemma, singular ? "singular" : "base form");
     }
-    // A noun's plural.
-    if (inf.is_noun(w))
+    // A noun's plural (not of a plural that is also a noun: bowls, not
+    // "bowlses"). Of the regular spellings and, for a noun in -man, WordNet's
+    // -men (woman → women, not "womans"), those the word-frequency list knows;
+    // when it knows none (birches), the regular ones.
+    if (inf.is_noun(w) && !is_plural) {
+        std::vector<std::string> candidates;
         for (const auto& plural : Inflections::regular_forms(w, Suffix::S))
-            if (inf.same_lemma(w, plural)) add(plural, "plural");
+            if (inf.same_lemma(w, plural)) candidates.push_back(plural);
+        const std::vector<std::string> regular = candidates;
+        if (w.size() > 3 && w.ends_with("man")) candidates.push_back(w.substr(0, w.size() - 3) + "men");
+        std::vector<std::string> known;
+        for (const auto& c : candidates)
+            if (WordTable::builtin().zipf(c)) known.push_back(c);
+        for (const auto& plural : known.empty() ? regular : known) add(plural, "plural");
+    }
     // Listed irregular forms (children, mice; rang, rung).
     for (const auto& form : inf.irregular_forms_of(w)) add(form, "irregular form");
     // Spelling variants of the keyword and of what was proposed so far.

@@ -23,6 +23,11 @@ TEST(Alternates, InflectionsAndSpellingVariantsFromTheScoringTables) {
     const auto finder = AlternateFinder::load_default();
     EXPECT_EQ(proposals(*finder, "canoe"), "canoes (plural)");
     EXPECT_EQ(proposals(*finder, "planks"), "plank (singular)");
+    // A plural that is also a noun in WordNet (the game of bowls) gets its singular, not a plural of a plural.
+    EXPECT_EQ(proposals(*finder, "bowls"), "bowl (singular)");
+    // A plural the rules make but nobody writes is not proposed: woman → women (WordNet's -man → -men).
+    EXPECT_EQ(proposals(*finder, "woman"), "women (plural)");
+    EXPECT_EQ(proposals(*finder, "human"), "humans (plural)");
     EXPECT_EQ(proposals(*finder, "birch"), "birches (plural)");
     EXPECT_EQ(proposals(*finder, "slid"), "slide (base form)");
     EXPECT_NE(proposals(*finder, "child").find("children (irregular form)"), std::string::npos)

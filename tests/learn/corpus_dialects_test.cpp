@@ -1,5 +1,5 @@
 // Articulography as labs have it (issue 20): MOCHA-TIMIT's EMA as distributed
-// (binary EST track, no FrameShift line, per-frame time and presence flag,
+// (binary EST track, and the same as ASCII, no FrameShift line, per-frame time and presence flag,
 // 20 channels in blocks with two named "****", 500 Hz, 1/100 mm; MOCHA .lab
 // in seconds with sil/breath) and the Haskins IEEE rate database (one MATLAB
 // v5 .mat per utterance written here with matio: a struct array named after
@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -367,6 +368,44 @@ TEST(MochaLayout, BinaryEstWithStarChannelsAndFlagsReadsAndMaps) {
     }
     EXPECT_GT(compared, 60u);
     EXPECT_LT(worst, 0.06);
+
+    // The same track as an ASCII EST file, as MOCHA's tools also write it:
+    // no FrameShift, "time flag v1 … v20" per line, the "****" channels.
+    std::string ascii = "EST_File Track\nDataType ascii\nNumFrames " + std::to_string(t.frame_count()) +
+                        "\nNumChannels 20\nNumAuxChannels 0\nEqualSpace 1\nBreaksPresent true\nCommentChar ;\n\n";
+    for (std::size_t c = 0; c < mocha_channels.size(); ++c)
+        ascii += "Channel_" + std::to_string(c) + " " + mocha_channels[c] + "\n";
+    ascii += "EST_Header_End\n";
+    const int first_frame_line = 1 + static_cast<int>(std::count(ascii.begin(), ascii.end(), '\n'));
+    for (std::size_t k = 0; k < t.frame_count(); ++k) {
+        ascii += fmt::format("{:.9g} {}", t.times_s[k], t.present[k] ? 1 : 0);
+        for (float v : t.values[k]) ascii += fmt::format(" {:.9g}", v);
+        ascii += "\n";
+    }
+    write_text_file(dir / "fsew0_001_ascii.ema", ascii);
+    const EstTrack a = read_est_track(dir / "fsew0_001_ascii.ema");
+    EXPECT_EQ(a.channels, t.channels);
+    EXPECT_EQ(a.present, t.present);
+    ASSERT_EQ(a.frame_count(), t.frame_count());
+    for (std::size_t k = 0; k < a.frame_count(); ++k) {
+        ASSERT_FLOAT_EQ(static_cast<float>(a.times_s[k]), static_cast<float>(t.times_s[k])) << k;
+        ASSERT_EQ(a.values[k], t.values[k]) << k;  // float32 printed with 9 digits reads back exactly
+    }
+    // Damaged ASCII copy: frame 3 lost its last value.
+    std::string cut = ascii;
+    std::size_t at = 0;
+    for (int l = 1; l < first_frame_line + 2; ++l) at = cut.find('\n', at) + 1;
+    cut.erase(cut.rfind(' ', cut.find('\n', at)), cut.find('\n', at) - cut.rfind(' ', cut.find('\n', at)));
+    write_text_file(dir / "ascii_damaged.ema", cut);
+    try {
+        (void)read_est_track(dir / "ascii_damaged.ema");
+        FAIL() << "the damaged ASCII track was read";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.first().line, first_frame_line + 2) << e.what();
+        EXPECT_NE(std::string(e.what()).find("expected 22 values (time, break flag, 20 channels), got 21"),
+                  std::string::npos)
+            << e.what();
+    }
 
     // Damaged: a header line (NumChannels) garbled.
     std::string bytes = read_text_file(dir / "fsew0_001.ema");

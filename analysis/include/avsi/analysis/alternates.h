@@ -3,8 +3,10 @@
 // canoes, planks → plank), its base form (slid → slide), its listed irregular
 // forms (child → children) and its British/American spelling variants
 // (colour → color), from the scoring rules' own tables (inflection.h,
-// protocols/spelling_variants.csv), so a proposal is what the loose rule set
-// would credit anyway. Core's corpus import takes it as an
+// protocols/spelling_variants.csv), so a proposal is (nearly always) what the
+// loose rule set would credit anyway. A generated plural is kept only if the
+// word-frequency list knows it (woman → women, not "womans"; see propose()).
+// Core's corpus import takes it as an
 // avsi::AlternateProposer (core cannot depend on analysis).
 #pragma once
 
