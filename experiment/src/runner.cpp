@@ -31,6 +31,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/core/protocol.h"
+#include "avsi/experiment/adaptive_session.h"
 #include "avsi/experiment/design.h"
 #include "avsi/experiment/session.h"
 #include "avsi/experiment/store.h"
@@ -406,7 +407,24 @@ struct Playback {
     int uploaded = -1;      // frame index in the window's texture
     bool started = false;   // pacer started (onset known)
     bool shown_any = false;
+    std::optional<MixedPresentation> mixed;  // adaptive protocols: the audio as mixed and played
 };
+
+// A scripted answer: one line per planned trial; for adaptive protocols a
+// line may hold the answers to successive presentations of a repeated trial,
+// separated by " || " (the last one answers any further presentation).
+std::string scripted_answer(const std::string& line, int attempt) {
+    std::vector<std::string> parts;
+    std::size_t start = 0;
+    while (true) {
+        const std::size_t bar = line.find(" || ", start);
+        parts.push_back(line.substr(start, bar == std::string::npos ? std::string::npos : bar - start));
+        if (bar == std::string::npos) break;
+        start = bar + 4;
+    }
+    const std::string& part = parts[static_cast<std::size_t>(std::clamp(attempt, 1, static_cast<int>(parts.size())) - 1)];
+    return part == "-" ? std::string() : part;
+}
 
 }  // namespace
 
@@ -457,11 +475,35 @@ RunResult run_session(const RunSettings& settings) {
         stimuli_note = fmt::format("{} (manifest.json sha256 {}, {} stimuli checked)", settings.stimuli_dir.string(),
                                    folder->manifest().sha256, std::set<std::string>(stimuli.begin(), stimuli.end()).size());
     }
+    // Adaptive SRT tracks: replayed from the stored presentations.
+    std::unique_ptr<AdaptiveSession> adaptive;
+    if (protocol.adaptive.present()) {
+        adaptive = std::make_unique<AdaptiveSession>(protocol, corpus, store.adaptive_trials(settings.subject),
+                                                     settings.database.string());
+        if (adaptive->settings().confirm_scores)
+            throw InputError(protocol.path, protocol.adaptive.line(), 0, "adaptive.confirm_scores",
+                             "the experimenter's score confirmation screen is not implemented yet; set it to false "
+                             "(every answer is scored live with the [scoring] rules and the score is stored)");
+    }
     const std::vector<int> answered = store.answered_positions(settings.subject);
     RunResult result;
     result.answered_before = static_cast<int>(answered.size());
     result.total = static_cast<int>(plan.size());
     SessionMachine machine(plan, answered, protocol.session);
+    // Live scores of the answers not yet committed (trial index → keyword marks).
+    std::map<int, std::vector<bool>> live_marks;
+    if (adaptive)
+        machine.set_repeat_rule([&](int index, const Response& response) {
+            const PlannedTrial& t = plan[static_cast<std::size_t>(index)];
+            std::vector<bool> marks = adaptive->score(t, response.text);
+            const bool again = adaptive->repeats(t, marks);
+            live_marks[index] = std::move(marks);
+            return again;
+        });
+    auto script_line = [&](int index) {
+        const std::string& line = script[static_cast<std::size_t>(index)];
+        return adaptive ? scripted_answer(line, adaptive->next_attempt(plan[static_cast<std::size_t>(index)])) : line;
+    };
     const int first_position = machine.trial() ? machine.trial()->position : 0;
 
     std::unique_ptr<AudioOutput> audio;
@@ -497,6 +539,17 @@ RunResult run_session(const RunSettings& settings) {
                     fmt::format("first trial {}, {} of {} answered before", first_position, result.answered_before,
                                 result.total));
     store.add_event(session, settings.subject, "stimuli", stimuli_note);
+    if (adaptive) {
+        std::string levels;
+        for (const auto& c : protocol.conditions) {
+            const auto& track = adaptive->track(c.name);
+            levels += fmt::format("{}{}: next {} dB after {} presentations", levels.empty() ? "" : "; ", c.name,
+                                  track.level_db(), track.steps().size());
+        }
+        store.add_event(session, settings.subject, "adaptive-tracks", levels);
+        log_info("adaptive tracks ({} scoring, {}): {}", analysis::to_string(adaptive->settings().track.procedure),
+                 analysis::to_string(adaptive->settings().order), levels);
+    }
     log_info("subject {}: session {} {} at trial {} of {} ({} answered before), audio {}", settings.subject, session,
              result.answered_before > 0 ? "resumes" : "starts", first_position, result.total,
              result.answered_before, audio->name());
@@ -538,7 +591,7 @@ RunResult run_session(const RunSettings& settings) {
                     case Screen::Break:
                     case Screen::Feedback: machine.continue_pressed(next_flip_s); break;
                     case Screen::Response:
-                        machine.submit(script[static_cast<std::size_t>(machine.trial_index())], next_flip_s);
+                        machine.submit(script_line(machine.trial_index()), next_flip_s);
                         break;
                     case Screen::ConfirmEmpty: machine.confirm_empty(true, next_flip_s); break;
                     case Screen::End: running = false; break;
@@ -574,14 +627,19 @@ RunResult run_session(const RunSettings& settings) {
                     playback.source = opener->open(t->stimulus);
                     playback.pacer = std::make_unique<FramePacer>(playback.source->fps(), playback.source->frame_count(),
                                                                   simulated ? refresh_hz : 1.0 / flip_period.seconds());
-                    audio->play(playback.source->audio(), playback.source->sample_rate(), next_flip_s + audio->lead_s());
+                    if (adaptive)
+                        playback.mixed = adaptive->mix(*t, playback.source->audio(), playback.source->sample_rate());
+                    const std::vector<float>& samples = playback.mixed ? playback.mixed->samples : playback.source->audio();
+                    audio->play(samples, playback.source->sample_rate(), next_flip_s + audio->lead_s());
                     if (!settings.audio_capture.empty()) {
                         Audio sent;
                         sent.sample_rate_hz = playback.source->sample_rate();
-                        sent.samples = playback.source->audio();
+                        sent.samples = samples;
                         fs::create_directories(settings.audio_capture);
-                        write_audio(settings.audio_capture / fmt::format("trial{:03}.wav", t->position), sent,
-                                    SampleFormat::Float32);
+                        const int attempt = playback.mixed ? playback.mixed->attempt : 1;
+                        write_audio(settings.audio_capture / (attempt == 1 ? fmt::format("trial{:03}.wav", t->position)
+                                                                           : fmt::format("trial{:03}_{}.wav", t->position, attempt)),
+                                    sent, SampleFormat::Float32);
                     }
                     break;
                 }
@@ -593,7 +651,31 @@ RunResult run_session(const RunSettings& settings) {
                     break;
                 case SessionAction::Kind::CommitResponse: {
                     Presentation p = playback.pacer ? playback.pacer->summary() : Presentation{};
-                    store.commit_trial(session, *t, p, action.response);
+                    if (adaptive) {
+                        if (!playback.mixed) throw std::logic_error("adaptive: an answer without a mixed presentation");
+                        auto cached = live_marks.find(action.trial_index);
+                        const std::vector<bool> marks =
+                            cached != live_marks.end() ? cached->second : adaptive->score(*t, action.response.text);
+                        if (cached != live_marks.end()) live_marks.erase(cached);
+                        const AdaptiveRecord record = adaptive->record(*t, *playback.mixed, action.response.text, marks, marks);
+                        if (action.repeat) {
+                            store.commit_attempt(session, *t, record);
+                        } else {
+                            store.commit_trial(session, *t, p, action.response, record);
+                        }
+                        log_info("trial {}{}: SNR {:.2f} dB, {} of {} keywords{}", t->position,
+                                 record.attempt > 1 ? fmt::format(" (presentation {})", record.attempt) : "",
+                                 record.level_db, record.correct, record.keywords,
+                                 record.track.empty() ? std::string(" (no track)")
+                                                      : fmt::format(", next {:.2f} dB{}", record.next_level_db,
+                                                                    record.repeat ? " (the same sentence again)" : ""));
+                        if (action.repeat) {
+                            playback = Playback{};
+                            break;
+                        }
+                    } else {
+                        store.commit_trial(session, *t, p, action.response);
+                    }
                     ++result.answered;
                     ++result.presentations;
                     result.dropped_frames += p.dropped_frames;
@@ -703,7 +785,7 @@ RunResult run_session(const RunSettings& settings) {
                 centered_text("What did you hear? Type every word, then press Enter.", 0.35f);
                 ImGui::SetCursorPos(ImVec2(display.x * 0.15f, display.y * 0.5f));
                 ImGui::PushItemWidth(display.x * 0.7f);
-                if (scripted && trial) answer = script[static_cast<std::size_t>(machine.trial_index())];
+                if (scripted && trial) answer = script_line(machine.trial_index());
                 if (!scripted && (new_screen || focus_answer)) {
                     ImGui::SetKeyboardFocusHere();
                     focus_answer = false;

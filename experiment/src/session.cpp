@@ -160,6 +160,13 @@ void SessionMachine::commit(const std::string& text, bool confirmed_empty, doubl
     a.response.text = text;
     a.response.response_time_ms = (now_s - m_response_start_s) * 1000.0;
     a.response.confirmed_empty = confirmed_empty;
+    if (m_repeat_rule && m_repeat_rule(m_current, a.response)) {
+        // The track presents this trial again: not answered yet.
+        a.repeat = true;
+        m_actions.push_back(std::move(a));
+        begin_fixation(now_s);
+        return;
+    }
     m_actions.push_back(std::move(a));
     m_answered[static_cast<std::size_t>(m_current)] = true;
     ++m_answered_count;

@@ -11,6 +11,7 @@
 //   pause is shown again from the start.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,6 +30,7 @@ struct SessionAction {
     Kind kind = Kind::StartStimulus;
     int trial_index = -1;  // index into the plan
     Response response;     // for CommitResponse
+    bool repeat = false;   // CommitResponse of a presentation the adaptive track repeats
 };
 
 class SessionMachine {
@@ -68,6 +70,14 @@ public:
     // From the pause screen: end the session now (resumable later).
     void quit();
 
+    // Adaptive tracks: asked at each answer whether the trial is presented
+    // again (the first-sentence rule). A repeated trial is not marked answered;
+    // its CommitResponse action has repeat = true and the trial starts again
+    // from its fixation.
+    void set_repeat_rule(std::function<bool(int trial_index, const Response& response)> rule) {
+        m_repeat_rule = std::move(rule);
+    }
+
     // Actions for the front end, in order; clears the queue.
     std::vector<SessionAction> take_actions();
 
@@ -89,6 +99,7 @@ private:
     double m_response_start_s = 0.0;
     std::string m_message;
     std::vector<SessionAction> m_actions;
+    std::function<bool(int, const Response&)> m_repeat_rule;
 };
 
 }  // namespace avsi::experiment
