@@ -586,7 +586,7 @@ void write_srt_simulation(const fs::path& out_dir, const SrtSimulationResult& r)
     p.x_label = "Sentences per track";
     p.y_label = "dB";
     p.y_from_zero = true;
-    p.caption = fmt::format("{} simulated listeners per point (L50 {} dB, slope {}/dB, {} keywords), seed {}",
+    p.caption = fmt::format("filled: SD, open: bias; {} simulated listeners per point (L50 {} dB, slope {}/dB, {} keywords), seed {}",
                             r.settings.listeners, r.settings.listener.l50_db, r.settings.listener.slope_per_db,
                             r.settings.listener.keywords, r.settings.seed);
     int color = 0;
