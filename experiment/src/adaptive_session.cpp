@@ -18,6 +18,10 @@ AdaptiveSession::AdaptiveSession(const Protocol& protocol, const Corpus& corpus,
     : m_protocol(protocol), m_corpus(corpus), m_settings(analysis::adaptive_protocol(protocol)) {
     if (!m_settings.enabled)
         throw InputError(protocol.path, 0, 0, "adaptive", "expected an [adaptive] section for an adaptive session");
+    if (m_settings.confirm_scores && protocol.session.response_mode != ResponseMode::Experimenter)
+        throw InputError(protocol.path, protocol.adaptive.line(), 0, "adaptive.confirm_scores",
+                         "expected session.response_mode = \"experimenter\" with confirm_scores = true: the score "
+                         "check screen lists the sentence's keywords, which the subject must not see");
     analysis::ScoringSettings scoring = analysis::scoring_settings(protocol);
     scoring.vocabulary = analysis::corpus_vocabulary(corpus);
     m_scorer = std::make_unique<analysis::KeywordScorer>(scoring);

@@ -412,8 +412,10 @@ struct Playback {
 
 // A scripted answer: one line per planned trial; for adaptive protocols a
 // line may hold the answers to successive presentations of a repeated trial,
-// separated by " || " (the last one answers any further presentation).
-std::string scripted_answer(const std::string& line, int attempt) {
+// separated by " || " (the last one answers any further presentation), and
+// each answer may end in " ## 101": the experimenter's keyword marks on the
+// score check screen (confirm_scores).
+std::string scripted_part(const std::string& line, int attempt) {
     std::vector<std::string> parts;
     std::size_t start = 0;
     while (true) {
@@ -422,8 +424,28 @@ std::string scripted_answer(const std::string& line, int attempt) {
         if (bar == std::string::npos) break;
         start = bar + 4;
     }
-    const std::string& part = parts[static_cast<std::size_t>(std::clamp(attempt, 1, static_cast<int>(parts.size())) - 1)];
+    return parts[static_cast<std::size_t>(std::clamp(attempt, 1, static_cast<int>(parts.size())) - 1)];
+}
+
+std::string scripted_answer(const std::string& line, int attempt) {
+    std::string part = scripted_part(line, attempt);
+    if (const std::size_t marks = part.find(" ## "); marks != std::string::npos) part.erase(marks);
     return part == "-" ? std::string() : part;
+}
+
+// The scripted experimenter's marks ("1"/"0" per keyword), if the answer has them.
+std::optional<std::vector<bool>> scripted_marks(const std::string& line, int attempt, const std::string& script_path) {
+    const std::string part = scripted_part(line, attempt);
+    const std::size_t at = part.find(" ## ");
+    if (at == std::string::npos) return std::nullopt;
+    std::vector<bool> marks;
+    for (char c : part.substr(at + 4)) {
+        if (c != '0' && c != '1')
+            throw InputError(script_path, 0, 0, "marks",
+                             fmt::format("expected keyword marks of 0 and 1 after \" ## \", got \"{}\"", part.substr(at + 4)));
+        marks.push_back(c == '1');
+    }
+    return marks;
 }
 
 }  // namespace
@@ -480,26 +502,26 @@ RunResult run_session(const RunSettings& settings) {
     if (protocol.adaptive.present()) {
         adaptive = std::make_unique<AdaptiveSession>(protocol, corpus, store.adaptive_trials(settings.subject),
                                                      settings.database.string());
-        if (adaptive->settings().confirm_scores)
-            throw InputError(protocol.path, protocol.adaptive.line(), 0, "adaptive.confirm_scores",
-                             "the experimenter's score confirmation screen is not implemented yet; set it to false "
-                             "(every answer is scored live with the [scoring] rules and the score is stored)");
     }
     const std::vector<int> answered = store.answered_positions(settings.subject);
     RunResult result;
     result.answered_before = static_cast<int>(answered.size());
     result.total = static_cast<int>(plan.size());
     SessionMachine machine(plan, answered, protocol.session);
-    // Live scores of the answers not yet committed (trial index → keyword marks).
-    std::map<int, std::vector<bool>> live_marks;
-    if (adaptive)
+    // Live scores of the answers not yet committed (trial index → keyword
+    // marks as they count, and as the live scorer gave them).
+    std::map<int, std::vector<bool>> live_marks, auto_marks;
+    if (adaptive) {
+        machine.set_confirm_scores(adaptive->settings().confirm_scores);
         machine.set_repeat_rule([&](int index, const Response& response) {
             const PlannedTrial& t = plan[static_cast<std::size_t>(index)];
-            std::vector<bool> marks = adaptive->score(t, response.text);
+            const auto checked = live_marks.find(index);
+            std::vector<bool> marks = checked != live_marks.end() ? checked->second : adaptive->score(t, response.text);
             const bool again = adaptive->repeats(t, marks);
             live_marks[index] = std::move(marks);
             return again;
         });
+    }
     auto script_line = [&](int index) {
         const std::string& line = script[static_cast<std::size_t>(index)];
         return adaptive ? scripted_answer(line, adaptive->next_attempt(plan[static_cast<std::size_t>(index)])) : line;
@@ -582,6 +604,12 @@ RunResult run_session(const RunSettings& settings) {
 
         // Input: scripted, or keys.
         const Screen screen = machine.screen();
+        // An answer waiting for the experimenter's check: scored live once.
+        if (screen == Screen::ScoreCheck && !auto_marks.count(machine.trial_index())) {
+            const int index = machine.trial_index();
+            auto_marks[index] = adaptive->score(plan[static_cast<std::size_t>(index)], machine.pending_response().text);
+            live_marks[index] = auto_marks[index];
+        }
         const bool settled =
             fmt::format("{}-{}", to_string(screen), machine.trial_index()) == last_screen_key && screen_frames >= 1;
         if (scripted) {
@@ -594,6 +622,21 @@ RunResult run_session(const RunSettings& settings) {
                         machine.submit(script_line(machine.trial_index()), next_flip_s);
                         break;
                     case Screen::ConfirmEmpty: machine.confirm_empty(true, next_flip_s); break;
+                    case Screen::ScoreCheck: {
+                        const int index = machine.trial_index();
+                        if (const auto marks = scripted_marks(script[static_cast<std::size_t>(index)],
+                                                              adaptive->next_attempt(plan[static_cast<std::size_t>(index)]),
+                                                              settings.script.string())) {
+                            if (marks->size() != live_marks[index].size())
+                                throw InputError(settings.script, 0, 0, "marks",
+                                                 fmt::format("trial {}: expected {} keyword marks, got {}",
+                                                             plan[static_cast<std::size_t>(index)].position,
+                                                             live_marks[index].size(), marks->size()));
+                            live_marks[index] = *marks;
+                        }
+                        machine.confirm_score(next_flip_s);
+                        break;
+                    }
                     case Screen::End: running = false; break;
                     default: break;
                 }
@@ -606,6 +649,11 @@ RunResult run_session(const RunSettings& settings) {
                 machine.quit();
             } else if (screen == Screen::Instructions || screen == Screen::Break || screen == Screen::Feedback) {
                 if (named_key_pressed(ImGuiKey_Space) || named_key_pressed(ImGuiKey_Enter)) machine.continue_pressed(next_flip_s);
+            } else if (screen == Screen::ScoreCheck) {
+                auto& marks = live_marks[machine.trial_index()];
+                for (std::size_t k = 0; k < marks.size() && k < 9; ++k)
+                    if (key_pressed(GLFW_KEY_1 + static_cast<int>(k))) marks[k] = !marks[k];
+                if (named_key_pressed(ImGuiKey_Enter)) machine.confirm_score(next_flip_s);
             } else if (screen == Screen::ConfirmEmpty) {
                 if (key_pressed(GLFW_KEY_Y) || named_key_pressed(ImGuiKey_Enter)) machine.confirm_empty(true, next_flip_s);
                 else if (key_pressed(GLFW_KEY_N)) machine.confirm_empty(false, next_flip_s);
@@ -656,8 +704,18 @@ RunResult run_session(const RunSettings& settings) {
                         auto cached = live_marks.find(action.trial_index);
                         const std::vector<bool> marks =
                             cached != live_marks.end() ? cached->second : adaptive->score(*t, action.response.text);
-                        if (cached != live_marks.end()) live_marks.erase(cached);
-                        const AdaptiveRecord record = adaptive->record(*t, *playback.mixed, action.response.text, marks, marks);
+                        const auto live = auto_marks.find(action.trial_index);
+                        const std::vector<bool> scored = live != auto_marks.end() ? live->second : marks;
+                        live_marks.erase(action.trial_index);
+                        auto_marks.erase(action.trial_index);
+                        const AdaptiveRecord record =
+                            adaptive->record(*t, *playback.mixed, action.response.text, scored, marks);
+                        if (record.corrected)
+                            store.add_event(session, settings.subject, "score-corrected",
+                                            fmt::format("trial {} presentation {}: live score {} of {}, corrected to {} "
+                                                        "({}) by the experimenter",
+                                                        t->position, record.attempt, record.auto_correct,
+                                                        record.keywords, record.correct, record.marks));
                         if (action.repeat) {
                             store.commit_attempt(session, *t, record);
                         } else {
@@ -797,6 +855,18 @@ RunResult run_session(const RunSettings& settings) {
                 }
                 ImGui::PopItemWidth();
                 hint_text("Enter: submit    Esc: pause");
+                break;
+            }
+            case Screen::ScoreCheck: {
+                std::string text = fmt::format("Score check: \"{}\"\n\n", machine.pending_response().text);
+                if (trial) {
+                    const Sentence& s = corpus.sentence(trial->sentence);
+                    const auto& marks = live_marks[machine.trial_index()];
+                    for (std::size_t k = 0; k < s.keywords.size() && k < marks.size(); ++k)
+                        text += fmt::format("{}  [{}]  {}\n", k + 1, marks[k] ? "x" : " ", s.keywords[k].word);
+                }
+                centered_text(text);
+                hint_text("1-9: toggle a keyword    Enter: accept the score");
                 break;
             }
             case Screen::ConfirmEmpty:

@@ -75,7 +75,9 @@ TEST(AdaptiveSession, MixesTheNoiseAtExactlyTheTracksSnrUnderBothLevelRules) {
             const MixedPresentation m = a.mix(t, speech, 16000);
             EXPECT_DOUBLE_EQ(m.level_db, a.level_db(t));
             EXPECT_NEAR(measured_snr_db(m.samples, speech, m.speech_gain_db, 16000), m.level_db, 0.01);
-            if (rule == "speech" && m.limit_gain_db == 0.0) EXPECT_NEAR(m.noise_gain_db, p.corpus.level_dbfs, 1e-6);
+            if (rule == "speech" && m.limit_gain_db == 0.0) {
+                EXPECT_NEAR(m.noise_gain_db, p.corpus.level_dbfs, 1e-6);
+            }
             // Every keyword wrong: the tracks climb, so later mixtures are at other SNRs.
             a.record(t, m, "", std::vector<bool>(3, false), std::vector<bool>(3, false));
         }
@@ -164,7 +166,9 @@ TEST(AdaptiveDesign, InterleavedTracksAlternateConditionsSentenceBySentence) {
     for (std::size_t i = 0; i < test.size(); ++i) {
         EXPECT_EQ(test[i].position, static_cast<int>(i) + 3);
         EXPECT_EQ(test[i].block, 1);
-        if (i > 0) EXPECT_NE(test[i].condition, test[i - 1].condition) << i;
+        if (i > 0) {
+            EXPECT_NE(test[i].condition, test[i - 1].condition) << i;
+        }
     }
     // Blocked tracks keep the design's blocks.
     Protocol blocked = p;

@@ -609,7 +609,9 @@ TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
             const auto& f = rows[k]->fields;
             EXPECT_EQ(std::stoi(f[c_presentation]), static_cast<int>(k) + 1);
             EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), replay.level_db());
-            if (k > 0) EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), *parse_double(rows[k - 1]->fields[c_next]));
+            if (k > 0) {
+                EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), *parse_double(rows[k - 1]->fields[c_next]));
+            }
             replay.record(std::stoi(f[c_keywords]), std::stoi(f[c_correct]));
             EXPECT_DOUBLE_EQ(*parse_double(f[c_next]), replay.level_db());
         }
@@ -656,6 +658,65 @@ TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
     const CsvTable srt = read_csv(dir / "report" / "srt.csv");
     ASSERT_EQ(srt.rows.size(), 2u);
     EXPECT_TRUE(fs::exists(dir / "report" / "tracks" / "subject_1.png"));
+}
+
+// The experimenter's score check: scripted marks after " ## " correct the live
+// score; the track steps on the corrected score, the record keeps both and
+// the correction is logged. Without experimenter response mode it is refused.
+TEST_F(RunnerE2E, AdaptiveScoreCheckCorrectionsCountAndAreLogged) {
+    const fs::path dir = temp_dir("e2e_adaptive_check");
+    const fs::path source = fs::path(AVSI_TEST_DATA_DIR) / "adaptive";
+    fs::copy_file(source / "corpus.csv", dir / "corpus.csv");
+    std::string text = read_text_file(source / "protocol.toml");
+    text += "confirm_scores = true\n";
+    write_text_file(dir / "subject_mode.toml", text);
+    text.replace(text.find("[session]\n"), 10, "[session]\nresponse_mode = \"experimenter\"\n");
+    write_text_file(dir / "protocol.toml", text);
+    const Protocol p = load_protocol(dir / "protocol.toml");
+    const Corpus corpus = read_corpus(p.corpus.sentences);
+    const std::vector<PlannedTrial> plan = make_design(p, corpus, 1);
+    // Every answer typed in full; the experimenter marks the 2nd keyword of
+    // every 4th trial after the tracks' first sentences wrong (a correction),
+    // and confirms the rest as scored.
+    std::string script;
+    int corrections = 0;
+    for (std::size_t i = 0; i < plan.size(); ++i) {
+        script += corpus.sentence(plan[i].sentence).text;
+        if (i % 4 == 3 && i > 4) {
+            script += " ## 101";
+            ++corrections;
+        }
+        script += "\n";
+    }
+    write_text_file(dir / "script.txt", script);
+    const fs::path db = dir / "check.sqlite";
+    EXPECT_EQ(run(run_args(dir / "subject_mode.toml", 1, db, dir / "script.txt"), dir / "refused.txt"), 1);
+    EXPECT_NE(read_text_file(dir / "refused.txt").find("adaptive.confirm_scores: expected session.response_mode"),
+              std::string::npos)
+        << read_text_file(dir / "refused.txt");
+    ASSERT_EQ(run(run_args(dir / "protocol.toml", 1, db, dir / "script.txt"), dir / "log.txt"), 0)
+        << read_text_file(dir / "log.txt");
+    Store store(db);
+    const auto rows = store.adaptive_trials(1);
+    ASSERT_EQ(rows.size(), plan.size());  // all right at first: no repeats
+    int corrected = 0;
+    for (const auto& row : rows) {
+        const bool marked = (row.position - 1) % 4 == 3 && row.position > 5;
+        EXPECT_EQ(row.record.auto_correct, 3) << row.position;
+        EXPECT_EQ(row.record.corrected, marked) << row.position;
+        EXPECT_EQ(row.record.correct, marked ? 2 : 3) << row.position;
+        EXPECT_EQ(row.record.marks, marked ? "101" : "111") << row.position;
+        corrected += row.record.corrected ? 1 : 0;
+    }
+    EXPECT_EQ(corrected, corrections);
+    int events = 0;
+    for (const auto& e : store.events()) events += e.kind == "score-corrected" ? 1 : 0;
+    EXPECT_EQ(events, corrections);
+    // The tracks stepped on the corrected scores (2 of 3 is not "all right": up).
+    for (const auto& row : rows)
+        if (row.record.corrected && !row.record.track.empty()) {
+            EXPECT_GT(row.record.next_level_db, row.record.level_db);
+        }
 }
 
 }  // namespace

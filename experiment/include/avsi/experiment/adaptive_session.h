@@ -16,6 +16,12 @@
 // The noise of each presentation is seeded by (experiment seed, subject,
 // position, attempt), so a repeated run mixes the same noise.
 //
+// Score check (confirm_scores = true, with session.response_mode =
+// "experimenter"): the runner shows the live score of each answer keyword by
+// keyword; the experimenter toggles a keyword (keys 1-9) and accepts (Enter)
+// before the score counts. The record keeps both (auto_correct, correct,
+// marks, corrected) and the runner logs a "score-corrected" event.
+//
 // Resume: the constructor replays the stored records of the subject through
 // fresh tracks; the next level is then what it was before the interruption.
 #pragma once
