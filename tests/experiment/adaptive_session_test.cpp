@@ -13,6 +13,7 @@
 #include "avsi/core/protocol.h"
 #include "avsi/experiment/adaptive_session.h"
 #include "avsi/experiment/session.h"
+#include "avsi/experiment/web_study.h"
 #include "avsi/vocoder/masking.h"
 #include "test_support.h"
 
@@ -219,6 +220,21 @@ TEST(AdaptiveDesign, TheMachinePresentsARepeatedTrialAgainWithoutAnsweringIt) {
     EXPECT_EQ(m.trial_index(), 1);
     EXPECT_EQ(m.answered_count(), 1);
     EXPECT_EQ(asked, 2);
+}
+
+TEST(AdaptiveDesign, TheWebStudyRefusesAdaptiveProtocols) {
+    ExportWebSettings s;
+    s.protocol = kProtocol;
+    s.out_dir = temp_dir("adaptive_web") / "study";
+    try {
+        export_web(s);
+        FAIL() << "exported";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("protocol.toml:35:1: error: adaptive: adaptive SRT tracks run in the lab runner"),
+                  std::string::npos)
+            << e.what();
+    }
+    EXPECT_FALSE(fs::exists(s.out_dir));
 }
 
 TEST(Store, MigratesAVersion2DatabaseToVersion3KeepingItsData) {
