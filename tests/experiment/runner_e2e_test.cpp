@@ -108,15 +108,15 @@ protected:
         return path;
     }
 
-    // Responses committed so far, read without writing (0 before the database exists).
-    static int committed(const fs::path& db) {
+    // Rows of a table so far, read without writing (0 before the database exists).
+    static int count_rows(const fs::path& db, const std::string& table) {
         if (!fs::exists(db)) return 0;
         sqlite3* handle = nullptr;
         int n = 0;
         if (sqlite3_open_v2(db.c_str(), &handle, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
             sqlite3_busy_timeout(handle, 2000);
             sqlite3_stmt* st = nullptr;
-            if (sqlite3_prepare_v2(handle, "SELECT count(*) FROM responses", -1, &st, nullptr) == SQLITE_OK &&
+            if (sqlite3_prepare_v2(handle, ("SELECT count(*) FROM " + table).c_str(), -1, &st, nullptr) == SQLITE_OK &&
                 sqlite3_step(st) == SQLITE_ROW)
                 n = sqlite3_column_int(st, 0);
             sqlite3_finalize(st);
@@ -124,6 +124,8 @@ protected:
         sqlite3_close(handle);
         return n;
     }
+    // Responses committed so far.
+    static int committed(const fs::path& db) { return count_rows(db, "responses"); }
 
     static inline pid_t s_xvfb = -1;
 };
@@ -534,21 +536,7 @@ TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
     std::vector<std::string> args = run_args(protocol, 1, db, dir / "script.txt");
     args.insert(args.end(), {"--audio-capture", (dir / "audio").string()});
     // Presentations committed so far (repeats included).
-    auto presentations = [&]() {
-        if (!fs::exists(db)) return 0;
-        sqlite3* handle = nullptr;
-        int n = 0;
-        if (sqlite3_open_v2(db.c_str(), &handle, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
-            sqlite3_busy_timeout(handle, 2000);
-            sqlite3_stmt* st = nullptr;
-            if (sqlite3_prepare_v2(handle, "SELECT count(*) FROM adaptive_trials", -1, &st, nullptr) == SQLITE_OK &&
-                sqlite3_step(st) == SQLITE_ROW)
-                n = sqlite3_column_int(st, 0);
-            sqlite3_finalize(st);
-        }
-        sqlite3_close(handle);
-        return n;
-    };
+    auto presentations = [&]() { return count_rows(db, "adaptive_trials"); };
     // Two kills: after the 6th and the 14th committed presentation (both in
     // the tracks), then a run to the end.
     int kills = 0;
