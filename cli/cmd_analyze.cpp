@@ -52,8 +52,11 @@ const bool registered_analyze = register_command({
                        "Take the conditions and their order from the [[condition]] tables of this protocol (as --conditions)")
             ->check(CLI::ExistingFile)
             ->excludes(conditions);
-        return [o, title = sub.get_option("--title")] {
+        return [o, title = sub.get_option("--title"), dv = sub.get_option("--dv")] {
             if (analysis::is_adaptive_trials_file(o->input)) {
+                if (dv->count() > 0)
+                    throw UsageError("--dv: adaptive_trials.csv is analysed as SRTs in dB from its tracks; --dv is for "
+                                     "a scores table");
                 if (o->protocol.empty())
                     throw UsageError("--protocol: adaptive_trials.csv is analysed under the protocol's [adaptive] "
                                      "rules; give the protocol file");

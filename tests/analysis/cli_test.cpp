@@ -263,6 +263,10 @@ TEST_F(Cli, AnalyzeOfAdaptiveTrialsNeedsTheProtocol) {
     const CliRun r = run_cli(fmt::format("analyze {}/adaptive_trials.csv --out {}/r", dir.string(), dir.string()));
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_NE(r.output.find("--protocol"), std::string::npos) << r.output;
+    const CliRun dv = run_cli(fmt::format("analyze {}/adaptive_trials.csv --dv level_db --protocol {}/adaptive/protocol.toml",
+                                          dir.string(), AVSI_TEST_DATA_DIR));
+    EXPECT_EQ(dv.code, 2) << dv.output;
+    EXPECT_NE(dv.output.find("--dv: adaptive_trials.csv is analysed as SRTs"), std::string::npos) << dv.output;
 }
 
 TEST_F(Cli, AnalyzeAnyDependentVariableReproducesTheReferenceAnova) {
