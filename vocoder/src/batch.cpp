@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "avsi/core/audio_stream.h"
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
 #include "avsi/core/rng.h"
@@ -83,8 +84,39 @@ Audio process_audio(const Audio& input, const ProcessSettings& s, const LongTerm
     return audio;
 }
 
+namespace {
+
+// Vocoding alone, file to file in blocks (vocode_stream): memory bounded
+// whatever the file's length.
+void vocode_file(const fs::path& input, const fs::path& output, const VocoderSettings& settings, FileReport& report) {
+    AudioFileReader in(input);
+    AudioFileWriter out(output, in.sample_rate_hz(), in.channels());
+    const VocoderReport r = vocode_stream(in, out, settings);
+    out.commit();
+    report.vocoder_limit_gain_db = r.limit_gain_db;
+    report.duration_s = static_cast<double>(in.frames()) / in.sample_rate_hz();
+}
+
+// Names the input file in diagnostics that name none.
+[[noreturn]] void rethrow_naming(const InputError& e, const fs::path& input) {
+    std::vector<Diagnostic> diagnostics = e.diagnostics();
+    for (Diagnostic& d : diagnostics)
+        if (d.path.empty()) d.path = input.string();
+    throw InputError(std::move(diagnostics));
+}
+
+}  // namespace
+
 FileReport process_file(const fs::path& input, const fs::path& output, const ProcessSettings& s) {
     FileReport report{input, output};
+    if (s.vocode && s.noise.kind == NoiseKind::None) {
+        try {
+            vocode_file(input, output, s.vocoder, report);
+        } catch (const InputError& e) {
+            rethrow_naming(e, input);
+        }
+        return report;
+    }
     try {
         const Audio audio = read_audio(input);
         std::optional<LongTermSpectrum> ltas;
@@ -98,10 +130,7 @@ FileReport process_file(const fs::path& input, const fs::path& output, const Pro
         write_audio(output, out);
     } catch (const InputError& e) {
         // Give diagnostics without a path the input file's name.
-        std::vector<Diagnostic> diagnostics = e.diagnostics();
-        for (Diagnostic& d : diagnostics)
-            if (d.path.empty()) d.path = input.string();
-        throw InputError(std::move(diagnostics));
+        rethrow_naming(e, input);
     }
     return report;
 }
@@ -131,20 +160,25 @@ std::vector<FileReport> process_folder(const fs::path& input_folder, const fs::p
         for (std::size_t i = next++; i < files.size(); i = next++) {
             const fs::path output = output_folder / files[i].filename();
             try {
-                const Audio audio = read_audio(files[i]);
-                const std::vector<double>* noise = nullptr;
-                if (s.noise.kind == NoiseKind::File) {
-                    std::lock_guard lock(noise_mutex);
-                    auto it = noise_by_rate.find(audio.sample_rate_hz);
-                    if (it == noise_by_rate.end())
-                        it = noise_by_rate.emplace(audio.sample_rate_hz, load_noise(s.noise.file, audio.sample_rate_hz))
-                                 .first;
-                    noise = &it->second;
-                }
                 FileReport report{files[i], output};
-                const std::uint64_t seed = derive_seed(s.noise.mix.seed, files[i].filename().string());
-                const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, noise, seed, &report);
-                write_audio(output, out);
+                if (s.vocode && s.noise.kind == NoiseKind::None) {
+                    vocode_file(files[i], output, s.vocoder, report);
+                } else {
+                    const Audio audio = read_audio(files[i]);
+                    const std::vector<double>* noise = nullptr;
+                    if (s.noise.kind == NoiseKind::File) {
+                        std::lock_guard lock(noise_mutex);
+                        auto it = noise_by_rate.find(audio.sample_rate_hz);
+                        if (it == noise_by_rate.end())
+                            it = noise_by_rate
+                                     .emplace(audio.sample_rate_hz, load_noise(s.noise.file, audio.sample_rate_hz))
+                                     .first;
+                        noise = &it->second;
+                    }
+                    const std::uint64_t seed = derive_seed(s.noise.mix.seed, files[i].filename().string());
+                    const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, noise, seed, &report);
+                    write_audio(output, out);
+                }
                 reports[i] = report;
             } catch (const InputError& e) {
                 std::lock_guard lock(error_mutex);
