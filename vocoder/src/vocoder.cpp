@@ -23,6 +23,7 @@
 #include "avsi/core/rng.h"
 #include "avsi/vocoder/filters.h"
 #include "avsi/vocoder/hilbert.h"
+#include "fused_pipeline.h"
 
 namespace avsi::vocoder {
 
@@ -257,10 +258,13 @@ struct Pipeline {
     SosBank bands;
     SosBank envelope_lowpass;
     SosBank::State analysis_state, envelope_state, prefilter_state, refilter_state;
-    std::vector<Rng> noise;            // one stream per band
-    std::vector<std::uint64_t> noise_draw;  // the current 64-bit draw per band
-    std::vector<double> sine_step;     // radians per sample per band
+    // One noise stream per band (Rng(seed).derive("channel<c>/band<b>")),
+    // run four side by side: xoshiro256** states [chunk][word][4] (padding
+    // lanes all zero), and the current 64-bit draw per lane.
+    std::vector<std::uint64_t> noise_state;
+    std::vector<std::uint64_t> noise_draw;
     std::vector<double> analysis_sum_sq;
+    bool fused;  // steps 1–4 in one loop (fused_pipeline.h)
 
     Pipeline(const VocoderSettings& s, double rate_hz, const std::vector<Sos>& band_filters, int channel)
         : settings(s), rate(rate_hz), lanes(band_filters.size()), bands(band_filters),
@@ -268,10 +272,15 @@ struct Pipeline {
                                                                        s.envelope_cutoff_hz, rate_hz))),
           analysis_state(bands.initial_state()), envelope_state(envelope_lowpass.initial_state()),
           prefilter_state(bands.initial_state()), refilter_state(bands.initial_state()),
-          analysis_sum_sq(bands.stride(), 0.0) {
-        for (std::size_t b = 0; b < lanes; ++b)
-            noise.push_back(Rng(s.seed).derive(fmt::format("channel{}/band{}", channel, b)));
-        noise_draw.assign(lanes, 0);
+          noise_state(bands.stride() * 4, 0), noise_draw(bands.stride(), 0), analysis_sum_sq(bands.stride(), 0.0),
+          fused(!s.zero_phase && s.envelope != EnvelopeMethod::Hilbert && s.carrier != CarrierType::LowNoise &&
+                detail::fused_supported(bands, envelope_lowpass)) {
+        constexpr std::size_t chunk = SosBank::chunk_lanes;
+        for (std::size_t b = 0; b < lanes; ++b) {
+            const Rng stream = Rng(s.seed).derive(fmt::format("channel{}/band{}", channel, b));
+            for (std::size_t word = 0; word < 4; ++word)
+                noise_state[(b / chunk * 4 + word) * chunk + b % chunk] = stream.state()[word];
+        }
     }
 
     // Runs a bank over `frames` rows: forward with carried state when the
@@ -296,13 +305,7 @@ struct Pipeline {
                 // Two uniform values in [-1, 1) with 32-bit resolution per
                 // 64-bit draw; the stream position is absolute (`first`), so
                 // an odd block start uses the second half of a draw.
-                for (std::size_t b = 0; b < lanes; ++b)
-                    for (std::size_t n = 0; n < frames; ++n) {
-                        const std::size_t t = first + n;
-                        if (t % 2 == 0) noise_draw[b] = noise[b].next_u64();
-                        const auto bits = static_cast<std::uint32_t>(t % 2 == 0 ? noise_draw[b] : noise_draw[b] >> 32);
-                        carrier[n * stride + b] = static_cast<double>(bits) * 0x1.0p-31 - 1.0;
-                    }
+                detail::noise_carriers(noise_state.data(), noise_draw.data(), lanes, stride, first, frames, carrier);
                 if (settings.carrier == CarrierType::LowNoise) {
                     // Whole signal only (see vocode_channel): Hilbert envelopes need it.
                     std::vector<double> whole(carrier, carrier + frames * stride);
@@ -334,10 +337,29 @@ struct Pipeline {
     // Steps 1–4 for `frames` rows starting at absolute frame `first` (x[0]):
     // `work` gets the input broadcast to every lane on entry and the
     // filtered modulated carriers on exit; `carrier` is scratch.
+    // `rows` says what becomes of the band outputs (FusedBlock's fields
+    // from out_sum_sq on; x, carrier, work, frames and analysis_sum_sq are
+    // filled in here): the same with the fused loop or without.
     void run(const double* x, std::size_t first, std::size_t frames, std::vector<double>& work,
-             std::vector<double>& carrier, const std::vector<double>& centres_hz) {
+             std::vector<double>& carrier, const std::vector<double>& centres_hz, detail::FusedBlock rows) {
         const std::size_t stride = bands.stride();
         double* w = work.data();
+        rows.x = x;
+        rows.carrier = carrier.data();
+        rows.work = w;
+        rows.frames = frames;
+        rows.analysis_sum_sq = analysis_sum_sq.data();
+        if (fused) {
+            make_carrier(carrier.data(), first, frames, centres_hz);
+            detail::FusedBanks banks{&bands, &envelope_lowpass, &analysis_state, &envelope_state,
+                                     settings.prefilter_carrier ? &prefilter_state : nullptr,
+                                     settings.refilter_carrier ? &refilter_state : nullptr,
+                                     settings.envelope == EnvelopeMethod::FullWaveRectify};
+            detail::run_fused(banks, rows);
+            return;
+        }
+        if (rows.in_sum_sq)
+            for (std::size_t n = 0; n < frames; ++n) *rows.in_sum_sq += x[n] * x[n];
         // Padding lanes get the input too; their filters output zero.
         for (std::size_t n = 0; n < frames; ++n) std::fill_n(w + n * stride, stride, x[n]);
         // 1. Analysis.
@@ -364,6 +386,20 @@ struct Pipeline {
         // 4. Modulation (envelope floored at zero), then back through the band.
         for (std::size_t i = 0; i < frames * stride; ++i) w[i] = std::max(w[i], 0.0) * c[i];
         if (settings.refilter_carrier) filter(bands, refilter_state, w, frames);
+        // The rows, as the fused loop leaves them.
+        if (rows.sum) {
+            for (std::size_t n = 0; n < frames; ++n) {
+                double s = 0.0;
+                for (std::size_t b = 0; b < stride; ++b) s += rows.gains[b] * static_cast<float>(w[n * stride + b]);
+                rows.sum[n] = s;
+            }
+            return;
+        }
+        if (rows.out_sum_sq) add_squares(w, frames, stride, rows.out_sum_sq);
+        if (rows.rows)
+            for (std::size_t n = 0; n < frames; ++n)
+                for (std::size_t b = 0; b < rows.lanes; ++b)
+                    rows.rows[n * rows.lanes + b] = static_cast<float>(w[n * stride + b]);
     }
 };
 
@@ -402,21 +438,20 @@ public:
             return;
         }
         if (first == m_stored) m_replay_start.emplace(m_pipeline);
-        m_pipeline.run(x, first, count, work, carrier, m_centres);
-        add_squares(work.data(), count, m_stride, m_out_sum_sq.data());
-        for (std::size_t n = 0; n < count; ++n) m_in_sq += x[n] * x[n];
-        if (first < m_stored) {
-            float* dst = m_store.get() + first * m_lanes;
-            for (std::size_t n = 0; n < count; ++n)
-                for (std::size_t b = 0; b < m_lanes; ++b) dst[n * m_lanes + b] = static_cast<float>(work[n * m_stride + b]);
-        }
+        detail::FusedBlock rows;
+        rows.out_sum_sq = m_out_sum_sq.data();
+        rows.in_sum_sq = &m_in_sq;
+        if (first < m_stored) rows.rows = m_store.get() + first * m_lanes;
+        rows.lanes = m_lanes;
+        m_pipeline.run(x, first, count, work, carrier, m_centres, rows);
     }
 
     // After pass 1 over all `frames`: the band gains and what was measured.
     void finish_measure(std::size_t frames, std::vector<BandInfo>& bands) {
-        m_gains.assign(m_lanes, 1.0);
+        m_gains.assign(m_stride, 0.0);  // padding lanes: 0
         const double count = static_cast<double>(frames);
         for (std::size_t b = 0; b < m_lanes; ++b) {
+            m_gains[b] = 1.0;
             bands[b].analysis_rms = std::sqrt(m_pipeline.analysis_sum_sq[b] / count);
             const double rms = std::sqrt(m_out_sum_sq[b] / count);
             if (m_settings.match_band_rms && rms > 0.0) m_gains[b] = bands[b].analysis_rms / rms;
@@ -425,18 +460,14 @@ public:
         if (frames == m_stored) m_replay_start.reset();
     }
 
-    const std::vector<double>& gains() const { return m_gains; }
-
     // Starts a replay (pass 2 or 3) from frame 0.
     void begin_replay() {
         if (m_replay_start) m_replay.emplace(*m_replay_start);
     }
 
-    // The frames a replay needs the input for: from stored_frames() on.
-    std::size_t stored_frames() const { return m_stored; }
-
     // The level-matched band sum of frames [first, first + count) into `sum`
     // (x[0] is frame `first`; read only past the store), in order from 0.
+    // With `band_signals`, also each band's level-matched output.
     void replay(const double* x, std::size_t first, std::size_t count, double* sum, std::vector<double>& work,
                 std::vector<double>& carrier, std::vector<std::vector<double>>* band_signals = nullptr) {
         if (first < m_stored && first + count > m_stored) {
@@ -445,35 +476,29 @@ public:
             replay(x + head, m_stored, count - head, sum + head, work, carrier, band_signals);
             return;
         }
-        const bool padded = m_stride > m_lanes;
         if (first < m_stored) {
-            const float* row = m_store.get() + first * m_lanes;
-            for (std::size_t n = 0; n < count; ++n, row += m_lanes) {
+            // The sum as the pipeline's rows give it: over the stride's
+            // lanes, whose padding lanes hold +0 with gain 0 and so add
+            // +0.0 (which turns a -0 sum into +0).
+            const float* rows = m_store.get() + first * m_lanes;
+            const bool padded = m_stride > m_lanes;
+            for (std::size_t n = 0; n < count; ++n) {
                 double s = 0.0;
-                for (std::size_t b = 0; b < m_lanes; ++b) s += m_gains[b] * row[b];
-                // The padding lanes' zero terms (they turn a -0 sum into +0).
+                for (std::size_t b = 0; b < m_lanes; ++b) s += m_gains[b] * rows[n * m_lanes + b];
                 if (padded) s += 0.0;
                 sum[n] = s;
             }
             if (band_signals)
                 for (std::size_t b = 0; b < m_lanes; ++b)
                     for (std::size_t n = 0; n < count; ++n)
-                        (*band_signals)[b][first + n] = m_gains[b] * m_store[(first + n) * m_lanes + b];
+                        (*band_signals)[b][first + n] = m_gains[b] * rows[n * m_lanes + b];
             return;
         }
-        AVSI_ASSERT(m_replay);
-        m_replay->run(x, first, count, work, carrier, m_centres);
-        for (std::size_t n = 0; n < count; ++n) {
-            const double* row = &work[n * m_stride];
-            double s = 0.0;
-            for (std::size_t b = 0; b < m_lanes; ++b) s += m_gains[b] * static_cast<float>(row[b]);
-            if (padded) s += 0.0;
-            sum[n] = s;
-        }
-        if (band_signals)
-            for (std::size_t b = 0; b < m_lanes; ++b)
-                for (std::size_t n = 0; n < count; ++n)
-                    (*band_signals)[b][first + n] = m_gains[b] * static_cast<float>(work[n * m_stride + b]);
+        AVSI_ASSERT(m_replay && !band_signals);
+        detail::FusedBlock rows;
+        rows.gains = m_gains.data();
+        rows.sum = sum;
+        m_replay->run(x, first, count, work, carrier, m_centres, rows);
     }
 
     double in_sq() const { return m_in_sq; }
@@ -483,7 +508,7 @@ private:
     const std::vector<double>& m_centres;
     Pipeline m_pipeline;
     std::size_t m_lanes, m_stride, m_stored;
-    std::unique_ptr<float[]> m_store;  // [frame][lane], the first m_stored frames
+    std::unique_ptr<float[]> m_store;  // [frame][band], the first m_stored frames
     std::vector<double> m_out_sum_sq;
     double m_in_sq = 0.0;
     std::vector<double> m_gains;
