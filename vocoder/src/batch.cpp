@@ -86,14 +86,43 @@ Audio process_audio(const Audio& input, const ProcessSettings& s, const LongTerm
 
 namespace {
 
-// Vocoding alone, file to file in blocks (vocode_stream): memory bounded
-// whatever the file's length.
-void vocode_file(const fs::path& input, const fs::path& output, const VocoderSettings& settings, FileReport& report) {
+// Whether `input` can be processed file to file in blocks: vocoding alone,
+// or a noise recording at the input's rate added before vocoding (or
+// without it). Speech-shaped noise is made by one FFT over the whole
+// length, noise at another rate is resampled whole, and noise added after
+// vocoding would need the vocoded signal twice: those run in memory.
+bool streamable(const ProcessSettings& s, const fs::path& input) {
+    if (s.noise.kind == NoiseKind::None) return s.vocode;
+    if (s.noise.kind != NoiseKind::File) return false;
+    if (s.vocode && s.noise.stage == NoiseStage::AfterVocoding) return false;
+    return AudioFileReader(s.noise.file).sample_rate_hz() == AudioFileReader(input).sample_rate_hz();
+}
+
+// File to file in blocks (streamable() holds): memory bounded whatever the
+// files' lengths.
+void process_file_streaming(const fs::path& input, const fs::path& output, const ProcessSettings& s,
+                            FileReport& report) {
     AudioFileReader in(input);
     AudioFileWriter out(output, in.sample_rate_hz(), in.channels());
-    const VocoderReport r = vocode_stream(in, out, settings);
+    std::optional<NoiseFile> noise;
+    std::optional<MixedSource> mixed;
+    AudioSource* source = &in;
+    if (s.noise.kind == NoiseKind::File) {
+        noise.emplace(s.noise.file);
+        MixSettings mix = s.noise.mix;
+        mix.seed = derive_seed(s.noise.mix.seed, input.filename().string());
+        mixed.emplace(in, *noise, mix);
+        report.mix_limit_gain_db = mixed->report().limit_gain_db;
+        source = &*mixed;
+    }
+    if (s.vocode) {
+        report.vocoder_limit_gain_db = vocode_stream(*source, out, s.vocoder).limit_gain_db;
+    } else {
+        std::vector<float> block(8192 * static_cast<std::size_t>(in.channels()));
+        source->seek(0);
+        while (const std::size_t n = source->read(block.data(), 8192)) out.write(block.data(), n);
+    }
     out.commit();
-    report.vocoder_limit_gain_db = r.limit_gain_db;
     report.duration_s = static_cast<double>(in.frames()) / in.sample_rate_hz();
 }
 
@@ -109,13 +138,13 @@ void vocode_file(const fs::path& input, const fs::path& output, const VocoderSet
 
 FileReport process_file(const fs::path& input, const fs::path& output, const ProcessSettings& s) {
     FileReport report{input, output};
-    if (s.vocode && s.noise.kind == NoiseKind::None) {
-        try {
-            vocode_file(input, output, s.vocoder, report);
-        } catch (const InputError& e) {
-            rethrow_naming(e, input);
+    try {
+        if (streamable(s, input)) {
+            process_file_streaming(input, output, s, report);
+            return report;
         }
-        return report;
+    } catch (const InputError& e) {
+        rethrow_naming(e, input);
     }
     try {
         const Audio audio = read_audio(input);
@@ -161,8 +190,8 @@ std::vector<FileReport> process_folder(const fs::path& input_folder, const fs::p
             const fs::path output = output_folder / files[i].filename();
             try {
                 FileReport report{files[i], output};
-                if (s.vocode && s.noise.kind == NoiseKind::None) {
-                    vocode_file(files[i], output, s.vocoder, report);
+                if (streamable(s, files[i])) {
+                    process_file_streaming(files[i], output, s, report);
                 } else {
                     const Audio audio = read_audio(files[i]);
                     const std::vector<double>* noise = nullptr;
