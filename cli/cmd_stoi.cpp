@@ -4,7 +4,7 @@
 
 #include <fmt/format.h>
 
-#include "avsi/core/audio.h"
+#include "avsi/core/audio_stream.h"
 #include "avsi/vocoder/stoi.h"
 #include "command.h"
 
@@ -25,7 +25,8 @@ const bool registered_stoi = register_command({
         sub.add_option("degraded", o->degraded, "Degraded WAV (same rate and length)")->required()->check(CLI::ExistingFile);
         sub.add_flag("--extended", o->extended, "Extended STOI (Jensen & Taal 2016) instead of STOI");
         return [o] {
-            const double d = vocoder::stoi(read_audio(o->clean), read_audio(o->degraded), {.extended = o->extended});
+            AudioFileReader clean(o->clean), degraded(o->degraded);
+            const double d = vocoder::stoi(clean, degraded, {.extended = o->extended});
             fmt::print("{:.6f}\n", d);
             return 0;
         };

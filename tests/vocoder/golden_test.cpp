@@ -16,6 +16,7 @@
 
 #include "avsi/core/files.h"
 #include "avsi/vocoder/masking.h"
+#include "avsi/vocoder/resample.h"
 #include "avsi/vocoder/stoi.h"
 #include "avsi/vocoder/vocoder.h"
 #include "test_signals.h"
@@ -108,6 +109,22 @@ TEST(VocoderGolden, StreamingWithAnyBlockAndStoreGivesTheRecordedHashes) {
             const VocoderReport report = detail::vocode_stream(source, sink, c.settings, l);
             EXPECT_EQ(hash_of(out.samples), expected);
             EXPECT_EQ(report.bands.size(), static_cast<std::size_t>(c.settings.bands));
+        }
+    }
+}
+
+// STOI's resampling in pieces (any sizes) gives resample()'s samples.
+TEST(VocoderGolden, StreamResamplerMatchesTheOneShotResampler) {
+    for (double rate : {22050.0, 44100.0, 16000.0, 8000.0, 10000.0}) {
+        SCOPED_TRACE(rate);
+        const std::vector<double> x = speech_like(rate, 0.9, 3);
+        const std::vector<double> whole = resample(x, rate, 10000.0);
+        for (std::size_t piece : {1u, 1000u, 8192u, 100000u}) {
+            StreamResampler r(rate, 10000.0, x.size());
+            std::vector<double> out;
+            for (std::size_t i = 0; i < x.size(); i += piece) r.feed(x.data() + i, std::min(piece, x.size() - i), out);
+            EXPECT_EQ(r.output_frames(), whole.size());
+            EXPECT_EQ(out, whole) << "pieces of " << piece;
         }
     }
 }

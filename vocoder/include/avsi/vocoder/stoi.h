@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "avsi/core/audio.h"
+#include "avsi/core/audio_stream.h"
 
 namespace avsi::vocoder {
 
@@ -27,5 +28,11 @@ double stoi(std::span<const double> clean, std::span<const double> degraded, dou
 
 // The same for two Audio buffers (mixed to mono; rates must agree).
 double stoi(const Audio& clean, const Audio& degraded, const StoiSettings& settings = {});
+
+// The same for two sources (mixed to mono; rates and lengths must agree),
+// in two passes over each (the loudest clean frame; then the rest, scored
+// segment by segment as the frames arrive): memory bounded by a frame and a
+// segment, whatever the length.
+double stoi(AudioSource& clean, AudioSource& degraded, const StoiSettings& settings = {});
 
 }  // namespace avsi::vocoder
