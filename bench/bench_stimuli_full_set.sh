@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The full stimulus set of the default protocol, timed: 90 sentences × 6
 # conditions (audio-only and the rule, Cohen-Massaro, Öhman, ANN 1 and ANN 2
-# control models), 3-band vocoder, 30 fps, 640×480, speech from espeak-ng —
+# control models), 3-band vocoder, 30 fps, 640×480, speech from the
+# protocol's voice (Festival SLT) —
 # `avsi build-stimuli protocols/beskow2004-en.toml --max-sentences 90`, from
 # scratch (--force), one worker per core. Prints the wall time and the
 # builder's own summary (stimuli, frames, seconds).

@@ -1,12 +1,15 @@
 // `avsi evaluate`: scores control models against a corpus' measured
 // trajectories in the layout of Table 2 of the reference study, and plots one
-// utterance like its Fig. 5 (learn/evaluation.h).
+// utterance like its Fig. 5 (learn/evaluation.h); with the phonetic columns
+// measured on a head (stimuli/articulation.h).
 #include <memory>
 #include <string>
 
 #include <fmt/format.h>
 
 #include "avsi/learn/evaluation.h"
+#include "avsi/stimuli/articulation.h"
+#include "avsi/stimuli/commands.h"
 #include "command.h"
 
 namespace avsi::cli {
@@ -21,16 +24,34 @@ const bool registered_evaluate = register_command({
         auto fraction = std::make_shared<double>(0.0);
         sub.add_option("--corpus", s->corpus, "Corpus folder (corpus.json or corpus.csv)")->required();
         sub.add_option("--models", s->models, "Model files (.json), one or more")->required();
-        sub.add_option("--out", s->out, "Output prefix: writes <out>.csv, <out>.md and <out>.svg")->required();
+        sub.add_option("--out", s->out,
+                       "Output prefix: writes <out>.csv, <out>.md, <out>.svg and <out>_phonetic.csv")->required();
         sub.add_option("--subset", s->subset, "Utterances to score: test, train or all")->capture_default_str();
         auto* seed_opt = sub.add_option("--split-seed", *seed, "Split seed (default: the corpus manifest's)");
         auto* fraction_opt =
             sub.add_option("--test-fraction", *fraction, "Test fraction (default: the corpus manifest's)");
         sub.add_option("--plot-utterance", s->plot_utterance, "Utterance id to plot (default: the first scored)");
         sub.add_option("--plot-param", s->plot_param, "Parameter to plot")->capture_default_str();
-        return [s, seed, fraction, seed_opt, fraction_opt] {
+        auto head = std::make_shared<stimuli::HeadFiles>();
+        auto phonetic = std::make_shared<bool>(true);
+        sub.add_option("--mesh", head->obj, "Head mesh for the phonetic columns (OBJ)")->capture_default_str();
+        sub.add_option("--rig", head->rig, "Head rig with articulation landmarks (JSON)")->capture_default_str();
+        sub.add_flag("!--no-phonetic", *phonetic,
+                     "Leave out the phonetic columns (bilabial closure and labiodental contact measured on the head)");
+        sub.add_flag("--closure-hold", s->closure_hold,
+                     "Also score each model with the closure hold (closure = \"hold\" in a protocol), as <name>+hold");
+        return [s, seed, fraction, seed_opt, fraction_opt, head, phonetic] {
             if (seed_opt->count()) s->split_seed = *seed;
             if (fraction_opt->count()) s->test_fraction = *fraction;
+            std::shared_ptr<const stimuli::Head> loaded;
+            std::shared_ptr<const stimuli::ArticulationMeter> meter;
+            if (*phonetic) {
+                loaded = std::make_shared<const stimuli::Head>(stimuli::load_head(head->obj, head->rig));
+                meter = std::make_shared<const stimuli::ArticulationMeter>(*loaded);
+                s->articulation = [meter, loaded](const synth::Trajectory& t) { return meter->measure(t); };
+                s->articulation_head = head->rig == stimuli::default_head_rig() ? "the built-in head"
+                                                                                : head->rig.filename().string();
+            }
             const learn::EvaluationResult r = learn::run_evaluation(*s);
             fmt::print("{}\n", r.markdown);
             return 0;

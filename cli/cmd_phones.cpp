@@ -1,5 +1,7 @@
-// `avsi phones`: text (through espeak-ng) or a recording's alignment
-// (TextGrid, HTK .lab, TSV) to a timed phone sequence in the project phone set.
+// `avsi phones`: text (through espeak-ng or Festival) or a recording's
+// alignment (TextGrid, HTK .lab, TSV) to a timed phone sequence in the
+// project phone set.
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -24,6 +26,10 @@ struct PhonesOptions {
     std::string tier = "phones";
     std::string wav;
     std::string out;
+    std::string tts_spec = "espeak:en-us";
+    bool tts_given = false;  // --tts was on the command line
+    std::string voice;       // the older --voice: an espeak-ng voice
+    bool list_voices = false;
     TtsSettings tts;
 };
 
@@ -33,7 +39,25 @@ std::string lower_extension(const std::filesystem::path& path) {
     return ext;
 }
 
-int run_phones(const PhonesOptions& o) {
+int list_voices() {
+    for (const auto& [engine, name] : {std::pair{TtsEngine::Espeak, "espeak"}, std::pair{TtsEngine::Festival, "festival"}}) {
+        std::vector<std::string> voices;
+        try {
+            voices = installed_tts_voices(engine);
+        } catch (const std::exception& e) {
+            log_warning("{}: {}", name, e.what());
+        }
+        for (const auto& v : voices) std::printf("%s:%s\n", name, v.c_str());
+    }
+    return ExitSuccess;
+}
+
+int run_phones(PhonesOptions o) {
+    if (o.list_voices) return list_voices();
+    if (o.out.empty()) throw UsageError("--out is required");
+    if (!o.voice.empty() && o.tts_given)
+        throw UsageError("give --tts or the older --voice (an espeak-ng voice), not both");
+    set_tts_voice(o.tts, o.voice.empty() ? o.tts_spec : "espeak:" + o.voice, "--tts");
     const int inputs = int(!o.text.empty()) + int(!o.textgrid.empty()) + int(!o.lab.empty()) + int(!o.tsv.empty());
     if (inputs != 1)
         throw UsageError("give exactly one input: --text, --textgrid, --lab or --tsv");
@@ -72,7 +96,7 @@ const bool registered_phones = register_command({
     "Text or an alignment (TextGrid, .lab, .tsv) to a timed phone sequence",
     [](CLI::App& sub) -> std::function<int()> {
         auto o = std::make_shared<PhonesOptions>();
-        sub.add_option("--text", o->text, "Text to synthesise with espeak-ng")->capture_default_str();
+        sub.add_option("--text", o->text, "Text to synthesise (see --tts)")->capture_default_str();
         sub.add_option("--textgrid", o->textgrid, "Praat TextGrid to read phones from (long or short text format)")
             ->capture_default_str();
         sub.add_option("--lab", o->lab, "HTK label file to read phones from (times in 100 ns units)")
@@ -80,9 +104,14 @@ const bool registered_phones = register_command({
         sub.add_option("--tsv", o->tsv, "TSV label file to read phones from (start_s end_s phone)")
             ->capture_default_str();
         sub.add_option("--tier", o->tier, "TextGrid tier holding the phones")->capture_default_str();
-        sub.add_option("--voice", o->tts.voice, "espeak-ng voice (English: en-us, en, en-gb-x-rp, ...)")
+        CLI::Option* tts = sub.add_option("--tts", o->tts_spec,
+                       "Synthesiser and voice: espeak:<voice> (en-us, en, en-gb-x-rp, ...) or festival:<voice> "
+                       "(cmu_us_slt_arctic_hts, kal_diphone); --list-voices shows the installed ones")
             ->capture_default_str();
-        sub.add_option("--rate", o->tts.rate_wpm, "Speaking rate, words per minute (80-450)")->capture_default_str();
+        sub.add_option("--voice", o->voice, "An espeak-ng voice; the same as --tts espeak:<voice>");
+        sub.add_flag("--list-voices", o->list_voices, "List the installed voices as --tts takes them, and exit");
+        sub.add_option("--rate", o->tts.rate_wpm, "espeak-ng speaking rate, words per minute (80-450)")
+            ->capture_default_str();
         sub.add_option("--pitch", o->tts.pitch, "espeak-ng pitch (0-99)")->capture_default_str();
         sub.add_option("--lead-silence", o->tts.lead_silence_s, "Silence before the speech, seconds")
             ->capture_default_str();
@@ -90,10 +119,12 @@ const bool registered_phones = register_command({
             ->capture_default_str();
         sub.add_option("--wav", o->wav, "Write the synthesised speech here (WAV, with --text)")
             ->capture_default_str();
-        sub.add_option("--out", o->out, "Output phones: .tsv (start_s end_s phone) or .TextGrid")
-            ->required()
+        sub.add_option("--out", o->out, "Output phones: .tsv (start_s end_s phone) or .TextGrid (required)")
             ->capture_default_str();
-        return [o] { return run_phones(*o); };
+        return [o, tts] {
+            o->tts_given = tts->count() > 0;
+            return run_phones(*o);
+        };
     }});
 
 }  // namespace

@@ -252,9 +252,10 @@ PhoneInventory PhoneInventory::load(const std::filesystem::path& phones_tsv,
         if (source == "espeak") table = &inv.m_espeak;
         else if (source == "espeak-en") table = &inv.m_espeak_en;
         else if (source == "ipa") table = &inv.m_ipa;
+        else if (source == "festival") table = &inv.m_festival;
         else {
             problems.add(mpath, row.line, 0, "source",
-                         fmt::format("expected espeak, espeak-en or ipa, got \"{}\"", source));
+                         fmt::format("expected espeak, espeak-en, ipa or festival, got \"{}\"", source));
             continue;
         }
         auto targets = split_spaces(phones_text);
@@ -387,6 +388,20 @@ std::vector<Phone> PhoneInventory::from_espeak(std::string_view mnemonic, std::s
                                      base, close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
     }
     return make_phones(*this, *targets, stress.value_or(false));
+}
+
+std::vector<Phone> PhoneInventory::from_festival(std::string_view name, bool stressed,
+                                                std::string_view where) const {
+    const auto it = m_festival.find(name);
+    if (it == m_festival.end()) {
+        std::vector<std::string> names;
+        for (const auto& [k, v] : m_festival) names.push_back(k);
+        const std::string close = closest_match(std::string(name), names);
+        throw InputError(std::string(where), 0, 0, "festival phone",
+                         fmt::format("unknown Festival phone \"{}\": not in protocols/phone_map.tsv{}", name,
+                                     close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
+    }
+    return make_phones(*this, it->second, stressed);
 }
 
 bool PhoneInventory::knows_ipa(std::string_view ipa) const {

@@ -35,6 +35,53 @@ const ConfigSection& section_or_empty(const ConfigSection& root, const std::stri
     return storage;
 }
 
+// [corpus] tts = "<engine>:<voice>", or the older voice = "<espeak-ng voice>".
+void read_tts(const ConfigSection& corpus, CorpusSettings& out, DiagnosticList& problems) {
+    const std::string tts = corpus.get_string("tts", "", problems);
+    const std::string voice = corpus.get_string("voice", "", problems);
+    const ConfigValue* tts_value = corpus.find("tts");
+    const ConfigValue* voice_value = corpus.find("voice");
+    const bool has_tts = tts_value && tts_value->type == ConfigValue::Type::String;
+    const bool has_voice = voice_value && voice_value->type == ConfigValue::Type::String;
+    if (has_tts && has_voice) {
+        corpus.report("voice",
+                      fmt::format("expected either tts or voice, got both (voice = \"{}\" is the older spelling of "
+                                  "tts = \"espeak:{}\"); remove voice",
+                                  voice, voice),
+                      problems);
+        return;
+    }
+    TtsSettings settings;
+    if (has_tts) {
+        try {
+            set_tts_voice(settings, tts);
+        } catch (const InputError& e) {
+            corpus.report("tts", e.first().message, problems);
+            return;
+        }
+        out.tts_line = tts_value->line;
+        out.tts_column = tts_value->column;
+    } else if (has_voice) {
+        if (voice.empty() || voice.find(':') != std::string::npos) {
+            corpus.report("voice",
+                          fmt::format("expected an espeak-ng voice name (en-us, en, ...), got \"{}\"{}", voice,
+                                      voice.find(':') != std::string::npos
+                                          ? fmt::format(" (did you mean tts = \"{}\"?)", voice)
+                                          : ""),
+                          problems);
+            return;
+        }
+        settings.engine = TtsEngine::Espeak;
+        settings.voice = voice;
+        out.tts_line = voice_value->line;
+        out.tts_column = voice_value->column;
+    } else {
+        return;  // the default voice
+    }
+    out.tts_engine = settings.engine;
+    out.tts_voice = settings.voice;
+}
+
 }  // namespace
 
 std::string to_string(FaceMode face) {
@@ -109,7 +156,7 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         p.corpus.audio = corpus.get_choice("audio", {"tts", "recordings"}, "tts", problems) == "recordings"
                              ? CorpusAudio::Recordings
                              : CorpusAudio::Tts;
-        p.corpus.voice = corpus.get_string("voice", p.corpus.voice, problems);
+        read_tts(corpus, p.corpus, problems);
         p.corpus.level_dbfs = corpus.get_number("level_dbfs", p.corpus.level_dbfs, -60.0, -6.0, problems);
         if (const ConfigValue* level = corpus.find("level_dbfs")) {
             p.corpus.level_line = level->line;
@@ -158,6 +205,12 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         cond.audio = c->get_choice("audio", {"vocoded", "clean"}, "vocoded", problems) == "clean"
                          ? ConditionAudio::Clean
                          : ConditionAudio::Vocoded;
+        cond.closure_hold = c->get_choice("closure", {"off", "hold"}, "off", problems) == "hold";
+        cond.closure_transition_s = c->get_number("closure_transition_s", 0.025, 0.001, 0.2, problems);
+        if (c->has("closure") && cond.face != FaceMode::Model)
+            c->report("closure", "the closure mechanism acts on a control model: it needs face = \"model\"", problems);
+        if (c->has("closure_transition_s") && !cond.closure_hold)
+            c->report("closure_transition_s", "only used with closure = \"hold\"", problems);
         c->check_unknown_keys(problems);
         p.conditions.push_back(std::move(cond));
     }
@@ -229,6 +282,7 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         render.report(render.has("head_mesh") ? "head_mesh" : "head_rig",
                       "expected head_mesh and head_rig together (a rig belongs to its mesh), got only one",
                       problems);
+    p.render.check_articulation = render.get_bool("check_articulation", true, problems);
     render.check_unknown_keys(problems);
     p.render_section = render;
 

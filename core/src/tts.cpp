@@ -1,8 +1,10 @@
-// Text-to-speech through libespeak-ng: audio from the synth callback, phone
-// timing from espeakEVENT_PHONEME events, stress from espeak_TextToPhonemes,
-// all mapped into the project phone set through protocols/phone_map.tsv.
-// Each utterance is synthesised in a forked child from a freshly initialised
-// espeak-ng, so the output never depends on what was spoken before.
+// Text-to-speech front end. espeak-ng: audio from the synth callback, phone
+// timing from espeakEVENT_PHONEME events, stress from espeak_TextToPhonemes.
+// Festival (festival_tts.cpp): audio and the Segment relation with syllable
+// stress. Both are mapped into the project phone set through
+// protocols/phone_map.tsv and padded to the same edge silences. Each utterance
+// is synthesised in a forked child from a freshly initialised engine, so the
+// output never depends on what was spoken before (docs/tts.md).
 #include "avsi/core/tts.h"
 
 #include <espeak-ng/speak_lib.h>
@@ -16,13 +18,18 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <stdexcept>
+#include <tuple>
 
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
+#include "avsi/core/files.h"
 #include "avsi/core/log.h"
+#include "festival_tts.h"
+#include "wire.h"
 
 namespace avsi {
 
@@ -190,51 +197,11 @@ struct Synthesis {
     std::string variant;
 };
 
-class Writer {
-public:
-    void i64(std::int64_t v) { bytes(&v, sizeof v); }
-    void str(const std::string& v) {
-        i64(static_cast<std::int64_t>(v.size()));
-        bytes(v.data(), v.size());
-    }
-    void bytes(const void* data, std::size_t n) { m_out.append(static_cast<const char*>(data), n); }
-    const std::string& data() const { return m_out; }
-
-private:
-    std::string m_out;
-};
-
-class Reader {
-public:
-    explicit Reader(const std::string& in) : m_in(in) {}
-    std::int64_t i64() {
-        std::int64_t v = 0;
-        bytes(&v, sizeof v);
-        return v;
-    }
-    std::string str() {
-        const auto n = static_cast<std::size_t>(i64());
-        if (n > m_in.size() - m_pos) throw std::runtime_error("espeak-ng child: truncated message");
-        std::string v = m_in.substr(m_pos, n);
-        m_pos += n;
-        return v;
-    }
-    void bytes(void* data, std::size_t n) {
-        if (n > m_in.size() - m_pos) throw std::runtime_error("espeak-ng child: truncated message");
-        std::memcpy(data, m_in.data() + m_pos, n);
-        m_pos += n;
-    }
-
-private:
-    const std::string& m_in;
-    std::size_t m_pos = 0;
-};
-
 enum : std::int64_t { kOk = 0, kInputError = 1, kFailure = 2 };
 
 // In the child: the whole synthesis, serialised.
 std::string child_synthesis(const std::string& text, const TtsSettings& settings, const PhoneInventory& inventory) {
-    Writer w;
+    detail::WireWriter w;
     try {
         Synthesis r;
         r.variant = select_voice(settings.voice);
@@ -264,12 +231,12 @@ std::string child_synthesis(const std::string& text, const TtsSettings& settings
         w.i64(static_cast<std::int64_t>(r.collector.samples.size()));
         w.bytes(r.collector.samples.data(), r.collector.samples.size() * sizeof(short));
     } catch (const InputError& e) {
-        w = Writer{};
+        w.clear();
         w.i64(kInputError);
         w.str(e.first().field);
         w.str(e.first().message);
     } catch (const std::exception& e) {
-        w = Writer{};
+        w.clear();
         w.i64(kFailure);
         w.str(e.what());
     }
@@ -314,7 +281,7 @@ Synthesis synthesize_isolated(const std::string& text, const TtsSettings& settin
     if (!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0 || message.empty())
         throw std::runtime_error(fmt::format("tts: the espeak-ng child process failed (status {})", wstatus));
 
-    Reader r(message);
+    detail::WireReader r(message, "espeak-ng child");
     const std::int64_t kind = r.i64();
     if (kind == kInputError) {
         std::string field = r.str();
@@ -324,20 +291,20 @@ Synthesis synthesize_isolated(const std::string& text, const TtsSettings& settin
     if (kind != kOk) throw std::runtime_error(r.str());
     Synthesis out;
     out.variant = r.str();
-    out.tokens.resize(static_cast<std::size_t>(r.i64()));
+    out.tokens.resize(r.count(2 * sizeof(std::int64_t)));
     for (auto& t : out.tokens) {
         t.base = r.str();
         const std::int64_t stress = r.i64();
         if (stress >= 0) t.stress = stress == 1;
     }
-    out.collector.phonemes.resize(static_cast<std::size_t>(r.i64()));
+    out.collector.phonemes.resize(r.count(3 * sizeof(std::int64_t)));
     for (auto& e : out.collector.phonemes) {
         e.mnemonic = r.str();
         e.sample = static_cast<long>(r.i64());
         e.word = static_cast<int>(r.i64());
     }
     out.collector.end_sample = static_cast<long>(r.i64());
-    out.collector.samples.resize(static_cast<std::size_t>(r.i64()));
+    out.collector.samples.resize(r.count(sizeof(short)));
     r.bytes(out.collector.samples.data(), out.collector.samples.size() * sizeof(short));
     return out;
 }
@@ -350,21 +317,53 @@ struct SamplePhone {
     int word = 0;
 };
 
-}  // namespace
+// Appends `p` unless it is empty; a silence after a silence extends it.
+void append_phone(std::vector<SamplePhone>& phones, SamplePhone p) {
+    if (p.end <= p.start) return;
+    if (!phones.empty() && p.phone.symbol == "sil" && phones.back().phone.symbol == "sil") {
+        phones.back().end = p.end;
+        return;
+    }
+    phones.push_back(std::move(p));
+}
 
-TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings) {
-    if (text.find_first_not_of(" \t\r\n") == std::string::npos)
-        throw InputError("tts", 0, 0, "text", "expected some text to speak, got an empty string");
+// The result from the engine's phones (contiguous, in samples of `samples`):
+// the leading and trailing silence cut or padded to the settings.
+TtsResult pad_edges(std::vector<SamplePhone> phones, std::vector<short> samples, int rate_hz,
+                    const TtsSettings& settings, const std::string& where, const char* engine) {
+    if (!phones.empty() && phones.back().phone.symbol == "sil") phones.pop_back();
+    if (!phones.empty() && phones.front().phone.symbol == "sil") phones.erase(phones.begin());
+    if (phones.empty()) throw InputError(where, 0, 0, "text", fmt::format("{} produced only silence for this text", engine));
+    const long speech_start = phones.front().start;
+    const long speech_end = phones.back().end;
+    const long lead = std::lround(settings.lead_silence_s * rate_hz);
+    const long trail = std::lround(settings.trail_silence_s * rate_hz);
+    const long shift = lead - speech_start;
+    if (shift > 0) samples.insert(samples.begin(), static_cast<std::size_t>(shift), short{0});
+    else samples.erase(samples.begin(), samples.begin() + (-shift));
+    const long total_out = speech_end + shift + trail;
+    samples.resize(static_cast<std::size_t>(total_out), short{0});
+
+    TtsResult result;
+    result.audio.sample_rate_hz = rate_hz;
+    result.audio.channels = 1;
+    result.audio.samples.reserve(samples.size());
+    for (short s : samples) result.audio.samples.push_back(static_cast<float>(s) / 32768.0f);
+    auto seconds = [rate_hz](long sample) { return static_cast<double>(sample) / rate_hz; };
+    if (lead > 0) result.phones.push_back({"sil", 0.0, seconds(lead), false});
+    for (const auto& p : phones)
+        result.phones.push_back({p.phone.symbol, seconds(p.start + shift), seconds(p.end + shift), p.phone.stressed});
+    if (trail > 0) result.phones.push_back({"sil", seconds(speech_end + shift), seconds(total_out), false});
+    return result;
+}
+
+TtsResult synthesize_espeak(const std::string& text, const TtsSettings& settings) {
     if (settings.rate_wpm < espeakRATE_MINIMUM || settings.rate_wpm > espeakRATE_MAXIMUM)
         throw InputError("tts", 0, 0, "rate_wpm",
                          fmt::format("expected words per minute in [{}, {}], got {}", espeakRATE_MINIMUM,
                                      espeakRATE_MAXIMUM, settings.rate_wpm));
     if (settings.pitch < 0 || settings.pitch > 99)
         throw InputError("tts", 0, 0, "pitch", fmt::format("expected a pitch in [0, 99], got {}", settings.pitch));
-    for (const auto& [name, value] : {std::pair{"lead_silence_s", settings.lead_silence_s},
-                                      std::pair{"trail_silence_s", settings.trail_silence_s}})
-        if (!(value >= 0.0 && value <= 60.0))
-            throw InputError("tts", 0, 0, name, fmt::format("expected seconds in [0, 60], got {}", value));
     const PhoneInventory& inventory = PhoneInventory::builtin();
 
     // Step 1: synthesise in a child process, collecting samples, events and
@@ -390,15 +389,7 @@ TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings
     const auto stressed = align_stress(collector.phonemes, tokens);
     const long total = static_cast<long>(collector.samples.size());
     std::vector<SamplePhone> phones;
-    auto append = [&phones](SamplePhone p) {
-        if (p.end <= p.start) return;
-        if (!phones.empty() && p.phone.symbol == "sil" && phones.back().phone.symbol == "sil") {
-            phones.back().end = p.end;
-            return;
-        }
-        phones.push_back(std::move(p));
-    };
-    append({{"sil"}, 0, std::clamp(collector.phonemes.front().sample, 0L, total), 0});
+    append_phone(phones, {{"sil"}, 0, std::clamp(collector.phonemes.front().sample, 0L, total), 0});
     for (std::size_t k = 0; k < collector.phonemes.size(); ++k) {
         const EspeakEvent& event = collector.phonemes[k];
         const long start = std::clamp(std::max(event.sample, phones.empty() ? 0L : phones.back().end), 0L, total);
@@ -408,17 +399,17 @@ TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings
         const auto mapped = inventory.from_espeak(mnemonic, where, variant);
         if (mapped.empty()) {  // an internal marker: its time joins the previous phone
             if (!phones.empty()) phones.back().end = end;
-            else append({{"sil"}, start, end, event.word});
+            else append_phone(phones, {{"sil"}, start, end, event.word});
             continue;
         }
         const double step = double(end - start) / double(mapped.size());
         for (std::size_t m = 0; m < mapped.size(); ++m) {
             const long s = start + std::lround(step * double(m));
             const long e = m + 1 == mapped.size() ? end : start + std::lround(step * double(m + 1));
-            append({mapped[m], s, e, event.word});
+            append_phone(phones, {mapped[m], s, e, event.word});
         }
     }
-    if (phones.back().end < total) append({{"sil"}, phones.back().end, total, phones.back().word});
+    if (phones.back().end < total) append_phone(phones, {{"sil"}, phones.back().end, total, phones.back().word});
 
     // Step 3: an R after R or ER in the same word is the r-colouring already
     // written (en-us "our" = aU 3 r- -> AW ER R): it joins the phone before.
@@ -433,31 +424,141 @@ TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings
     }
 
     // Step 4: lead and trail silence cut or padded to the settings.
-    if (!merged.empty() && merged.back().phone.symbol == "sil") merged.pop_back();
-    if (!merged.empty() && merged.front().phone.symbol == "sil") merged.erase(merged.begin());
-    if (merged.empty()) throw InputError(where, 0, 0, "text", "espeak-ng produced only silence for this text");
-    const long speech_start = merged.front().start;
-    const long speech_end = merged.back().end;
-    const long lead = std::lround(settings.lead_silence_s * rate_hz);
-    const long trail = std::lround(settings.trail_silence_s * rate_hz);
-    const long shift = lead - speech_start;
-    std::vector<short> samples = std::move(collector.samples);
-    if (shift > 0) samples.insert(samples.begin(), static_cast<std::size_t>(shift), short{0});
-    else samples.erase(samples.begin(), samples.begin() + (-shift));
-    const long total_out = speech_end + shift + trail;
-    samples.resize(static_cast<std::size_t>(total_out), short{0});
+    return pad_edges(std::move(merged), std::move(collector.samples), rate_hz, settings, where, "espeak-ng");
+}
 
-    TtsResult result;
-    result.audio.sample_rate_hz = rate_hz;
-    result.audio.channels = 1;
-    result.audio.samples.reserve(samples.size());
-    for (short s : samples) result.audio.samples.push_back(static_cast<float>(s) / 32768.0f);
-    auto seconds = [rate_hz](long sample) { return static_cast<double>(sample) / rate_hz; };
-    if (lead > 0) result.phones.push_back({"sil", 0.0, seconds(lead), false});
-    for (const auto& p : merged)
-        result.phones.push_back({p.phone.symbol, seconds(p.start + shift), seconds(p.end + shift), p.phone.stressed});
-    if (trail > 0) result.phones.push_back({"sil", seconds(speech_end + shift), seconds(total_out), false});
-    return result;
+// Festival: the Segment relation gives each phone's end; it starts where the
+// previous one ends. Phones are mapped through the `festival` rows of
+// protocols/phone_map.tsv, so the voice must use the US English phone set.
+TtsResult synthesize_festival(const std::string& text, const TtsSettings& settings) {
+    const TtsSettings defaults;
+    for (const auto& [field, value, fixed] : {std::tuple{"rate_wpm", settings.rate_wpm, defaults.rate_wpm},
+                                              std::tuple{"pitch", settings.pitch, defaults.pitch}})
+        if (value != fixed)
+            throw InputError("tts", 0, 0, field,
+                             fmt::format("applies to espeak-ng voices only; Festival voice {} speaks at its own "
+                                         "rate and pitch (expected the default {}, got {})",
+                                         settings.voice, fixed, value));
+    const PhoneInventory& inventory = PhoneInventory::builtin();
+    detail::FestivalUtterance u = detail::festival_synthesize(text, settings.voice);
+    const std::string where = fmt::format("text \"{}\" (Festival voice {})", text, settings.voice);
+    if (u.phone_set != "radio")
+        throw InputError("tts", 0, 0, "voice",
+                         fmt::format("Festival voice \"{}\" uses the phone set \"{}\"; the phone mapping "
+                                     "(protocols/phone_map.tsv) covers Festival's US English phone set \"radio\" "
+                                     "(voices cmu_us_slt_arctic_hts, kal_diphone, ...)",
+                                     settings.voice, u.phone_set));
+    if (u.segments.empty() || u.samples.empty())
+        throw InputError(where, 0, 0, "text", "Festival produced no speech for this text");
+    const int rate_hz = u.sample_rate_hz;
+    log_debug("festival: {} segments, {} samples at {} Hz", u.segments.size(), u.samples.size(), rate_hz);
+
+    const long total = static_cast<long>(u.samples.size());
+    std::vector<SamplePhone> phones;
+    long start = 0;
+    for (const auto& seg : u.segments) {
+        const long end = std::clamp(std::lround(seg.end_s * rate_hz), start, total);
+        const auto mapped = inventory.from_festival(seg.name, seg.stressed, where);
+        const double step = double(end - start) / double(mapped.size());
+        for (std::size_t m = 0; m < mapped.size(); ++m) {
+            const long s = start + std::lround(step * double(m));
+            const long e = m + 1 == mapped.size() ? end : start + std::lround(step * double(m + 1));
+            append_phone(phones, {mapped[m], s, e, 0});
+        }
+        start = end;
+    }
+    if (start < total) append_phone(phones, {{"sil"}, start, total, 0});
+    std::vector<short> samples(u.samples.begin(), u.samples.end());
+    return pad_edges(std::move(phones), std::move(samples), rate_hz, settings, where, "Festival");
+}
+
+// SHA-256 over the files under `dir` (relative paths and contents, sorted).
+std::string directory_sha256(const std::filesystem::path& dir) {
+    std::vector<std::pair<std::string, std::string>> files;
+    std::error_code ec;
+    for (auto it = std::filesystem::recursive_directory_iterator(dir, ec);
+         !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec))
+        if (it->is_regular_file())
+            files.emplace_back(std::filesystem::relative(it->path(), dir).generic_string(), sha256_file(it->path()));
+    if (ec || files.empty()) return {};
+    std::sort(files.begin(), files.end());
+    std::string all;
+    for (const auto& [path, hash] : files) all += path + '\t' + hash + '\n';
+    return sha256_hex(all);
+}
+
+}  // namespace
+
+void set_tts_voice(TtsSettings& settings, std::string_view spec, std::string_view where) {
+    const auto colon = spec.find(':');
+    const std::string_view engine = colon == std::string_view::npos ? std::string_view() : spec.substr(0, colon);
+    const std::string_view voice = colon == std::string_view::npos ? std::string_view() : spec.substr(colon + 1);
+    if (engine != "espeak" && engine != "festival")
+        throw InputError(std::string(where), 0, 0, "tts",
+                         fmt::format("expected \"espeak:<voice>\" or \"festival:<voice>\" (e.g. \"espeak:en-us\", "
+                                     "\"festival:cmu_us_slt_arctic_hts\"), got \"{}\"",
+                                     spec));
+    if (voice.empty() || voice.find_first_of(" \t\n\"'()") != std::string_view::npos)
+        throw InputError(std::string(where), 0, 0, "tts",
+                         fmt::format("expected a voice name after \"{}:\", got \"{}\"", engine, spec));
+    settings.engine = engine == "festival" ? TtsEngine::Festival : TtsEngine::Espeak;
+    settings.voice = std::string(voice);
+}
+
+std::string tts_voice_spec(const TtsSettings& settings) {
+    return (settings.engine == TtsEngine::Festival ? "festival:" : "espeak:") + settings.voice;
+}
+
+TtsVoiceInfo describe_tts_voice(const TtsSettings& settings) {
+    TtsVoiceInfo info;
+    info.voice = settings.voice;
+    if (settings.engine == TtsEngine::Festival) {
+        const detail::FestivalVoiceInfo f = detail::festival_voice_info(settings.voice);
+        info.engine = "festival";
+        info.engine_version = f.festival_version;
+        info.voice_sha256 = directory_sha256(f.directory);
+        return info;
+    }
+    info.engine = "espeak-ng";
+    std::lock_guard lock(g_espeak_mutex);
+    ensure_initialized();
+    const auto english = english_voice_languages();
+    if (std::find(english.begin(), english.end(), settings.voice) == english.end()) {
+        // Names espeak-ng accepts beyond the language codes are checked when
+        // the voice is selected; an unknown one fails there with the list.
+        bool known = false;
+        for (const espeak_VOICE** v = espeak_ListVoices(nullptr); v && *v && !known; ++v)
+            known = ((*v)->name && settings.voice == (*v)->name) ||
+                    ((*v)->identifier && settings.voice == (*v)->identifier);
+        if (!known) {
+            std::string list;
+            for (const auto& l : english) list += (list.empty() ? "" : ", ") + l;
+            const std::string close = closest_match(settings.voice, english);
+            throw InputError("tts", 0, 0, "voice",
+                             fmt::format("unknown or non-English espeak-ng voice \"{}\"{}; English voices: {}",
+                                         settings.voice, close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close), list));
+        }
+    }
+    info.engine_version = espeak_Info(nullptr);
+    return info;
+}
+
+std::vector<std::string> installed_tts_voices(TtsEngine engine) {
+    if (engine == TtsEngine::Festival) return detail::festival_voices();
+    std::lock_guard lock(g_espeak_mutex);
+    ensure_initialized();
+    return english_voice_languages();
+}
+
+TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings) {
+    if (text.find_first_not_of(" \t\r\n") == std::string::npos)
+        throw InputError("tts", 0, 0, "text", "expected some text to speak, got an empty string");
+    for (const auto& [name, value] : {std::pair{"lead_silence_s", settings.lead_silence_s},
+                                      std::pair{"trail_silence_s", settings.trail_silence_s}})
+        if (!(value >= 0.0 && value <= 60.0))
+            throw InputError("tts", 0, 0, name, fmt::format("expected seconds in [0, 60], got {}", value));
+    return settings.engine == TtsEngine::Festival ? synthesize_festival(text, settings)
+                                                  : synthesize_espeak(text, settings);
 }
 
 }  // namespace avsi

@@ -13,6 +13,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/synth/control_model.h"
+#include "avsi/synth/target_hold.h"
 #include "svg_plot.h"
 
 namespace avsi::learn {
@@ -94,24 +95,106 @@ ModelScores EvaluationAccumulator::scores(const std::string& name) const {
     return out;
 }
 
+namespace {
+
+// Sums for the phonetic columns of one model.
+struct PhoneticSums {
+    PhoneticScores scores;
+    double aperture_sum = 0.0, incisor_sum = 0.0;
+    std::size_t aperture_frames = 0, incisor_frames = 0;
+
+    PhoneticScores finish() const {
+        PhoneticScores s = scores;
+        s.aperture_error_mm = aperture_frames ? aperture_sum / double(aperture_frames) : nan_v;
+        s.lip_to_incisors_error_mm = incisor_frames ? incisor_sum / double(incisor_frames) : nan_v;
+        return s;
+    }
+};
+
+// The corpus track as a trajectory, or nothing when a parameter is missing
+// anywhere (a head cannot be posed without it).
+std::optional<Trajectory> complete_track(const ParamTrack& track) {
+    Trajectory t;
+    t.fps = track.fps;
+    t.frames = track.frames;
+    for (const auto& f : t.frames)
+        for (double v : f)
+            if (!std::isfinite(v)) return std::nullopt;
+    return t;
+}
+
+// Adds one utterance: the model's checks, and its errors against the reference's measures.
+void add_phonetic(PhoneticSums& sums, const PhoneSequence& phones, double fps,
+                  const std::vector<synth::ArticulationMeasures>& model,
+                  const std::vector<synth::ArticulationMeasures>* reference) {
+    const auto summary = synth::check_articulation(phones, fps, model);
+    sums.scores.bilabials += summary.bilabials;
+    sums.scores.bilabials_closed += summary.bilabials_closed;
+    sums.scores.labiodentals += summary.labiodentals;
+    sums.scores.labiodentals_reached += summary.labiodentals_reached;
+    ++sums.scores.utterances;
+    if (!reference) return;
+    for (const auto& seg : summary.segments)
+        for (std::size_t k = 0; k < model.size() && k < reference->size(); ++k) {
+            const double t = model[k].time_s;
+            if (t < seg.start_s || t >= seg.end_s) continue;
+            if (seg.kind == synth::SegmentClass::Bilabial) {
+                sums.aperture_sum += std::abs(model[k].aperture_mid_mm - (*reference)[k].aperture_mid_mm);
+                ++sums.aperture_frames;
+            } else {
+                sums.incisor_sum += std::abs(model[k].lip_to_incisors_mm - (*reference)[k].lip_to_incisors_mm);
+                ++sums.incisor_frames;
+            }
+        }
+}
+
+}  // namespace
+
 std::vector<ModelScores> evaluate_predictors(const std::vector<CorpusUtterance>& utterances,
-                                             const std::vector<NamedPredictor>& predictors) {
+                                             const std::vector<NamedPredictor>& predictors,
+                                             const ArticulationFunction& articulation) {
+    // The reference tracks' measures, once for every model.
+    std::vector<std::optional<std::vector<synth::ArticulationMeasures>>> reference(utterances.size());
+    if (articulation)
+        for (std::size_t i = 0; i < utterances.size(); ++i)
+            if (const auto track = complete_track(utterances[i].track)) reference[i] = articulation(*track);
     std::vector<ModelScores> out;
     for (const auto& predictor : predictors) {
         EvaluationAccumulator acc;
+        PhoneticSums phonetic;
         std::vector<double> times;
         std::vector<Frame> frames;
-        for (const auto& u : utterances) {
+        for (std::size_t i = 0; i < utterances.size(); ++i) {
+            const auto& u = utterances[i];
             times.resize(u.track.size());
             for (std::size_t k = 0; k < times.size(); ++k) times[k] = u.track.time_s(k);
             frames.clear();
             predictor.predict(u.phones, times, frames);
             AVSI_ASSERT(frames.size() == times.size());
             acc.add(u.phones, u.track, frames);
+            if (articulation) {
+                Trajectory predicted;
+                predicted.fps = u.track.fps;
+                predicted.frames = frames;
+                add_phonetic(phonetic, u.phones, u.track.fps, articulation(predicted),
+                             reference[i] ? &*reference[i] : nullptr);
+            }
         }
         out.push_back(acc.scores(predictor.name));
+        if (articulation) out.back().phonetic = phonetic.finish();
     }
     return out;
+}
+
+PhoneticScores reference_phonetic_scores(const std::vector<CorpusUtterance>& utterances,
+                                         const ArticulationFunction& articulation) {
+    PhoneticSums sums;
+    for (const auto& u : utterances)
+        if (const auto track = complete_track(u.track)) {
+            const auto m = articulation(*track);
+            add_phonetic(sums, u.phones, track->fps, m, &m);
+        }
+    return sums.finish();
 }
 
 namespace {
@@ -162,6 +245,44 @@ std::string scores_csv(const std::vector<ModelScores>& scores) {
                                  num(sc.pearson, 6), fmt::format("{}", sc.frames)});
             }
         }
+    return csv;
+}
+
+namespace {
+
+// One row of the phonetic table: label, then the columns.
+std::string phonetic_row(const std::string& name, const PhoneticScores& p) {
+    return fmt::format("| {} | {}/{} ({}) | {}/{} ({}) | {} | {} |\n", name, p.bilabials_closed, p.bilabials,
+                       fmt::format("{:.1f} %", 100.0 * p.closure_rate()), p.labiodentals_reached, p.labiodentals,
+                       fmt::format("{:.1f} %", 100.0 * p.contact_rate()), num(p.aperture_error_mm, 2),
+                       num(p.lip_to_incisors_error_mm, 2));
+}
+
+std::string phonetic_csv_row(const std::string& name, const PhoneticScores& p) {
+    return csv_line({name, fmt::format("{}", p.bilabials), fmt::format("{}", p.bilabials_closed),
+                     num(p.closure_rate(), 4), fmt::format("{}", p.labiodentals),
+                     fmt::format("{}", p.labiodentals_reached), num(p.contact_rate(), 4), num(p.aperture_error_mm, 4),
+                     num(p.lip_to_incisors_error_mm, 4)});
+}
+
+}  // namespace
+
+std::string phonetic_markdown(const PhoneticScores& reference, const std::vector<ModelScores>& scores) {
+    std::string md =
+        "| model | bilabials closed | labiodentals reached | aperture error at /p b m/ (mm) | lower lip to incisors "
+        "error at /f v/ (mm) |\n| --- | ---: | ---: | ---: | ---: |\n";
+    md += phonetic_row("reference data", reference);
+    for (const auto& m : scores)
+        if (m.phonetic) md += phonetic_row(m.name, *m.phonetic);
+    return md;
+}
+
+std::string phonetic_csv(const PhoneticScores& reference, const std::vector<ModelScores>& scores) {
+    std::string csv = "model,bilabials,bilabials_closed,closure_rate,labiodentals,labiodentals_reached,contact_rate,"
+                      "aperture_error_mm,lip_to_incisors_error_mm\n";
+    csv += phonetic_csv_row("reference", reference);
+    for (const auto& m : scores)
+        if (m.phonetic) csv += phonetic_csv_row(m.name, *m.phonetic);
     return csv;
 }
 
@@ -255,13 +376,18 @@ EvaluationResult run_evaluation(const EvaluationSettings& settings) {
         throw InputError("", 0, 0, "--subset", fmt::format("expected test, train or all, got \"{}\"", settings.subset));
     if (ids.empty()) throw InputError(corpus.manifest, fmt::format("the {} split is empty", settings.subset));
 
-    std::vector<std::unique_ptr<ControlModel>> models;
+    std::vector<std::shared_ptr<const ControlModel>> models;
     std::vector<NamedPredictor> predictors;
-    for (const auto& path : settings.models) {
-        models.push_back(load_model(path));
+    auto add = [&](std::shared_ptr<const ControlModel> model, std::string name) {
+        models.push_back(std::move(model));
         const ControlModel* m = models.back().get();
-        predictors.push_back({path.stem().string(), [m](const PhoneSequence& phones, std::span<const double> times,
-                                                         std::vector<Frame>& out) { m->evaluate(phones, times, out); }});
+        predictors.push_back({std::move(name), [m](const PhoneSequence& phones, std::span<const double> times,
+                                                   std::vector<Frame>& out) { m->evaluate(phones, times, out); }});
+    };
+    for (const auto& path : settings.models) {
+        std::shared_ptr<const ControlModel> model = load_model(path);
+        add(model, path.stem().string());
+        if (settings.closure_hold) add(with_target_hold(model, TargetHoldSettings{}), path.stem().string() + "+hold");
     }
     log_info("evaluating {} model(s) on {} {} utterances of {}", models.size(), ids.size(), settings.subset,
              corpus.name);
@@ -269,7 +395,7 @@ EvaluationResult run_evaluation(const EvaluationSettings& settings) {
 
     EvaluationResult result;
     result.utterances = utterances.size();
-    result.scores = evaluate_predictors(utterances, predictors);
+    result.scores = evaluate_predictors(utterances, predictors, settings.articulation);
     const std::string caption = fmt::format(
         "Table 2 layout: RMSE (% of each parameter's full range) and Pearson ρ between target and predicted "
         "trajectories, averaged over parameters; corpus {} (hash {}), {} split ({} utterances, split seed {}, "
@@ -277,6 +403,17 @@ EvaluationResult run_evaluation(const EvaluationSettings& settings) {
         corpus.name, corpus.hash.substr(0, 12), settings.subset, utterances.size(), split.seed, split.test_fraction);
     result.markdown = scores_markdown(result.scores, caption);
     const fs::path base = settings.out;
+    if (settings.articulation) {
+        result.reference = reference_phonetic_scores(utterances, settings.articulation);
+        result.markdown += fmt::format(
+            "\nPhonetic columns: what the face shows, measured on {} (avsi measure): a bilabial is closed when a "
+            "sampled frame inside it has a central-third lip aperture ≤ 0.5 mm, a labiodental reached when one has "
+            "the lower lip within 2 mm of the upper incisors; errors are mean absolute differences from the "
+            "reference track's measures over the segments' frames.\n\n{}",
+            settings.articulation_head.empty() ? std::string("the head") : settings.articulation_head,
+            phonetic_markdown(*result.reference, result.scores));
+        write_text_file(fs::path(base.string() + "_phonetic.csv"), phonetic_csv(*result.reference, result.scores));
+    }
     write_text_file(fs::path(base.string() + ".md"), result.markdown);
     write_text_file(fs::path(base.string() + ".csv"), scores_csv(result.scores));
 

@@ -72,11 +72,15 @@ const std::map<std::string, PhoneTargets, std::less<>>& target_table() {
         m["OW"] = {OW1, UW};
         m["OY"] = {AO, IY};
         // Consonants: what the place of articulation constrains.
-        m["P"] = {t(0.08, U, U, -0.20, U, -0.35, U, U), {}};
-        m["B"] = {t(0.08, U, U, -0.18, U, -0.33, U, U), {}};
-        m["M"] = {t(0.06, U, U, -0.15, U, -0.30, U, U), {}};
-        m["F"] = {t(0.12, U, U, 0.15, 0.80, -0.10, U, -0.05), {}};
-        m["V"] = {t(0.12, U, U, 0.12, 0.75, -0.08, U, -0.05), {}};
+        // Bilabials aim beyond contact (a virtual target: the lips stop each
+        // other, Löfqvist & Gracco 1997), ~3-4 mm of overlap on the built-in head.
+        m["P"] = {t(0.04, U, U, -0.40, U, -0.50, U, U), {}};
+        m["B"] = {t(0.05, U, U, -0.38, U, -0.48, U, U), {}};
+        m["M"] = {t(0.06, U, U, -0.35, U, -0.46, U, U), {}};
+        // Labiodentals: the lower lip under the upper incisors, the upper lip
+        // raised off them, little rounding (protruded lips would leave the teeth).
+        m["F"] = {t(0.12, 0.15, U, 0.45, 0.75, 0.00, U, -0.05), {}};
+        m["V"] = {t(0.12, 0.15, U, 0.42, 0.72, 0.02, U, -0.05), {}};
         m["TH"] = {t(0.18, U, U, 0.10, U, 0.15, U, 0.05), {}};
         m["DH"] = {t(0.16, U, U, 0.08, U, 0.12, U, 0.05), {}};
         m["T"] = {t(0.15, U, U, U, U, U, U, 0.05), {}};
@@ -112,11 +116,62 @@ const PhoneTargets& targets_of(const Phone& phone) {
 
 bool is_vowel_symbol(const std::string& s) { return PhoneInventory::builtin().is_vowel(s); }
 
-// A command segment: from start_s, the target vector (fully specified).
+// The constriction task of a consonant: what the speaker makes sure it
+// reaches however short the segment (see the planning in
+// simulate_reference_speaker).
+enum class Task { None, LipClosure, Labiodental };
+
+// A command segment: from start_s, the target vector (fully specified). The
+// parameters of its task take over `extra_lead_s` earlier than their
+// anticipation says (a planned early gesture).
 struct Command {
     double start_s;
     Target target;
+    double extra_lead_s = 0.0;
+    Task task = Task::None;
+    double centre_s = 0.0;
 };
+
+// The speaker's task variables, linear in the parameters near rest as the
+// built-in head's rig makes them (mm; the stimuli tests measure the corpus
+// on the head itself). Lip aperture (Saltzman & Munhall's LA): jaw 20.9 mm
+// per unit at the lips, lower lip depression 6, upper lip raise 5, upper lip
+// retraction 0.8, lower lip retraction −3.5. Lower lip height (up positive),
+// which brings the lower lip to the upper incisors: −20.9 jaw + 3.5 lower lip
+// retraction − 6 lower lip depression.
+double lip_aperture_mm(const Frame& f) {
+    return 20.9 * f[index(Param::JawRotation)] + 0.8 * f[index(Param::UpperLipRetraction)] +
+           5.0 * f[index(Param::UpperLipRaise)] - 3.5 * f[index(Param::LowerLipRetraction)] +
+           6.0 * f[index(Param::LowerLipDepression)];
+}
+double lower_lip_height_mm(const Frame& f) {
+    return -20.9 * f[index(Param::JawRotation)] + 3.5 * f[index(Param::LowerLipRetraction)] -
+           6.0 * f[index(Param::LowerLipDepression)];
+}
+
+// How far `f` is from achieving the command's task (≤ 0: achieved).
+double task_shortfall_mm(const Command& c, const Frame& f, double closure_margin_mm) {
+    switch (c.task) {
+        case Task::LipClosure: return lip_aperture_mm(f) + closure_margin_mm;
+        case Task::Labiodental: return lower_lip_height_mm(c.target) - lower_lip_height_mm(f) - 1.0;
+        case Task::None: return 0.0;
+    }
+    return 0.0;
+}
+
+// The parameters a task's gesture moves early.
+bool task_parameter(Task task, std::size_t p) {
+    switch (task) {
+        case Task::LipClosure:
+            return p == index(Param::JawRotation) || p == index(Param::UpperLipRaise) ||
+                   p == index(Param::LowerLipDepression);
+        case Task::Labiodental:
+            return p == index(Param::JawRotation) || p == index(Param::LowerLipRetraction) ||
+                   p == index(Param::LowerLipDepression);
+        case Task::None: return false;
+    }
+    return false;
+}
 
 // The piecewise-constant command sequence for an utterance (before leads).
 std::vector<Command> commands(const PhoneSequence& phones, const UtteranceVariation& v) {
@@ -147,7 +202,11 @@ std::vector<Command> commands(const PhoneSequence& phones, const UtteranceVariat
             }
             return tgt;
         };
-        out.push_back({ph.start_s, resolve(pt.first)});
+        Command first{ph.start_s, resolve(pt.first)};
+        if (ph.symbol == "P" || ph.symbol == "B" || ph.symbol == "M") first.task = Task::LipClosure;
+        if (ph.symbol == "F" || ph.symbol == "V") first.task = Task::Labiodental;
+        first.centre_s = ph.centre_s();
+        out.push_back(first);
         if (pt.second) out.push_back({ph.centre_s(), resolve(*pt.second)});
     }
     return out;
@@ -171,33 +230,84 @@ const std::array<ArticulatorDynamics, param_count>& reference_dynamics() {
     return d;
 }
 
+namespace {
+
+// The noise-free trajectories of the commands (frames k/fps up to `frames`).
+std::vector<Frame> simulate_commands(const std::vector<Command>& cmds, const UtteranceVariation& variation,
+                                     const ReferenceSpeakerSettings& settings, std::size_t frames) {
+    std::vector<Frame> out(frames, Frame{});
+    const double dt = settings.simulation_step_s;
+    for (std::size_t p = 0; p < param_count; ++p) {
+        const ArticulatorDynamics& dyn = reference_dynamics()[p];
+        const double tau = dyn.time_constant_s * (variation.time_constant_scale[p] > 0 ? variation.time_constant_scale[p] : 1.0);
+        // A command takes over at start_s minus its lead; an early gesture
+        // may take over before the commands just ahead of it, which it then
+        // skips (the jaw closes for /b/ without first going to /l/'s height).
+        // The gesture after a constriction does not release it before
+        // hold_s after the constriction's centre (a stop is released, not
+        // anticipated away).
+        const double hold_s = settings.closure_hold_s;
+        auto takes_over = [&](std::size_t j) {
+            const Command& c = cmds[j];
+            double t = c.start_s - dyn.anticipation_s - (task_parameter(c.task, p) ? c.extra_lead_s : 0.0);
+            if (j > 0 && task_parameter(cmds[j - 1].task, p)) t = std::max(t, cmds[j - 1].centre_s + hold_s);
+            return t;
+        };
+        const double lookahead = settings.max_closure_lead_s;
+        double x = cmds.front().target[p], v = 0.0;  // start at rest on the first (silence) target
+        std::size_t c = 0, k = 0;
+        for (double time = 0.0; k < frames; time += dt) {
+            // Sample every frame whose time has been reached.
+            while (k < frames && static_cast<double>(k) / settings.fps <= time + 1e-12) out[k++][p] = x;
+            for (std::size_t j = c + 1; j < cmds.size() && cmds[j].start_s - dyn.anticipation_s - lookahead <= time; ++j)
+                if (takes_over(j) <= time) c = j;
+            const double u = cmds[c].target[p];
+            // Semi-implicit Euler on x'' = (u − x)/τ² − 2x'/τ (stable for dt ≪ τ).
+            v += dt * ((u - x) / (tau * tau) - 2.0 * v / tau);
+            x += dt * v;
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
 ParamTrack simulate_reference_speaker(const PhoneSequence& phones, const UtteranceVariation& variation,
                                       const ReferenceSpeakerSettings& settings, Rng& rng) {
     AVSI_ASSERT(!phones.empty() && settings.fps > 0 && settings.simulation_step_s > 0);
-    const std::vector<Command> cmds = commands(phones, variation);
+    std::vector<Command> cmds = commands(phones, variation);
     const double end_s = phones.back().end_s;
     const std::size_t frames = frame_count(end_s, settings.fps);
     ParamTrack track;
     track.fps = settings.fps;
     track.start_s = 0.0;
     track.present.fill(true);
-    track.frames.assign(frames, Frame{});
 
-    const double dt = settings.simulation_step_s;
-    for (std::size_t p = 0; p < param_count; ++p) {
-        const ArticulatorDynamics& dyn = reference_dynamics()[p];
-        const double tau = dyn.time_constant_s * (variation.time_constant_scale[p] > 0 ? variation.time_constant_scale[p] : 1.0);
-        double x = cmds.front().target[p], v = 0.0;  // start at rest on the first (silence) target
-        std::size_t c = 0, k = 0;
-        for (double time = 0.0; k < frames; time += dt) {
-            // Sample every frame whose time has been reached.
-            while (k < frames && static_cast<double>(k) / settings.fps <= time + 1e-12) track.frames[k++][p] = x;
-            while (c + 1 < cmds.size() && cmds[c + 1].start_s <= time + dyn.anticipation_s) ++c;
-            const double u = cmds[c].target[p];
-            // Semi-implicit Euler on x'' = (u − x)/τ² − 2x'/τ (stable for dt ≪ τ).
-            v += dt * ((u - x) / (tau * tau) - 2.0 * v / tau);
-            x += dt * v;
+    // Speakers close the lips for every bilabial and bring the lower lip to
+    // the upper incisors for every /f v/, however short the segment: each
+    // such gesture starts early enough that its task is achieved from
+    // closure_hold_s before the segment's centre to closure_hold_s after it
+    // (the lip aperture closure_margin_mm beyond contact; the lower lip
+    // within 1 mm of its labiodental height), found by lengthening its lead
+    // 5 ms at a time, up to max_closure_lead_s.
+    track.frames = simulate_commands(cmds, variation, settings, frames);
+    auto achieved = [&](const Command& c) {
+        for (double t : {c.centre_s - settings.closure_hold_s, c.centre_s, c.centre_s + settings.closure_hold_s}) {
+            const auto k = std::min(frames - 1, static_cast<std::size_t>(std::lround(std::max(t, 0.0) * settings.fps)));
+            if (task_shortfall_mm(c, track.frames[k], settings.closure_margin_mm) > 0.0) return false;
         }
+        return true;
+    };
+    for (int round = 0; round < 64; ++round) {
+        bool changed = false;
+        for (auto& c : cmds) {
+            if (c.task == Task::None || achieved(c)) continue;
+            if (c.extra_lead_s + 0.005 > settings.max_closure_lead_s) continue;
+            c.extra_lead_s += 0.005;
+            changed = true;
+        }
+        if (!changed) break;
+        track.frames = simulate_commands(cmds, variation, settings, frames);
     }
     if (variation.add_noise) {
         // Slow jaw_shift drift: an AR(1) process with a 0.5 s correlation time.

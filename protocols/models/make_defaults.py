@@ -21,10 +21,12 @@ How each default is set (also written into each file's provenance):
   (a 50 x 15 mm rest contour).
 - mpeg4-cohen-massaro.json: the MPEG-4 14-viseme set, theta = 25/s both
   sides, t0 = 0, c = 1, alpha = normalised ellipse area.
-The training issue replaces the Cohen-Massaro, MPEG-4 and Ohman values with
-trained ones.
+The default Cohen-Massaro, MPEG-4 and Ohman files are now trained on the
+reference speaker (avsi train), so the script writes rule.json only; with
+--hand-set-models it also writes the hand-set starting points above (over the
+trained files) and the viseme sets.
 """
-import csv, json, os
+import csv, json, os, sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PROTO = os.path.dirname(HERE)
@@ -98,8 +100,11 @@ def main():
     write(os.path.join(HERE, "rule.json"), {
         "kind": "rule", "version": 1,
         "provenance": provenance("Hand-authored targets with unspecified entries (Beskow 1995 style); "
-                                 "Gaussian smoothing sigma 25 ms."),
-        "smoothing_sigma_s": 0.025, "targets_file": "../rule_targets.tsv"})
+                                 "Gaussian smoothing sigma 25 ms; the targets of /p b m f v/ held through "
+                                 "their segments."),
+        "smoothing_sigma_s": 0.025, "held_phones": sorted(CLOSURE), "targets_file": "../rule_targets.tsv"})
+    if "--hand-set-models" not in sys.argv:
+        return
     cm = {}
     for ph, row in t.items():
         cls = classes[ph]

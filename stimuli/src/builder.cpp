@@ -24,8 +24,10 @@
 #include "avsi/core/rng.h"
 #include "avsi/core/tts.h"
 #include "avsi/stimuli/animation.h"
+#include "avsi/stimuli/articulation.h"
 #include "avsi/stimuli/video.h"
 #include "avsi/synth/control_model.h"
+#include "avsi/synth/target_hold.h"
 #include "avsi/vocoder/masking.h"
 #include "avsi/vocoder/vocoder.h"
 
@@ -47,7 +49,7 @@ const std::vector<std::string>& vocoder_keys() {
 }
 
 // Bumped when the output of the builder changes for the same inputs.
-constexpr const char* builder_version = "avsi-stimuli-build-2";
+constexpr const char* builder_version = "avsi-stimuli-build-3";
 
 std::array<float, 3> parse_colour(const std::string& hex, const Protocol& protocol) {
     unsigned r = 0, g = 0, b = 0;
@@ -199,6 +201,36 @@ Level set_speech_level(Audio& audio, double level_dbfs) {
     return level;
 }
 
+// A TTS error about the voice, placed at the protocol's [corpus] tts (or voice) key.
+InputError at_tts_key(const Protocol& protocol, const InputError& e) {
+    if (e.first().field != "voice") return e;
+    return InputError(protocol.path.string(), protocol.corpus.tts_line, protocol.corpus.tts_column, "corpus.tts",
+                      e.first().message);
+}
+
+TtsSettings tts_settings(const Protocol& protocol) {
+    TtsSettings tts;
+    tts.engine = protocol.corpus.tts_engine;
+    tts.voice = protocol.corpus.tts_voice;
+    return tts;
+}
+
+// The synthesiser and voice with their versions, recorded in the manifest's
+// settings and so hashed into every stimulus: another voice or version
+// rebuilds. Null when the corpus brings its own recordings.
+json tts_json(const Protocol& protocol) {
+    if (protocol.corpus.audio != CorpusAudio::Tts) return nullptr;
+    const TtsSettings tts = tts_settings(protocol);
+    TtsVoiceInfo info;
+    try {
+        info = describe_tts_voice(tts);
+    } catch (const InputError& e) {
+        throw at_tts_key(protocol, e);
+    }
+    return {{"tts", tts_voice_spec(tts)}, {"engine", info.engine}, {"engine_version", info.engine_version},
+            {"voice", info.voice}, {"voice_sha256", info.voice_sha256}};
+}
+
 // What a protocol asks to be built: the loaded protocol, corpus, head and
 // models, the settings every stimulus shares, and one Job per sentence ×
 // condition the design shows, with the hash of everything it depends on.
@@ -210,13 +242,19 @@ struct Plan {
     double fps = 30.0;
     vocoder::VocoderSettings vocoder_base;
     Head head;
-    std::map<std::string, std::unique_ptr<synth::ControlModel>> models;
+    std::optional<ArticulationMeter> meter;  // when [render] check_articulation
+    std::map<std::string, std::shared_ptr<const synth::ControlModel>> models;
     json settings_json;
     std::vector<Job> jobs;
     std::size_t not_needed = 0;  // pairs the design never shows
 
     explicit Plan(const BuildSettings& settings);
     Plan(const Plan&) = delete;
+    // The timed phones of a sentence: from the TTS front end, or its labels.
+    PhoneSequence phones(const Sentence& sentence) const;
+    // The articulation of a model stimulus: its trajectory measured on the head and checked.
+    ArticulationSummary articulation(const synth::Trajectory& trajectory, const PhoneSequence& phones,
+                                     std::vector<ArticulationMeasures>* measures = nullptr) const;
     Plan& operator=(const Plan&) = delete;
 };
 
@@ -231,16 +269,37 @@ Plan::Plan(const BuildSettings& settings)
     vocoder_base = vocoder_settings(protocol);
     // The protocol's own head ([render] head_mesh + head_rig) or the built-in one.
     head = pr.head_mesh.empty() ? load_default_head() : load_head(pr.head_mesh, pr.head_rig);
+    if (pr.check_articulation) {
+        try {
+            meter.emplace(head);
+        } catch (const InputError& e) {
+            throw InputError(e.first().path, e.first().line, e.first().column, e.first().field,
+                             e.first().message + "; or set check_articulation = false in [render] of " +
+                                 protocol.path.string() + " to build without the articulation check");
+        }
+    }
 
-    // Models, loaded once per condition (synthesis is const).
+    // Models, loaded once per condition (synthesis is const); the hash covers
+    // the model as loaded (a rule model's external target table included)
+    // and the condition's closure mechanism.
     std::map<std::string, std::string> model_hash;
+    const std::string hold_targets_hash = sha256_file(synth::default_hold_targets_path());
     for (const auto& c : protocol.conditions)
         if (c.face == FaceMode::Model) {
             if (c.model.empty())
                 throw InputError(protocol.path.string(), c.line, 0, "condition." + c.name + ".model",
                                  "expected a model file for face = \"model\"");
-            models[c.name] = synth::load_model(c.model);
-            model_hash[c.name] = sha256_file(c.model);
+            std::shared_ptr<const synth::ControlModel> model = synth::load_model(c.model);
+            json key = {{"model", sha256_hex(model->to_json_text())}};
+            if (c.closure_hold) {
+                synth::TargetHoldSettings hold;
+                hold.transition_s = c.closure_transition_s;
+                models[c.name] = synth::with_target_hold(model, hold);
+                key["closure"] = {{"hold", hold_targets_hash}, {"transition_s", hold.transition_s}};
+            } else {
+                models[c.name] = model;
+            }
+            model_hash[c.name] = sha256_hex(key.dump());
         }
 
     settings_json = {
@@ -252,10 +311,14 @@ Plan::Plan(const BuildSettings& settings)
                    {"preset", VideoSettings{}.preset}, {"audio", "aac"}}},
         {"vocoder", vocoder_json(vocoder_base)},
         {"head", {{"mesh_sha256", sha256_file(head.obj_path)}, {"rig_sha256", sha256_file(head.rig_path)}}},
-        {"tts", {{"voice", protocol.corpus.voice}}},
+        {"tts", tts_json(protocol)},
         {"level", {{"speech_dbfs", protocol.corpus.level_dbfs},
                    {"measure", "active-speech RMS: 20 ms frames within 40 dB of the loudest"},
-                   {"max_peak_dbfs", max_peak_dbfs}}}};
+                   {"max_peak_dbfs", max_peak_dbfs}}},
+        {"articulation", pr.check_articulation ? json{{"closure_mm", ArticulationLimits{}.closure_mm},
+                                                      {"labiodental_mm", ArticulationLimits{}.labiodental_mm},
+                                                      {"interpenetration_mm", ArticulationLimits{}.interpenetration_mm}}
+                                               : json("not checked ([render] check_articulation = false)")}};
 
     // Every stimulus and the hash of everything it depends on.
     const std::size_t n_sentences = settings.max_sentences ? std::min(settings.max_sentences, corpus.sentences.size())
@@ -279,7 +342,7 @@ Plan::Plan(const BuildSettings& settings)
     for (std::size_t si = 0; si < n_sentences; ++si) {
         const Sentence& s = corpus.sentences[si];
         const std::string audio_key = protocol.corpus.audio == CorpusAudio::Tts
-                                          ? "tts:" + protocol.corpus.voice + ":" + s.text
+                                          ? "tts:" + tts_voice_spec(tts_settings(protocol)) + ":" + s.text
                                           : "rec:" + sha256_file(s.audio) + ":" + sha256_file(s.labels);
         for (const auto& c : protocol.conditions) {
             if (!shown(s, c)) {
@@ -296,12 +359,45 @@ Plan::Plan(const BuildSettings& settings)
             const json key = {{"settings", settings_json},
                               {"audio", audio_key},
                               {"condition", {{"face", to_string(c.face)}, {"audio", to_string(c.audio)},
-                                             {"model_sha256", model_hash.count(c.name) ? model_hash[c.name] : ""}}},
+                                             {"model", model_hash.count(c.name) ? model_hash[c.name] : ""}}},
                               {"seeds", {{"vocoder", job.vocoder_seed}, {"blinks", job.blink_seed}}}};
             job.input_hash = sha256_hex(key.dump());
             jobs.push_back(std::move(job));
         }
     }
+}
+
+PhoneSequence Plan::phones(const Sentence& sentence) const {
+    if (protocol.corpus.audio != CorpusAudio::Tts) return read_phones(sentence.labels);
+    return synthesize_speech(sentence.text, tts_settings(protocol)).phones;
+}
+
+ArticulationSummary Plan::articulation(const synth::Trajectory& trajectory, const PhoneSequence& phones,
+                                       std::vector<ArticulationMeasures>* measures) const {
+    AVSI_ASSERT(meter);
+    auto m = meter->measure(trajectory);
+    auto summary = check_articulation(phones, trajectory.fps, m);
+    if (measures) *measures = std::move(m);
+    return summary;
+}
+
+// The manifest's record of a stimulus's articulation.
+json articulation_json(const ArticulationSummary& s) {
+    json problems = json::array();
+    for (const auto& p : s.problems()) problems.push_back(p);
+    json j = {{"bilabials", s.bilabials},
+              {"bilabials_closed", s.bilabials_closed},
+              {"labiodentals", s.labiodentals},
+              {"labiodentals_reached", s.labiodentals_reached},
+              {"aperture_min_mm", std::round(s.aperture_min_mm * 1e4) / 1e4},
+              {"aperture_max_mm", std::round(s.aperture_max_mm * 1e4) / 1e4},
+              {"interpenetrating_frames", s.interpenetrating_frames},
+              {"violations", problems}};
+    if (s.rounding_checked)
+        j["rounding"] = {{"width_rounded_mm", s.width_rounded_mm}, {"width_spread_mm", s.width_spread_mm},
+                         {"protrusion_rounded_mm", s.protrusion_rounded_mm},
+                         {"protrusion_spread_mm", s.protrusion_spread_mm}, {"ok", s.rounding_ok}};
+    return j;
 }
 
 // The entries of an earlier build's manifest by path: none when there is no
@@ -359,6 +455,67 @@ void verify_one(const Job& job, const std::map<std::string, json>& entries, cons
     }
 }
 
+// How many stimuli the QC page plots besides every one with a violation.
+constexpr std::size_t qc_plots = 12;
+
+// The articulation of every model stimulus of the plan, measured afresh
+// (synthesis and landmark posing: ~1 ms a stimulus), in plan order; the
+// phones of each sentence are made once (`phones` may hold some already).
+std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures,
+                                    std::map<std::string, PhoneSequence> phones = {}) {
+    std::vector<QcStimulus> out;
+    for (const auto& job : plan.jobs) {
+        const auto& c = *job.condition;
+        if (c.face != FaceMode::Model) continue;
+        const Sentence& s = *job.sentence;
+        if (!phones.count(s.id)) phones[s.id] = plan.phones(s);
+        QcStimulus q;
+        q.path = job.video.generic_string();
+        q.condition = c.name;
+        q.sentence = s.id;
+        q.text = s.text;
+        const auto trajectory = plan.models.at(c.name)->synthesize(phones[s.id], plan.fps);
+        q.summary = plan.articulation(trajectory, phones[s.id], keep_measures ? &q.measures : nullptr);
+        if (keep_measures) q.phones = phones[s.id];
+        out.push_back(std::move(q));
+    }
+    return out;
+}
+
+// Writes <out>/qc/articulation.html: the set's articulation by condition,
+// every violation, and the aperture plots of the worst stimuli.
+void write_articulation_qc(const Plan& plan, const std::filesystem::path& out_dir,
+                           std::map<std::string, PhoneSequence> phones) {
+    auto stimuli = measure_set(plan, true, std::move(phones));
+    std::vector<std::size_t> order(stimuli.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return worse_articulation(stimuli[a].summary, stimuli[b].summary);
+    });
+    std::vector<bool> plotted(stimuli.size(), false);
+    for (std::size_t k = 0; k < order.size(); ++k)
+        plotted[order[k]] = k < qc_plots || stimuli[order[k]].summary.violations() > 0;
+    std::vector<QcStimulus> page;
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        QcStimulus q = std::move(stimuli[order[k]]);
+        if (!plotted[order[k]]) {
+            q.measures.clear();
+            q.phones.clear();
+        }
+        page.push_back(std::move(q));
+    }
+    std::size_t failing = 0;
+    for (const auto& q : page) failing += q.summary.violations() > 0 ? 1 : 0;
+    const auto path = out_dir / "qc" / "articulation.html";
+    write_text_file(path, articulation_qc_html("Articulation QC — " + plan.protocol.name, page));
+    if (failing)
+        log_warning("{} of {} model stimuli break an articulation constraint (see {}; build-stimuli --verify lists "
+                    "them)",
+                    failing, page.size(), path.string());
+    else
+        log_info("articulation: every model stimulus meets the constraints (QC page {})", path.string());
+}
+
 }  // namespace
 
 BuildReport build_stimuli(const BuildSettings& settings) {
@@ -405,10 +562,10 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         }
     }
 
-    // Speech per sentence, made serially (espeak-ng is not thread-safe).
-    // The audio a condition presents — clean or vocoded (the vocoder's seed
-    // is derived from the sentence id), at the speech level — depends only
-    // on the sentence and that kind, so each is made once and shared.
+    // Speech per sentence. The audio a condition presents — clean or
+    // vocoded (the vocoder's seed is derived from the sentence id), at the
+    // speech level — depends only on the sentence and that kind, so each is
+    // made once and shared.
     struct Presented {
         Audio audio;
         Level level;
@@ -437,20 +594,58 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         }
     };
     std::map<std::string, Speech> speech;
+    std::vector<std::pair<const Sentence*, Speech*>> to_speak;
     for (const auto i : todo) {
         const Sentence& s = *jobs[i].sentence;
-        if (speech.count(s.id)) continue;
-        Speech& sp = speech[s.id];
-        if (protocol.corpus.audio == CorpusAudio::Tts) {
-            TtsSettings tts;
-            tts.voice = protocol.corpus.voice;
-            auto r = synthesize_speech(s.text, tts);
-            sp.audio = std::move(r.audio);
-            sp.phones = std::move(r.phones);
-        } else {
-            sp.audio = read_audio(s.audio);
-            sp.phones = read_phones(s.labels);
-        }
+        if (!speech.count(s.id)) to_speak.emplace_back(&s, &speech[s.id]);
+    }
+    // Synthesised on several threads (espeak-ng serialises its calls itself,
+    // Festival's run in parallel processes); recordings are read the same way.
+    {
+        const auto speech_start = std::chrono::steady_clock::now();
+        const int threads = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
+                                                                        : static_cast<int>(std::thread::hardware_concurrency()),
+                                                      static_cast<int>(to_speak.size())));
+        const TtsSettings tts = tts_settings(protocol);
+        std::atomic<std::size_t> next_sentence{0};
+        std::mutex speak_error_mutex;
+        std::exception_ptr speak_error;
+        auto speak = [&] {
+            for (std::size_t k; (k = next_sentence.fetch_add(1)) < to_speak.size();) {
+                {
+                    std::lock_guard lock(speak_error_mutex);
+                    if (speak_error) return;
+                }
+                const auto [sentence, sp] = to_speak[k];
+                try {
+                    if (protocol.corpus.audio == CorpusAudio::Tts) {
+                        auto r = synthesize_speech(sentence->text, tts);
+                        sp->audio = std::move(r.audio);
+                        sp->phones = std::move(r.phones);
+                    } else {
+                        sp->audio = read_audio(sentence->audio);
+                        sp->phones = read_phones(sentence->labels);
+                    }
+                } catch (const InputError& e) {
+                    std::lock_guard lock(speak_error_mutex);
+                    if (!speak_error) speak_error = std::make_exception_ptr(at_tts_key(protocol, e));
+                    return;
+                } catch (...) {
+                    std::lock_guard lock(speak_error_mutex);
+                    if (!speak_error) speak_error = std::current_exception();
+                    return;
+                }
+            }
+        };
+        std::vector<std::thread> speakers;
+        for (int t = 1; t < threads; ++t) speakers.emplace_back(speak);
+        speak();
+        for (auto& t : speakers) t.join();
+        if (speak_error) std::rethrow_exception(speak_error);
+        if (!to_speak.empty())
+            log_info("build-stimuli: speech for {} sentences ({}) in {:.1f} s on {} thread(s)", to_speak.size(),
+                     protocol.corpus.audio == CorpusAudio::Tts ? tts_voice_spec(tts) : "recordings",
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - speech_start).count(), threads);
     }
 
     const int workers = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
@@ -496,8 +691,10 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                                     level.peak_dbfs,
                                     std::floor((protocol.corpus.level_dbfs - (level.peak_dbfs - max_peak_dbfs)) * 10.0) / 10.0));
                 synth::Trajectory trajectory;
+                json articulation = nullptr;
                 if (c.face == FaceMode::Model) {
                     trajectory = models.at(c.name)->synthesize(sp.phones, fps);
+                    if (plan.meter) articulation = articulation_json(plan.articulation(trajectory, sp.phones));
                 } else {
                     trajectory.fps = fps;
                     trajectory.frames.assign(synth::frame_count(audio.duration_s(), fps), synth::Frame{});
@@ -541,6 +738,8 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                              {"face", to_string(c.face)},
                              {"audio", to_string(c.audio)},
                              {"model", c.model.empty() ? "" : c.model.filename().string()},
+                             {"closure", c.face != FaceMode::Model ? json() : json(c.closure_hold ? "hold" : "off")},
+                             {"articulation", articulation},
                              {"seeds", {{"vocoder", c.audio == ConditionAudio::Vocoded ? json(job.vocoder_seed) : json()},
                                         {"blinks", blinks.enabled ? json(job.blink_seed) : json()}}},
                              {"input_sha256", job.input_hash},
@@ -568,6 +767,11 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                      {"stimuli", json::array()}};
     for (const auto& job : jobs) manifest["stimuli"].push_back(job.entry);
     write_text_file(manifest_path, manifest.dump(2) + "\n");
+    if (plan.meter) {
+        std::map<std::string, PhoneSequence> phones;
+        for (const auto& [id, sp] : speech) phones[id] = sp.phones;
+        write_articulation_qc(plan, settings.out_dir, std::move(phones));
+    }
 
     report.rendered = todo.size();
     report.frames_rendered = frames_total;
@@ -610,6 +814,15 @@ VerifyReport verify_stimuli(const BuildSettings& settings) {
     for (auto& t : threads) t.join();
     progress.finish();
 
+    // The articulation of every model stimulus, measured afresh from its
+    // model and phones: each violation is a problem naming the segment.
+    if (plan.meter) {
+        std::map<std::string, std::size_t> index_of;
+        for (std::size_t i = 0; i < plan.jobs.size(); ++i) index_of[plan.jobs[i].video.generic_string()] = i;
+        for (const auto& q : measure_set(plan, false))
+            for (const auto& p : q.summary.problems())
+                found[index_of.at(q.path)].push_back(q.path + ": articulation: " + p);
+    }
     for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
         entries.erase(plan.jobs[i].video.generic_string());
         if (found[i].empty()) ++report.verified;

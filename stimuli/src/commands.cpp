@@ -2,8 +2,11 @@
 #include "avsi/stimuli/commands.h"
 
 #include "avsi/core/error.h"
+#include "avsi/core/labels.h"
+#include "avsi/core/tts.h"
 #include "avsi/core/log.h"
 #include "avsi/stimuli/image_io.h"
+#include "avsi/synth/control_model.h"
 #include "avsi/synth/fap.h"
 
 namespace avsi::stimuli {
@@ -35,6 +38,38 @@ void run_render(const RenderJobSettings& s) {
         const auto n = render_png_sequence(renderer, trajectory, s.out_path, s.blinks);
         log_info("wrote {} PNG frames to {}", n, s.out_path.string());
     }
+}
+
+MeasureResult run_measure(const MeasureJobSettings& s) {
+    const int sources = int(!s.trajectory_path.empty()) + int(!s.fap_path.empty()) + int(!s.model_path.empty());
+    if (sources != 1) throw UsageError("give exactly one of --traj, --fap and --model");
+    if (s.out_path.empty()) throw UsageError("--out is required");
+    if (!s.model_path.empty() && s.phones_path.empty() == s.text.empty())
+        throw UsageError("--model needs exactly one of --phones and --text");
+    if (!s.text.empty() && s.model_path.empty()) throw UsageError("--text needs --model");
+    if (!(s.fps > 0 && s.fps <= 1000)) throw UsageError("--fps: expected a frame rate in (0, 1000]");
+    const Head head = load_head(s.head.obj, s.head.rig);
+    const ArticulationMeter meter(head);  // fails early, naming missing landmarks
+
+    PhoneSequence phones;
+    if (!s.text.empty()) phones = synthesize_speech(s.text).phones;
+    else if (!s.phones_path.empty()) phones = read_phones(s.phones_path);
+    synth::Trajectory trajectory;
+    if (!s.model_path.empty()) trajectory = synth::load_model(s.model_path)->synthesize(phones, s.fps);
+    else if (!s.fap_path.empty()) trajectory = synth::fap_to_trajectory(synth::read_fap(s.fap_path));
+    else trajectory = synth::read_trajectory_csv(s.trajectory_path);
+
+    MeasureResult result;
+    const auto measures = meter.measure(trajectory);
+    result.frames = measures.size();
+    write_articulation_csv(s.out_path, measures);
+    if (!phones.empty()) {
+        result.checked = true;
+        result.summary = check_articulation(phones, trajectory.fps, measures, s.limits);
+    }
+    if (!s.plot_path.empty())
+        write_aperture_plot(s.plot_path, s.out_path.stem().string(), phones, measures, result.summary, s.limits);
+    return result;
 }
 
 void run_contact_sheet(const ContactSheetJobSettings& s) {

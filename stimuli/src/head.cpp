@@ -208,7 +208,170 @@ std::vector<float> region_weights(const HeadMesh& mesh, const json& region, cons
     return w;
 }
 
+// The rig's "articulation" section: vertex indices of the landmarks the
+// articulation measures use. Every field is required once the section exists.
+ArticulationLandmarks read_articulation(const json& a, const HeadMesh& mesh, RigReader& rig) {
+    ArticulationLandmarks L;
+    const std::size_t n = mesh.positions.size();
+    auto index = [&](const json& j, const std::string& field, std::uint32_t& out) {
+        if (!j.is_number_unsigned() || j.get<std::uint64_t>() >= n) {
+            rig.problem(field, "expected a vertex index in [0, " + std::to_string(n) + "), got " + j.dump());
+            return false;
+        }
+        out = static_cast<std::uint32_t>(j.get<std::uint64_t>());
+        return true;
+    };
+    auto list = [&](const char* name, std::vector<std::uint32_t>& out, std::size_t min_size) {
+        const std::string field = std::string("articulation.") + name;
+        const json& j = a[name];
+        if (!j.is_array() || j.size() < min_size) {
+            rig.problem(field, "expected an array of at least " + std::to_string(min_size) +
+                                   " vertex indices, got " + j.dump().substr(0, 60));
+            return;
+        }
+        for (std::size_t k = 0; k < j.size(); ++k) {
+            std::uint32_t v = 0;
+            if (!index(j[k], field + "[" + std::to_string(k) + "]", v)) return;
+            out.push_back(v);
+        }
+    };
+    std::vector<std::string> missing;
+    for (const auto& name : articulation_landmark_names())
+        if (!a.contains(name)) missing.push_back(name);
+    if (!missing.empty()) {
+        std::string names;
+        for (const auto& m : missing) names += (names.empty() ? "" : ", ") + m;
+        rig.problem("articulation", "missing landmark(s): " + names);
+        return L;
+    }
+    list("upper_lip_contour", L.upper_lip_contour, 3);
+    list("lower_lip_contour", L.lower_lip_contour, 3);
+    if (L.upper_lip_contour.size() != L.lower_lip_contour.size())
+        rig.problem("articulation.lower_lip_contour",
+                    "expected as many points as upper_lip_contour (" + std::to_string(L.upper_lip_contour.size()) +
+                        "), got " + std::to_string(L.lower_lip_contour.size()));
+    const json& corners = a["mouth_corners"];
+    if (!corners.is_array() || corners.size() != 2)
+        rig.problem("articulation.mouth_corners", "expected [left, right] vertex indices, got " + corners.dump());
+    else {
+        index(corners[0], "articulation.mouth_corners[0]", L.mouth_corner_left);
+        index(corners[1], "articulation.mouth_corners[1]", L.mouth_corner_right);
+    }
+    index(a["upper_lip_point"], "articulation.upper_lip_point", L.upper_lip_point);
+    index(a["lower_lip_point"], "articulation.lower_lip_point", L.lower_lip_point);
+    list("upper_incisor_edge", L.upper_incisor_edge, 2);
+    list("lower_incisor_edge", L.lower_incisor_edge, 2);
+    list("lower_lip_surface", L.lower_lip_surface, 1);
+    auto axis = [&](const char* name, glm::vec3& out) {
+        const glm::vec3 v = rig.vec3(a[name], std::string("articulation.") + name);
+        if (!(glm::length(v) > 0.0f)) rig.problem(std::string("articulation.") + name, "expected a non-zero axis");
+        else out = glm::normalize(v);
+    };
+    axis("up", L.up);
+    axis("forward", L.forward);
+    if (std::abs(glm::dot(L.up, L.forward)) > 0.05f)
+        rig.problem("articulation.forward", "expected an axis perpendicular to articulation.up");
+    return L;
+}
+
+// The rig's "lip_contact" section (see LipContact in head.h).
+LipContact read_lip_contact(const json& c, const Head& head, RigReader& rig) {
+    LipContact contact;
+    const auto& a = *head.articulation;
+    const auto& pos = head.mesh.positions;
+    const glm::vec3 lateral = glm::normalize(glm::cross(a.up, a.forward));
+    const float reach = rig.number(c.value("reach_mm", json()), "lip_contact.reach_mm");
+    if (!(reach > 0.0f)) rig.problem("lip_contact.reach_mm", "expected a positive distance");
+    const std::size_t n = a.upper_lip_contour.size();
+    for (std::size_t i = 0; i < n; ++i) contact.pair_order.push_back(i);
+    contact.up = a.up;
+    contact.mesh.upper = a.upper_lip_contour;
+    contact.mesh.lower = a.lower_lip_contour;
+    auto lat = [&](std::size_t i) {
+        return 0.5f * (glm::dot(pos[a.upper_lip_contour[i]], lateral) + glm::dot(pos[a.lower_lip_contour[i]], lateral));
+    };
+    std::sort(contact.pair_order.begin(), contact.pair_order.end(),
+              [&](std::size_t x, std::size_t y) { return lat(x) < lat(y); });
+    for (auto i : contact.pair_order) contact.pair_lateral.push_back(lat(i));
+    const float l0 = glm::dot(pos[a.mouth_corner_left], lateral), l1 = glm::dot(pos[a.mouth_corner_right], lateral);
+    contact.corner_lateral_min = std::min(l0, l1);
+    contact.corner_lateral_max = std::max(l0, l1);
+    // A lip's edge height at a lateral position, at rest (linear between pairs).
+    auto edge_height = [&](const std::vector<std::uint32_t>& contour, float x) {
+        const auto& L = contact.pair_lateral;
+        std::size_t k = std::upper_bound(L.begin(), L.end(), x) - L.begin();
+        if (k == 0) return glm::dot(pos[contour[contact.pair_order.front()]], a.up);
+        if (k == L.size()) return glm::dot(pos[contour[contact.pair_order.back()]], a.up);
+        const float t = (x - L[k - 1]) / std::max(L[k] - L[k - 1], 1e-6f);
+        return (1 - t) * glm::dot(pos[contour[contact.pair_order[k - 1]]], a.up) +
+               t * glm::dot(pos[contour[contact.pair_order[k]]], a.up);
+    };
+    for (int side : {1, -1}) {
+        const char* name = side > 0 ? "upper" : "lower";
+        if (!c.contains(name)) {
+            rig.problem(std::string("lip_contact.") + name, "missing: the region of the lip that takes the contact");
+            continue;
+        }
+        const auto w = region_weights(head.mesh, c[name], std::string("lip_contact.") + name, rig);
+        const auto& contour = side > 0 ? a.upper_lip_contour : a.lower_lip_contour;
+        for (std::size_t v = 0; v < w.size(); ++v) {
+            if (w[v] <= 1e-4f) continue;
+            const float x = glm::dot(pos[v], lateral);
+            const float d = std::abs(glm::dot(pos[v], a.up) - edge_height(contour, x));
+            const float weight = std::min(w[v], 1.0f) * (1.0f - smoothstep(0.0f, reach, d));
+            if (weight <= 1e-4f) continue;
+            contact.mesh.moved.push_back(static_cast<std::uint32_t>(v));
+            contact.mesh.sign_weight.push_back(float(side) * weight);
+            contact.mesh.lateral.push_back(x);
+        }
+    }
+    return contact;
+}
+
 }  // namespace
+
+namespace {
+
+// The contact displacement (before weight and side) at rest-lateral x.
+float contact_offset(const LipContact& contact, const std::vector<float>& half_overlap, float x) {
+    const auto& L = contact.pair_lateral;
+    const std::size_t k = static_cast<std::size_t>(std::upper_bound(L.begin(), L.end(), x) - L.begin());
+    // Beyond the outermost pairs the overlap falls to zero at the corners.
+    if (k == 0) {
+        const float t = (x - contact.corner_lateral_min) / std::max(L.front() - contact.corner_lateral_min, 1e-6f);
+        return std::clamp(t, 0.0f, 1.0f) * half_overlap[contact.pair_order.front()];
+    }
+    if (k == L.size()) {
+        const float t = (contact.corner_lateral_max - x) / std::max(contact.corner_lateral_max - L.back(), 1e-6f);
+        return std::clamp(t, 0.0f, 1.0f) * half_overlap[contact.pair_order.back()];
+    }
+    const float t = (x - L[k - 1]) / std::max(L[k] - L[k - 1], 1e-6f);
+    return (1 - t) * half_overlap[contact.pair_order[k - 1]] + t * half_overlap[contact.pair_order[k]];
+}
+
+}  // namespace
+
+void apply_lip_contact(const LipContact& contact, const LipContactPoints& points, std::vector<glm::vec3>& positions) {
+    thread_local std::vector<float> half_overlap;
+    half_overlap.resize(points.upper.size());
+    bool any = false;
+    for (std::size_t i = 0; i < points.upper.size(); ++i) {
+        const float o = glm::dot(positions[points.lower[i]] - positions[points.upper[i]], contact.up);
+        half_overlap[i] = o > 0.0f ? 0.5f * o : 0.0f;
+        any = any || o > 0.0f;
+    }
+    if (!any) return;
+    for (std::size_t k = 0; k < points.moved.size(); ++k)
+        positions[points.moved[k]] +=
+            contact.up * (points.sign_weight[k] * contact_offset(contact, half_overlap, points.lateral[k]));
+}
+
+const std::vector<std::string>& articulation_landmark_names() {
+    static const std::vector<std::string> names{
+        "upper_lip_contour", "lower_lip_contour", "mouth_corners",      "upper_lip_point", "lower_lip_point",
+        "upper_incisor_edge", "lower_incisor_edge", "lower_lip_surface", "up",              "forward"};
+    return names;
+}
 
 Head load_head(const std::filesystem::path& obj_path, const std::filesystem::path& rig_path) {
     Head head;
@@ -237,6 +400,17 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
     L.head_center = rig.vec3(lm.value("head_center", json()), "landmarks.head_center");
     L.iris_diameter = rig.number(lm.value("iris_diameter", json()), "landmarks.iris_diameter");
     L.head_height = rig.number(lm.value("head_height", json()), "landmarks.head_height");
+
+    if (doc.contains("articulation")) {
+        if (!doc["articulation"].is_object()) rig.problem("articulation", "expected an object of landmark vertex indices");
+        else head.articulation = read_articulation(doc["articulation"], head.mesh, rig);
+    }
+
+    if (doc.contains("lip_contact")) {
+        if (!head.articulation) rig.problem("lip_contact", "needs the \"articulation\" section's lip contours");
+        else if (!doc["lip_contact"].is_object()) rig.problem("lip_contact", "expected an object");
+        else if (rig.problems.empty()) head.lip_contact = read_lip_contact(doc["lip_contact"], head, rig);
+    }
 
     std::vector<std::string> channels;
     for (const auto& info : synth::params()) channels.emplace_back(info.name);
@@ -314,36 +488,44 @@ void compute_normals(const std::vector<glm::vec3>& positions, const std::vector<
     }
 }
 
-void pose_head(const Head& head, const Pose& pose, PosedMesh& out) {
-    out.positions = head.mesh.positions;
+void apply_transform(const RigTransform& t, float amount, const std::vector<std::uint32_t>& targets,
+                     const std::vector<float>& weights, std::vector<glm::vec3>& positions) {
+    switch (t.kind) {
+        case TransformKind::Translate:
+            for (std::size_t k = 0; k < targets.size(); ++k) positions[targets[k]] += t.offset * (amount * weights[k]);
+            break;
+        case TransformKind::Scale:
+            for (std::size_t k = 0; k < targets.size(); ++k) {
+                auto& p = positions[targets[k]];
+                p = t.pivot + (p - t.pivot) * (glm::vec3(1.0f) + t.scale * (amount * weights[k]));
+            }
+            break;
+        case TransformKind::Rotate: {
+            const float full = glm::radians(t.angle_deg) * amount;
+            for (std::size_t k = 0; k < targets.size(); ++k) {
+                auto& p = positions[targets[k]];
+                const glm::quat q = glm::angleAxis(full * weights[k], t.axis);
+                p = t.pivot + q * (p - t.pivot);
+            }
+            break;
+        }
+    }
+}
+
+void pose_positions(const Head& head, const Pose& pose, std::vector<glm::vec3>& positions) {
+    positions = head.mesh.positions;
     for (const auto& t : head.transforms) {
         const double amount = static_cast<std::size_t>(t.channel_index) < synth::param_count
                                   ? pose.params[static_cast<std::size_t>(t.channel_index)]
                                   : pose.blink;
         if (amount == 0.0) continue;
-        const float a = static_cast<float>(amount);
-        switch (t.kind) {
-            case TransformKind::Translate:
-                for (std::size_t k = 0; k < t.vertices.size(); ++k)
-                    out.positions[t.vertices[k]] += t.offset * (a * t.weights[k]);
-                break;
-            case TransformKind::Scale:
-                for (std::size_t k = 0; k < t.vertices.size(); ++k) {
-                    auto& p = out.positions[t.vertices[k]];
-                    p = t.pivot + (p - t.pivot) * (glm::vec3(1.0f) + t.scale * (a * t.weights[k]));
-                }
-                break;
-            case TransformKind::Rotate: {
-                const float full = glm::radians(t.angle_deg) * a;
-                for (std::size_t k = 0; k < t.vertices.size(); ++k) {
-                    auto& p = out.positions[t.vertices[k]];
-                    const glm::quat q = glm::angleAxis(full * t.weights[k], t.axis);
-                    p = t.pivot + q * (p - t.pivot);
-                }
-                break;
-            }
-        }
+        apply_transform(t, static_cast<float>(amount), t.vertices, t.weights, positions);
     }
+    if (head.lip_contact) apply_lip_contact(*head.lip_contact, head.lip_contact->mesh, positions);
+}
+
+void pose_head(const Head& head, const Pose& pose, PosedMesh& out) {
+    pose_positions(head, pose, out.positions);
     compute_normals(out.positions, head.mesh.indices, out.normals);
 }
 

@@ -273,6 +273,9 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
         for (std::size_t k = 0; k < t.vertices.size(); ++k)
             if (t.weights[k] != 0.0f) moves[t.vertices[k]] |= bit;
     }
+    // The lip contact moves its vertices with the speech parameters.
+    if (head.lip_contact)
+        for (auto v : head.lip_contact->mesh.moved) moves[v] |= 1;
     for (std::size_t t = 0; t < triangle_count; ++t) {
         const std::uint32_t* v = &mesh.indices[3 * t];
         if (moves[v[0]] || moves[v[1]] || moves[v[2]]) reshaded[v[0]] = reshaded[v[1]] = reshaded[v[2]] = 1;

@@ -90,6 +90,7 @@ public:
         return out;
     }
     const glm::vec3& position(std::uint32_t i) const { return m_positions[i]; }
+    std::size_t vertex_count() const { return m_positions.size(); }
 
 private:
     std::vector<glm::vec3> m_positions;
@@ -184,6 +185,7 @@ float cheek_fill(float x, float y, float mouth_y) {
 struct Generated {
     MeshBuilder mesh;
     nlohmann::json landmarks;
+    nlohmann::json articulation;  // landmark vertex indices (articulation.h)
     glm::vec3 mouth{0.0f};
     glm::vec3 left_eye{0.0f};
     glm::vec3 right_eye{0.0f};
@@ -362,6 +364,34 @@ void build_skin(Generated& g, const HeadGeneratorSettings& settings) {
         g.mesh.triangle("skin", grid.back()[jn], grid.back()[jj], back_pole);
     }
 
+    // Articulation landmarks. The contact ring (s = 0) holds the lips' inner
+    // edges: its upper-half vertex at azimuth u pairs with the lower-half one
+    // at −u (the same x at rest); the corners (u = 0, π) are shared.
+    std::size_t contact_ring = 0;
+    while (rings[contact_ring].s != 0.0f) ++contact_ring;
+    std::size_t front_ring = contact_ring;  // the most forward vermilion ring at the midline
+    for (std::size_t r = contact_ring; r < rings.size(); ++r)
+        if (rings[r].z > rings[front_ring].z) front_ring = r;
+    const auto half = static_cast<std::size_t>(nu / 2), quarter = static_cast<std::size_t>(nu / 4);
+    nlohmann::json upper = nlohmann::json::array(), lower = nlohmann::json::array(), surface = nlohmann::json::array();
+    for (std::size_t j = half - 1; j >= 1; --j) {
+        upper.push_back(grid[contact_ring][j]);
+        lower.push_back(grid[contact_ring][static_cast<std::size_t>(nu) - j]);
+    }
+    // The lower lip's inner roll and vermilion near the midline: what meets
+    // the upper incisors in /f v/.
+    for (std::size_t r = contact_ring - 4; r <= front_ring + 2; ++r)
+        for (std::size_t j = half + 1; j < static_cast<std::size_t>(nu); ++j)
+            if (std::abs(g.mesh.position(grid[r][j]).x) <= 15.0f) surface.push_back(grid[r][j]);
+    g.articulation["upper_lip_contour"] = upper;
+    g.articulation["lower_lip_contour"] = lower;
+    g.articulation["mouth_corners"] = {grid[contact_ring][0], grid[contact_ring][half]};
+    g.articulation["upper_lip_point"] = grid[front_ring][quarter];
+    g.articulation["lower_lip_point"] = grid[front_ring][half + quarter];
+    g.articulation["lower_lip_surface"] = surface;
+    g.articulation["up"] = {0.0, 1.0, 0.0};
+    g.articulation["forward"] = {0.0, 0.0, 1.0};
+
     g.landmarks["mouth_middle"] = {0.0, mc.y, mc.z};
     const glm::vec3 corner = ring_point(rings[rings.size() - 10], 0.0f);
     g.landmarks["mouth_left"] = {corner.x, corner.y, corner.z};
@@ -491,8 +521,9 @@ void sweep(Generated& g, const std::string& group, const std::vector<std::vector
 
 // A row of teeth along the dental arch z = z0 − k·x²; `edge_y` is the
 // incisal edge, `gum_y` the gum line, `root_y` where the shape ends in the gum.
-void build_teeth(Generated& g, const std::string& group, float z0, float edge_y, float gum_y, float root_y,
-                 float thickness) {
+// Returns the incisal edge's vertices across the four incisors (|x| ≤ 15.2 mm).
+nlohmann::json build_teeth(Generated& g, const std::string& group, float z0, float edge_y, float gum_y, float root_y,
+                           float thickness) {
     const int na = 56, np = 20;
     const float half_width = 24.0f, k = 0.026f;
     const float boundaries[] = {0.0f, 8.6f, 15.2f, 21.5f};
@@ -531,7 +562,16 @@ void build_teeth(Generated& g, const std::string& group, float z0, float edge_y,
         rows.push_back(row);
         colors.push_back(crow);
     }
+    // sweep() adds the rows' vertices in order; the edge is the profile point
+    // at a = 3π/2 (upper teeth, edge below) or π/2 (lower teeth, edge above).
+    const auto first = static_cast<std::uint32_t>(g.mesh.vertex_count());
+    const std::size_t edge_point = static_cast<std::size_t>(edge_y < root_y ? 3 * np / 4 : np / 4);
+    nlohmann::json edge = nlohmann::json::array();
+    for (int i = 0; i <= na; ++i)
+        if (std::abs(rows[static_cast<std::size_t>(i)][edge_point].x) <= 15.2f)
+            edge.push_back(first + static_cast<std::uint32_t>(static_cast<std::size_t>(i) * static_cast<std::size_t>(np) + edge_point));
     sweep(g, group, rows, colors, true);
+    return edge;
 }
 
 void build_tongue(Generated& g, glm::vec3 c, glm::vec3 radii) {
@@ -643,12 +683,6 @@ nlohmann::json make_rig(const Generated& g) {
     const json lips = {{"groups", {"upper_lip", "upper_inner", "face_upper", "lower_lip", "lower_inner", "face_lower"}},
                        {"smooth", 3},
                        {"falloff", {ellipsoid(mc, {40, 30, 40}, 0.4f)}}};
-    const json upper_centre = {{"groups", {"upper_lip", "upper_inner"}},
-                               {"smooth", 3},
-                               {"falloff", {ellipsoid(mc, {20, 30, 40}, 0.15f)}}};
-    const json lower_centre = {{"groups", {"lower_lip", "lower_inner"}},
-                               {"smooth", 3},
-                               {"falloff", {ellipsoid(mc, {20, 30, 40}, 0.15f)}}};
     // The jaw carries the lower face fully; the mouth corners go half way, so
     // near the corners the lower lip gives up half and the upper lip takes half.
     const json jaw_ellipsoid = ellipsoid({0.0f, mc.y - 25.0f, 45.0f}, {100, 80, 95}, 0.55f);
@@ -682,8 +716,6 @@ nlohmann::json make_rig(const Generated& g) {
     add("lip_rounding", {{"scale", {{"pivot", vec(mc)}, {"factor", {-0.55, 0.05, 0.0}}}}}, lips,
         "narrow the mouth toward its centre (negative spreads it)");
     add("lip_rounding", {{"translate", {0.0, 0.0, 5.0}}}, lips, "rounded lips protrude");
-    add("lip_rounding", {{"translate", {0.0, 2.4, 0.0}}}, upper_centre, "open the middle into an O: upper lip up");
-    add("lip_rounding", {{"translate", {0.0, -2.4, 0.0}}}, lower_centre, "and lower lip down");
     add("upper_lip_retraction", {{"translate", {0.0, 0.8, -4.0}}}, upper_lip, "upper lip back (negative: protruded)");
     add("upper_lip_raise", {{"translate", {0.0, 5.0, 0.5}}}, upper_lip_mid, "upper lip up, baring the upper teeth");
     add("lower_lip_retraction", {{"translate", {0.0, 3.5, -6.5}}}, lower_lip,
@@ -720,8 +752,10 @@ void generate_head(const std::filesystem::path& obj_path, const std::filesystem:
     }
     const glm::vec3 mc = g.mouth;
     // Upper incisal edge 1.5 mm below the lip line, lower incisors behind it (overbite).
-    build_teeth(g, "upper_teeth", mc.z - 8.2f, mc.y - 1.5f, mc.y + 7.5f, mc.y + 11.0f, 4.4f);
-    build_teeth(g, "lower_teeth", mc.z - 11.6f, mc.y + 0.3f, mc.y - 7.0f, mc.y - 11.0f, 4.0f);
+    g.articulation["upper_incisor_edge"] =
+        build_teeth(g, "upper_teeth", mc.z - 8.2f, mc.y - 1.5f, mc.y + 7.5f, mc.y + 11.0f, 4.4f);
+    g.articulation["lower_incisor_edge"] =
+        build_teeth(g, "lower_teeth", mc.z - 11.6f, mc.y + 0.3f, mc.y - 7.0f, mc.y - 11.0f, 4.0f);
     build_tongue(g, {0.0f, mc.y - 8.0f, mc.z - 32.0f}, {19.0f, 6.5f, 19.0f});
     build_ears(g);
     build_neck(g);
@@ -740,6 +774,14 @@ void generate_head(const std::filesystem::path& obj_path, const std::filesystem:
     rig["mesh"] = obj_path.filename().string();
     rig["generator"] = "avsi::stimuli::generate_head (stimuli/src/head_generator.cpp), scripts/make-head";
     rig["landmarks"] = g.landmarks;
+    rig["articulation"] = g.articulation;
+    // Rounding narrows and protrudes the lips; it does not open them (the
+    // opening of /uw w/ is the jaw's and the lips'), so a bilabial closes in
+    // any rounding context. Where the lips' edges would pass through each
+    // other they flatten against each other instead.
+    rig["lip_contact"] = {{"upper", {{"groups", {"upper_lip", "upper_inner"}}}},
+                          {"lower", {{"groups", {"lower_lip", "lower_inner"}}}},
+                          {"reach_mm", 6.0}};
     rig["transforms"] = make_rig(g);
 
     const std::string header = fmt::format(

@@ -10,6 +10,7 @@
 
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
+#include "avsi/synth/target_hold.h"
 #include "model_json.h"
 
 namespace avsi::synth {
@@ -95,12 +96,19 @@ void RuleModel::evaluate(const PhoneSequence& phones, std::span<const double> ti
         for (std::size_t k = 0; k < times_s.size(); ++k)
             out[k][p] = smoothed_at(kn, slope_change, m_sigma_s, times_s[k]);
     }
+    if (!m_held.empty()) {
+        TargetHoldSettings hold;
+        hold.phones = m_held;
+        hold.transition_s = std::max(m_sigma_s, 1e-3);
+        hold_targets(phones, times_s, m_targets, hold, out);
+    }
 }
 
 std::string RuleModel::to_json_text() const {
     using detail::json;
     json j = detail::model_header(*this);
     j["smoothing_sigma_s"] = m_sigma_s;
+    if (!m_held.empty()) j["held_phones"] = m_held;
     json targets = json::object();
     for (const auto& [key, target] : m_targets) {
         json t = json::object();
@@ -163,9 +171,21 @@ std::map<std::string, RuleTarget, std::less<>> read_rule_targets_tsv(const std::
 namespace detail {
 
 std::unique_ptr<ControlModel> load_rule(const json& root, const std::filesystem::path& path, JsonReader& reader) {
-    reader.check_keys(root, {"kind", "version", "provenance", "smoothing_sigma_s", "targets", "targets_file"}, "");
+    reader.check_keys(root, {"kind", "version", "provenance", "smoothing_sigma_s", "held_phones", "targets", "targets_file"},
+                      "");
     double sigma = 0.025;
     if (auto v = reader.number_field(root, "smoothing_sigma_s", "/smoothing_sigma_s", 0.0, 1.0)) sigma = *v;
+    std::set<std::string, std::less<>> held;
+    if (root.contains("held_phones")) {
+        const json& h = root["held_phones"];
+        if (!h.is_array()) reader.error("/held_phones", "expected an array of phone symbols, got " + h.dump());
+        else
+            for (std::size_t k = 0; k < h.size(); ++k) {
+                const std::string pointer = "/held_phones/" + std::to_string(k);
+                if (!h[k].is_string()) reader.error(pointer, "expected a phone symbol, got " + h[k].dump());
+                else if (reader.phone_key(h[k].get<std::string>(), pointer)) held.insert(h[k].get<std::string>());
+            }
+    }
     RuleModel::Table table;
     const bool embedded = root.contains("targets"), external = root.contains("targets_file");
     if (embedded == external) {
@@ -200,7 +220,9 @@ std::unique_ptr<ControlModel> load_rule(const json& root, const std::filesystem:
             table[key] = target;
         }
     }
-    return std::make_unique<RuleModel>(std::move(table), sigma);
+    for (const auto& phone : held)
+        if (!table.count(phone)) reader.error("/held_phones", "phone \"" + phone + "\" has no target row to hold");
+    return std::make_unique<RuleModel>(std::move(table), sigma, std::move(held));
 }
 
 }  // namespace detail

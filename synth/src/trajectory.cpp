@@ -60,10 +60,15 @@ Trajectory read_trajectory_csv(const std::filesystem::path& path) {
     if (std::abs(times[0]) > 1e-6)
         throw InputError(file, table.rows[0].line, 0, "time_s",
                          fmt::format("expected the first frame at 0 s, got {}", times[0]));
-    double fps = 1.0 / (times[1] - times[0]);
-    if (!(fps > 0.0) || !std::isfinite(fps))
+    if (!(times[1] > times[0]))
         throw InputError(file, table.rows[1].line, 0, "time_s", "expected increasing times");
-    if (std::abs(fps - std::round(fps)) < 1e-6 * fps) fps = std::round(fps);
+    // The rate from the whole span (a step rounded to the written decimals,
+    // 0.016667 for 60 fps, would drift a frame off in a few hundred frames),
+    // snapped to a whole number of frames per second when that close.
+    double fps = static_cast<double>(times.size() - 1) / (times.back() - times.front());
+    if (!(fps > 0.0) || !std::isfinite(fps))
+        throw InputError(file, table.rows.back().line, 0, "time_s", "expected increasing times");
+    if (std::abs(fps - std::round(fps)) < 1e-4 * fps) fps = std::round(fps);
     // A constant step: every time within 1 µs of k / fps.
     for (std::size_t k = 0; k < times.size(); ++k) {
         const double expected = static_cast<double>(k) / fps;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <unistd.h>
 #include <filesystem>
 #include <string>
 
@@ -47,7 +48,8 @@ TEST(Protocol, LoadsAValidProtocol) {
     EXPECT_EQ(p.name, "test-study");
     EXPECT_EQ(p.seed, 42u);
     EXPECT_EQ(p.corpus.sentences, data_dir / "corpus.csv");
-    EXPECT_EQ(p.corpus.voice, "en-gb");
+    EXPECT_EQ(p.corpus.tts_engine, TtsEngine::Espeak);
+    EXPECT_EQ(p.corpus.tts_voice, "en-gb");
     ASSERT_EQ(p.conditions.size(), 2u);
     EXPECT_EQ(p.conditions[0].face, FaceMode::Still);
     EXPECT_TRUE(p.conditions[0].model.empty());
@@ -66,6 +68,53 @@ TEST(Protocol, LoadsAValidProtocol) {
     EXPECT_EQ(p.vocoder.get_int("bands", 0, 1, 32, problems), 3);
     EXPECT_EQ(p.vocoder.find("bands")->line, 21);
     EXPECT_EQ(p.condition_index("cohen-massaro"), 1);
+}
+
+// [corpus] tts = "<engine>:<voice>" (or the older voice = "<espeak-ng voice>"):
+// read into engine and voice; mistakes reported at the key.
+TEST(Protocol, TtsKeyNamesEngineAndVoice) {
+    const fs::path dir = fs::temp_directory_path() / ("avsi_protocol_tts_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    fs::copy_file(data_dir / "corpus.csv", dir / "corpus.csv", fs::copy_options::overwrite_existing);
+    const auto load = [&](const std::string& corpus_keys) {
+        write_text_file(dir / "p.toml", "[experiment]\nname = \"t\"\n\n[corpus]\nsentences = \"corpus.csv\"\n" +
+                                            corpus_keys + "\n[[condition]]\nname = \"a\"\n");
+        return load_protocol(dir / "p.toml");
+    };
+    const auto error = [&](const std::string& corpus_keys) -> std::string {
+        try {
+            (void)load(corpus_keys);
+        } catch (const InputError& e) {
+            return e.what();
+        }
+        return "(no error)";
+    };
+    Protocol p = load("tts = \"festival:cmu_us_slt_arctic_hts\"\n");
+    EXPECT_EQ(p.corpus.tts_engine, TtsEngine::Festival);
+    EXPECT_EQ(p.corpus.tts_voice, "cmu_us_slt_arctic_hts");
+    EXPECT_EQ(p.corpus.tts_line, 6);
+    EXPECT_EQ(p.corpus.tts_column, 7);
+    p = load("tts = \"espeak:en-gb-x-rp\"\n");
+    EXPECT_EQ(p.corpus.tts_engine, TtsEngine::Espeak);
+    EXPECT_EQ(p.corpus.tts_voice, "en-gb-x-rp");
+    p = load("");  // the default
+    EXPECT_EQ(p.corpus.tts_engine, TtsEngine::Espeak);
+    EXPECT_EQ(p.corpus.tts_voice, "en-us");
+    EXPECT_EQ(p.corpus.tts_line, 0);
+    const std::string file = (dir / "p.toml").string();
+    EXPECT_EQ(error("tts = \"mary:slt\"\n"),
+              file + ":6:7: error: corpus.tts: expected \"espeak:<voice>\" or \"festival:<voice>\" (e.g. "
+                     "\"espeak:en-us\", \"festival:cmu_us_slt_arctic_hts\"), got \"mary:slt\"");
+    EXPECT_EQ(error("tts = \"festival:\"\n"),
+              file + ":6:7: error: corpus.tts: expected a voice name after \"festival:\", got \"festival:\"");
+    EXPECT_EQ(error("tts = \"festival:kal_diphone\"\nvoice = \"en-us\"\n"),
+              file + ":7:9: error: corpus.voice: expected either tts or voice, got both (voice = \"en-us\" is the "
+                     "older spelling of tts = \"espeak:en-us\"); remove voice");
+    EXPECT_EQ(error("voice = \"festival:kal_diphone\"\n"),
+              file + ":6:9: error: corpus.voice: expected an espeak-ng voice name (en-us, en, ...), got "
+                     "\"festival:kal_diphone\" (did you mean tts = \"festival:kal_diphone\"?)");
+    EXPECT_EQ(error("tts = 3\n"), file + ":6:7: error: corpus.tts: expected a string, got 3");
+    fs::remove_all(dir);
 }
 
 TEST(Protocol, GoldenErrorBadTypes) { check_golden("bad_types"); }

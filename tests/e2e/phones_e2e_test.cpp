@@ -11,6 +11,8 @@
 #include "avsi/core/audio.h"
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
+#include "avsi/core/phones.h"
+#include "avsi/core/tts.h"
 #include "../cli_run.h"
 
 namespace avsi {
@@ -49,6 +51,62 @@ TEST(PhonesCli, TextGivesWavAndContiguousPhonesCoveringIt) {
     EXPECT_EQ(phones.front().start_s, 0.0);
     EXPECT_NEAR(phones.back().end_s, audio.duration_s(), 0.020);
     EXPECT_EQ(audio.sample_rate_hz, 22050);
+}
+
+// The Festival path from the command line: the phones of come/here/John,
+// contiguous and covering the audio; the same samples and times in two
+// processes and in this one.
+TEST(PhonesCli, FestivalVoiceGivesTheSameSpeechInEveryProcess) {
+    const fs::path dir = work_dir();
+    std::vector<Audio> audio;
+    std::vector<PhoneSequence> phones;
+    for (const char* name : {"a", "b"}) {
+        const fs::path wav = dir / (std::string(name) + ".wav"), tsv = dir / (std::string(name) + ".tsv");
+        const RunResult r = run_avsi("phones --text 'Come here John.' --tts festival:cmu_us_slt_arctic_hts --wav " +
+                                     quote(wav.string()) + " --out " + quote(tsv.string()));
+        ASSERT_EQ(r.exit_code, 0) << r.err;
+        audio.push_back(read_audio(wav));
+        phones.push_back(read_phones(tsv));
+    }
+    std::vector<std::string> labels;
+    const auto& inventory = PhoneInventory::builtin();
+    for (const auto& p : phones[0])
+        if (p.symbol != "sil") labels.push_back(phone_label(p, inventory.is_vowel(p.symbol)));
+    EXPECT_EQ(labels, (std::vector<std::string>{"K", "AH1", "M", "HH", "IH1", "R", "JH", "AA1", "N"}));
+    EXPECT_NO_THROW(check_phone_sequence(phones[0], "a.tsv", 2e-6));
+    EXPECT_EQ(phones[0].front().start_s, 0.0);
+    EXPECT_NEAR(phones[0].back().end_s, audio[0].duration_s(), 1e-6);
+    EXPECT_EQ(audio[0].sample_rate_hz, 32000);
+    EXPECT_EQ(audio[0].samples, audio[1].samples);
+    EXPECT_EQ(phones[0], phones[1]);
+    // In this process: the same speech (the WAV holds 16-bit samples).
+    TtsSettings s;
+    set_tts_voice(s, "festival:cmu_us_slt_arctic_hts");
+    const TtsResult here = synthesize_speech("Come here John.", s);
+    ASSERT_EQ(here.audio.samples.size(), audio[0].samples.size());
+    for (std::size_t i = 0; i < here.audio.samples.size(); ++i)
+        ASSERT_NEAR(here.audio.samples[i], audio[0].samples[i], 1.0 / 32768) << i;
+    ASSERT_EQ(here.phones.size(), phones[0].size());
+    for (std::size_t i = 0; i < here.phones.size(); ++i) {
+        EXPECT_EQ(here.phones[i].symbol, phones[0][i].symbol);
+        EXPECT_NEAR(here.phones[i].end_s, phones[0][i].end_s, 1e-6);  // TSV keeps 6 decimals
+    }
+}
+
+TEST(PhonesCli, BadFestivalVoiceListsTheInstalledVoices) {
+    const RunResult r = run_avsi("phones --text hi --tts festival:slt --out " + quote((work_dir() / "v.tsv").string()));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find("unknown Festival voice \"slt\""), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("installed Festival voices: cmu_us_slt_arctic_hts"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(work_dir() / "v.tsv"));
+    const RunResult engine = run_avsi("phones --text hi --tts mary:slt --out " + quote((work_dir() / "v.tsv").string()));
+    EXPECT_EQ(engine.exit_code, 1);
+    EXPECT_NE(engine.err.find("expected \"espeak:<voice>\" or \"festival:<voice>\""), std::string::npos) << engine.err;
+    const RunResult list = run_avsi("phones --list-voices");
+    EXPECT_EQ(list.exit_code, 0) << list.err;
+    EXPECT_NE(list.out.find("festival:cmu_us_slt_arctic_hts\n"), std::string::npos) << list.out;
+    EXPECT_NE(list.out.find("espeak:en-us\n"), std::string::npos) << list.out;
+    EXPECT_EQ(run_avsi("phones --text hi --tts festival:kal_diphone --voice en --out x.tsv").exit_code, 2);
 }
 
 TEST(PhonesCli, TextGridInReadsBackAsWritten) {
@@ -92,10 +150,10 @@ TEST(PhonesCli, BadUsageExitsTwoAndBadVoiceOne) {
 TEST(PhonesCli, HelpListsEveryOptionWithDefaults) {
     const RunResult r = run_avsi("phones --help");
     EXPECT_EQ(r.exit_code, 0);
-    for (const char* option : {"--text", "--textgrid", "--lab", "--tsv", "--tier", "--voice", "--rate", "--pitch",
-                               "--lead-silence", "--trail-silence", "--wav", "--out"})
+    for (const char* option : {"--text", "--textgrid", "--lab", "--tsv", "--tier", "--tts", "--voice", "--list-voices",
+                               "--rate", "--pitch", "--lead-silence", "--trail-silence", "--wav", "--out"})
         EXPECT_NE(r.out.find(option), std::string::npos) << option;
-    EXPECT_NE(r.out.find("=en-us"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("=espeak:en-us"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("=phones"), std::string::npos) << r.out;
 }
 

@@ -109,3 +109,54 @@ TEST(Evaluation, PlotIsAnSvgWithEveryCurve) {
     for (std::size_t pos = 0; (pos = svg.find("<path", pos)) != std::string::npos; ++pos) ++paths;
     EXPECT_GE(paths, 4u);
 }
+
+// Phonetic columns: a hand-made articulation function (aperture 20 mm and
+// lower lip to incisors 5 mm per unit of jaw rotation) on a complete track
+// whose jaw opens 0.1 per frame; a predictor that keeps the jaw shut closes
+// the /p/ and reaches the /f/, the track itself does neither.
+TEST(Evaluation, PhoneticColumnsCountClosuresAndMeasureTheErrorAtTheSegments) {
+    CorpusUtterance u;
+    u.id = "p";
+    u.phones = {{"sil", 0.0, 0.2, false}, {"AA", 0.2, 0.6, true}, {"P", 0.6, 0.8, false}, {"F", 0.8, 0.9, false},
+                {"sil", 0.9, 1.0, false}};
+    u.track.fps = 10.0;
+    u.track.present.fill(true);
+    for (int k = 0; k < 10; ++k) {
+        Frame f{};
+        f[index(Param::JawRotation)] = 0.1 * k;
+        u.track.frames.push_back(f);
+    }
+    const ArticulationFunction articulation = [](const Trajectory& t) {
+        std::vector<ArticulationMeasures> out;
+        for (std::size_t k = 0; k < t.size(); ++k) {
+            ArticulationMeasures m;
+            m.time_s = t.time_s(k);
+            m.aperture_mid_mm = m.aperture_min_mm = m.aperture_max_mm = m.aperture_all_min_mm =
+                20.0 * t.frames[k][index(Param::JawRotation)];
+            m.lip_to_incisors_mm = 5.0 * t.frames[k][index(Param::JawRotation)];
+            out.push_back(m);
+        }
+        return out;
+    };
+    const PredictFunction shut = [](const PhoneSequence&, std::span<const double> times, std::vector<Frame>& out) {
+        out.assign(times.size(), Frame{});
+    };
+    const auto s = evaluate_predictors({u}, {{"shut", shut}}, articulation);
+    ASSERT_TRUE(s[0].phonetic.has_value());
+    const PhoneticScores& p = *s[0].phonetic;
+    EXPECT_EQ(p.bilabials, 1u);
+    EXPECT_EQ(p.bilabials_closed, 1u);
+    EXPECT_EQ(p.labiodentals, 1u);
+    EXPECT_EQ(p.labiodentals_reached, 1u);
+    EXPECT_NEAR(p.aperture_error_mm, (12.0 + 14.0) / 2.0, 1e-9);  // frames 6 and 7 of the /p/
+    EXPECT_NEAR(p.lip_to_incisors_error_mm, 4.0, 1e-9);           // frame 8 of the /f/
+    const PhoneticScores r = reference_phonetic_scores({u}, articulation);
+    EXPECT_EQ(r.bilabials_closed, 0u);
+    EXPECT_EQ(r.labiodentals_reached, 0u);
+    EXPECT_DOUBLE_EQ(r.aperture_error_mm, 0.0);
+    const std::string csv = phonetic_csv(r, s);
+    EXPECT_NE(csv.find("\nreference,1,0,0.0000,1,0,0.0000,0.0000,0.0000\n"), std::string::npos) << csv;
+    EXPECT_NE(csv.find("\nshut,1,1,1.0000,1,1,1.0000,13.0000,4.0000\n"), std::string::npos) << csv;
+    // Without an articulation function there are no phonetic columns.
+    EXPECT_FALSE(evaluate_predictors({u}, {{"shut", shut}})[0].phonetic.has_value());
+}

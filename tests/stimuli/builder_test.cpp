@@ -269,6 +269,63 @@ std::filesystem::path protocol_with_vocoder(const std::filesystem::path& dir, co
     return path;
 }
 
+// A copy of the test protocol with its [corpus] voice line replaced.
+std::filesystem::path protocol_with_voice(const std::filesystem::path& dir, const std::string& voice_line) {
+    const std::filesystem::path data = std::filesystem::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build";
+    std::string text = read_text_file(data / "protocol.toml");
+    for (const auto& [from, to] :
+         {std::pair<std::string, std::string>{"sentences = \"corpus.csv\"",
+                                              "sentences = \"" + (data / "corpus.csv").generic_string() + "\""},
+          {"model = \"../../../../protocols/models/rule.json\"",
+           "model = \"" + (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json").generic_string() + "\""},
+          {"voice = \"en-us\"", voice_line}}) {
+        const auto at = text.find(from);
+        EXPECT_NE(at, std::string::npos) << from;
+        if (at != std::string::npos) text.replace(at, from.size(), to);
+    }
+    std::filesystem::create_directories(dir);
+    const auto path = dir / "protocol.toml";
+    write_text_file(path, text);
+    return path;
+}
+
+// The voice and its version are in the manifest's settings and so in every
+// stimulus's input hash: another voice rebuilds everything; a voice that is
+// not installed is refused at the protocol's tts key, naming the installed ones.
+TEST_F(BuilderFixture, RecordsTheVoiceAndRebuildsWhenItChanges) {
+    BuildSettings s = settings("voice");
+    s.max_sentences = 1;
+    s.protocol_path = protocol_with_voice(dir / "slt", "tts = \"festival:cmu_us_slt_arctic_hts\"");
+    EXPECT_EQ(build_stimuli(s).rendered, 3u);
+    const auto slt = nlohmann::json::parse(read_text_file(s.out_dir / "manifest.json"));
+    const auto& tts = slt["settings"]["tts"];
+    EXPECT_EQ(tts["tts"], "festival:cmu_us_slt_arctic_hts");
+    EXPECT_EQ(tts["engine"], "festival");
+    EXPECT_EQ(tts["voice"], "cmu_us_slt_arctic_hts");
+    EXPECT_EQ(tts["engine_version"].get<std::string>().rfind("2.", 0), 0u) << tts;
+    EXPECT_EQ(tts["voice_sha256"].get<std::string>().size(), 64u);
+    const Audio clean = read_audio(s.out_dir / slt["stimuli"][0]["wav"].get<std::string>());
+    EXPECT_GT(clean.duration_s(), 1.0);
+    EXPECT_EQ(build_stimuli(s).rendered, 0u);  // unchanged
+
+    s.protocol_path = protocol_with_voice(dir / "kal", "tts = \"festival:kal_diphone\"");
+    EXPECT_EQ(build_stimuli(s).rendered, 3u);
+    const auto kal = nlohmann::json::parse(read_text_file(s.out_dir / "manifest.json"));
+    EXPECT_EQ(kal["settings"]["tts"]["voice"], "kal_diphone");
+    EXPECT_NE(kal["settings"]["tts"]["voice_sha256"], tts["voice_sha256"]);
+    for (std::size_t i = 0; i < 3; ++i)
+        EXPECT_NE(kal["stimuli"][i]["input_sha256"], slt["stimuli"][i]["input_sha256"]) << i;
+
+    s.protocol_path = protocol_with_voice(dir / "bad", "tts = \"festival:cmu_us_slt\"");
+    s.out_dir = dir / "bad-out";
+    const std::string error = build_error(s.protocol_path, s.out_dir);
+    EXPECT_NE(error.find(s.protocol_path.string() + ":11:7: error: corpus.tts: unknown Festival voice \"cmu_us_slt\""),
+              std::string::npos)
+        << error;
+    EXPECT_NE(error.find("installed Festival voices: cmu_us_slt_arctic_hts"), std::string::npos) << error;
+    EXPECT_FALSE(std::filesystem::exists(s.out_dir / "manifest.json"));
+}
+
 TEST_F(BuilderFixture, MapsEveryVocoderKeyOfTheProtocol) {
     const auto protocol = protocol_with_vocoder(dir,
                                                 "bands = 4\nlow_hz = 150\nhigh_hz = 4000.0\nspacing = \"log\"\n"

@@ -1,6 +1,7 @@
 // The project phone set (ARPAbet with stress on vowels, silence `sil`), the
 // 17 phonetic features of the reference study (Beskow, §4.4), timed phone
-// sequences, and mappings from espeak-ng mnemonics and MFA-style IPA.
+// sequences, and mappings from espeak-ng mnemonics, MFA-style IPA and
+// Festival's US English phone set.
 // The data live in protocols/phones.tsv and protocols/phone_map.tsv
 // (documented in protocols/README.md).
 #pragma once
@@ -62,7 +63,7 @@ struct PhoneInfo {
 };
 
 // The project phone set, read from a TSV file (protocols/phones.tsv) with
-// mappings from espeak-ng phoneme mnemonics and IPA (protocols/phone_map.tsv).
+// mappings from espeak-ng phoneme mnemonics, IPA and Festival phones (protocols/phone_map.tsv).
 class PhoneInventory {
 public:
     // The inventory shipped in protocols/ (loaded once).
@@ -100,6 +101,11 @@ public:
     // trailing modifiers (tʰ -> t, kʷ -> k, d̪ -> d). Throws InputError naming
     // the label and `where` if it has no mapping.
     std::vector<Phone> from_ipa(std::string_view ipa, std::string_view where) const;
+    // Maps one phone of Festival's US English phone set (radio: "k", "ax",
+    // "el", "pau") to project phones; `stressed` is the stress of its syllable
+    // and applies to a mapped vowel without a digit. Throws InputError naming
+    // the phone and `where` if it has no mapping.
+    std::vector<Phone> from_festival(std::string_view name, bool stressed, std::string_view where) const;
     // True if `ipa` (after the fallbacks above) has a mapping.
     bool knows_ipa(std::string_view ipa) const;
 
@@ -110,6 +116,7 @@ private:
     std::map<std::string, std::vector<std::string>, std::less<>> m_espeak;
     std::map<std::string, std::vector<std::string>, std::less<>> m_espeak_en;
     std::map<std::string, std::vector<std::string>, std::less<>> m_ipa;
+    std::map<std::string, std::vector<std::string>, std::less<>> m_festival;
     std::map<std::string, bool, std::less<>> m_espeak_stress;  // mark -> stressed
 };
 

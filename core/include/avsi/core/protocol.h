@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "avsi/core/config.h"
+#include "avsi/core/tts.h"
 
 namespace avsi {
 
@@ -28,7 +29,12 @@ enum class Counterbalance { LatinSquare, Williams };
 struct CorpusSettings {
     std::filesystem::path sentences;  // resolved against the protocol folder
     CorpusAudio audio = CorpusAudio::Tts;
-    std::string voice = "en-us";
+    // The synthesiser and voice for audio = "tts": `tts = "festival:cmu_us_slt_arctic_hts"`
+    // or `"espeak:en-us"`; the older `voice = "<espeak-ng voice>"` means
+    // tts = "espeak:<voice>". Without either: espeak:en-us.
+    TtsEngine tts_engine = TtsEngine::Espeak;
+    std::string tts_voice = "en-us";
+    int tts_line = 0, tts_column = 0;  // where tts (or voice) is set (0: the default)
     // Every stimulus's speech level after the condition's processing: the
     // active-speech RMS (vocoder::speech_level_rms, ActiveFrames) in dBFS,
     // 20·log10(RMS) with full scale 1.0; set by the stimulus builder.
@@ -41,6 +47,11 @@ struct ProtocolCondition {
     std::filesystem::path model;  // control model file, resolved; empty when absent
     FaceMode face = FaceMode::Still;
     ConditionAudio audio = ConditionAudio::Vocoded;
+    // Closure mechanism (synth/target_hold.h): "hold" holds the /p b m f v/
+    // targets of protocols/rule_targets.tsv through their segments on this
+    // condition's model; "off" (default) leaves the model as published.
+    bool closure_hold = false;
+    double closure_transition_s = 0.025;  // the hold's fall-off outside the segment
     int line = 0;                 // where its [[condition]] table starts
 };
 
@@ -65,6 +76,10 @@ struct RenderSettings {
     // folder; both empty = the built-in head.
     std::filesystem::path head_mesh;
     std::filesystem::path head_rig;
+    // Measure every model stimulus's articulation (lip closure, labiodental
+    // contact, no interpenetration) into the manifest; needs the head's
+    // articulation landmarks. false only for a head without them.
+    bool check_articulation = true;
 };
 
 // [scoring]: how typed answers are scored (`avsi score`, live scoring).

@@ -1,5 +1,5 @@
 // Small text helpers every reader of user files needs: trimming and ASCII
-// case folding. One definition for the project (they were repeated per file).
+// case folding, XML/HTML escaping. One definition for the project (they were repeated per file).
 #pragma once
 
 #include <string>
@@ -15,5 +15,8 @@ std::string trim(std::string_view s);
 
 // `s` with ASCII letters in lower case; other bytes (UTF-8 included) unchanged.
 std::string ascii_lower(std::string_view s);
+
+// `s` with & < > " replaced by their XML entities (for SVG and HTML text and attributes).
+std::string xml_escape(std::string_view s);
 
 }  // namespace avsi

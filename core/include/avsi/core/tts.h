@@ -1,38 +1,84 @@
-// Text-to-speech front end through libespeak-ng: text → audio and a timed
-// phone sequence in the project phone set, from espeak-ng's phoneme events.
-// Phoneme events give each phoneme's start (audio_position); a phoneme ends
-// where the next one starts, the last where the audio ends. Events carry no
-// stress, so the stress marks come from espeak_TextToPhonemes on the same text,
-// aligned to the events by edit distance. espeak-ng has global state: calls are
-// serialised by a mutex, so synthesize_speech is safe to call from any thread.
+// Text-to-speech front end: text → audio and a timed phone sequence in the
+// project phone set, from one of two synthesisers.
 //
-//   avsi::TtsResult r = avsi::synthesize_speech("Come here John.");
-//   // r.phones: sil K AH1 M HH IH1 R JH AA1 N sil, r.audio: 22050 Hz mono
+// - espeak-ng (libespeak-ng, formant synthesis): phoneme events give each
+//   phoneme's start (audio_position); a phoneme ends where the next one
+//   starts, the last where the audio ends. Events carry no stress, so the
+//   stress marks come from espeak_TextToPhonemes on the same text, aligned to
+//   the events by edit distance.
+// - Festival (libFestival; HTS statistical parametric voices such as
+//   cmu_us_slt_arctic_hts, diphone voices such as kal_diphone): the phones
+//   and their end times are the utterance's Segment relation, the stress that
+//   of each segment's syllable, `pau` is silence.
+//
+// Both engines keep global state; each utterance is synthesised in a child
+// process from the same freshly initialised state, so the same text gives the
+// same samples and times in any order, in any process, and synthesize_speech
+// is safe to call from any thread (docs/tts.md).
+//
+//   avsi::TtsSettings s;
+//   avsi::set_tts_voice(s, "festival:cmu_us_slt_arctic_hts");
+//   avsi::TtsResult r = avsi::synthesize_speech("Come here John.", s);
+//   // r.phones: sil K AH1 M HH IH1 R JH AA1 N sil, r.audio: 32000 Hz mono
 #pragma once
 
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "avsi/core/audio.h"
 #include "avsi/core/phones.h"
 
 namespace avsi {
 
+enum class TtsEngine { Espeak, Festival };
+
 struct TtsSettings {
-    std::string voice = "en-us";    // an English espeak-ng voice: en-us, en, en-gb-x-rp, …
-    int rate_wpm = 160;             // speaking rate, words per minute (80–450)
-    int pitch = 50;                 // espeak-ng pitch, 0–99
-    double lead_silence_s = 0.15;   // silence before the first phone (espeak-ng's own
+    TtsEngine engine = TtsEngine::Espeak;
+    std::string voice = "en-us";    // espeak-ng: an English voice (en-us, en, en-gb-x-rp, …);
+                                    // Festival: a voice of voice.list (cmu_us_slt_arctic_hts, kal_diphone)
+    int rate_wpm = 160;             // espeak-ng: words per minute (80–450); Festival voices
+                                    // speak at their own rate and take only this default
+    int pitch = 50;                 // espeak-ng: pitch 0–99; Festival: only this default
+    double lead_silence_s = 0.15;   // silence before the first phone (the engine's own
                                     // leading pause is padded or cut to this)
     double trail_silence_s = 0.15;  // silence after the last phone (padded or cut to this)
 };
 
 struct TtsResult {
-    Audio audio;          // mono, espeak-ng's native rate (22050 Hz)
+    Audio audio;          // mono, at the voice's own rate (espeak-ng 22050 Hz; Festival SLT
+                          // 32000 Hz, kal 16000 Hz)
     PhoneSequence phones; // contiguous, from 0 to audio duration, `sil` at the edges
 };
 
+// Sets engine and voice from "<engine>:<voice>" ("espeak:en-us",
+// "festival:cmu_us_slt_arctic_hts"). Throws InputError (path `where`, field
+// "tts") for another engine or an empty voice; whether the voice is installed
+// is checked when it is used.
+void set_tts_voice(TtsSettings& settings, std::string_view spec, std::string_view where = "tts");
+
+// "<engine>:<voice>" as set_tts_voice reads it.
+std::string tts_voice_spec(const TtsSettings& settings);
+
+// What produced the speech, for manifests and input hashes.
+struct TtsVoiceInfo {
+    std::string engine;          // "espeak-ng" or "festival"
+    std::string engine_version;  // espeak-ng "1.51"; Festival "2.5.0:release December 2017"
+    std::string voice;
+    std::string voice_sha256;    // Festival: SHA-256 over the voice's installed files; espeak-ng: ""
+};
+
+// Engine and voice names and versions; throws InputError (field "voice") for a
+// voice that is not installed, listing the installed ones.
+TtsVoiceInfo describe_tts_voice(const TtsSettings& settings);
+
+// The installed voices the front end can use with `engine` (espeak-ng: the
+// English voices; Festival: voice.list), sorted.
+std::vector<std::string> installed_tts_voices(TtsEngine engine);
+
 // Synthesises `text`. Throws InputError for an unknown or non-English voice,
-// settings out of range, empty text, or a phoneme the mapping does not cover.
+// settings out of range or not applicable to the engine, empty text, or a
+// phone the mapping does not cover.
 TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings = {});
 
 }  // namespace avsi

@@ -7,6 +7,17 @@
 // frames, vowel frames and consonant frames, each frame labelled by the
 // phone its time falls in. Missing target values (NaN) are left out.
 //
+// Phonetic columns (given an articulation function: what the face shows for
+// a trajectory, per frame, measured on a head — the CLI passes the stimuli
+// module's ArticulationMeter on the built-in head): per model, the closure
+// attainment rate of the bilabials and the contact rate of the labiodentals
+// (synth/articulation_check.h: a sampled frame of each segment closed /
+// within reach), and the mean absolute error at those segments' frames of
+// the lip aperture (/p b m/) and of the lower lip's distance to the upper
+// incisors (/f v/) against the same measures of the corpus track; and the
+// corpus track's own rates (the "reference" row), so a reader sees that the
+// data closes its bilabials.
+//
 // Usage:
 //     EvaluationAccumulator acc;
 //     for (each test utterance) acc.add(phones, target_track, predicted_frames);
@@ -24,6 +35,7 @@
 
 #include "avsi/core/phones.h"
 #include "avsi/learn/articulatory_corpus.h"
+#include "avsi/synth/articulation_check.h"
 
 namespace avsi::learn {
 
@@ -38,8 +50,24 @@ struct Score {
     std::size_t frames = 0;
 };
 
+// The phonetic columns of one model (or of the reference data).
+struct PhoneticScores {
+    std::size_t bilabials = 0, bilabials_closed = 0;
+    std::size_t labiodentals = 0, labiodentals_reached = 0;
+    double aperture_error_mm = 0.0;        // mean |model − reference| over /p b m/ frames; NaN when none
+    double lip_to_incisors_error_mm = 0.0; // the same over /f v/ frames
+    std::size_t utterances = 0;            // utterances measured (a track with missing values is skipped)
+
+    double closure_rate() const { return bilabials ? double(bilabials_closed) / double(bilabials) : 0.0; }
+    double contact_rate() const { return labiodentals ? double(labiodentals_reached) / double(labiodentals) : 0.0; }
+};
+
+// What the face shows for a trajectory: the articulation measures of each frame.
+using ArticulationFunction = std::function<std::vector<synth::ArticulationMeasures>(const Trajectory&)>;
+
 struct ModelScores {
     std::string name;
+    std::optional<PhoneticScores> phonetic;  // with an articulation function
     // [subset][parameter]; frames == 0 for parameters the corpus lacks.
     std::array<std::array<Score, param_count>, subset_count> per_param{};
     // [subset]: the mean over parameters with frames (ρ over those where it is defined).
@@ -69,9 +97,21 @@ struct NamedPredictor {
     PredictFunction predict;
 };
 
-// Scores each predictor on the utterances (predictions at the tracks' frame times).
+// Scores each predictor on the utterances (predictions at the tracks' frame
+// times); with `articulation`, also the phonetic columns.
 std::vector<ModelScores> evaluate_predictors(const std::vector<CorpusUtterance>& utterances,
-                                             const std::vector<NamedPredictor>& predictors);
+                                             const std::vector<NamedPredictor>& predictors,
+                                             const ArticulationFunction& articulation = {});
+
+// The phonetic columns of the corpus tracks themselves (errors are 0).
+PhoneticScores reference_phonetic_scores(const std::vector<CorpusUtterance>& utterances,
+                                         const ArticulationFunction& articulation);
+
+// The phonetic table (Markdown) and CSV
+// (model,bilabials,bilabials_closed,closure_rate,labiodentals,labiodentals_reached,contact_rate,
+//  aperture_error_mm,lip_to_incisors_error_mm), the reference data first.
+std::string phonetic_markdown(const PhoneticScores& reference, const std::vector<ModelScores>& scores);
+std::string phonetic_csv(const PhoneticScores& reference, const std::vector<ModelScores>& scores);
 
 // Table 2 layout: a row per subset, RMSE (%) and ρ per model; then a
 // per-parameter table per subset. Markdown and tidy CSV
@@ -93,10 +133,16 @@ struct EvaluationSettings {
     std::optional<double> test_fraction;
     std::string plot_utterance;                  // default: the first evaluated utterance
     std::string plot_param = "jaw_rotation";
+    // What the face shows (phonetic columns, <out>_phonetic.csv); empty: none.
+    ArticulationFunction articulation;
+    std::string articulation_head;               // described in the caption
+    // Also score each model with the closure hold (synth/target_hold.h), as "<name>+hold".
+    bool closure_hold = false;
 };
 
 struct EvaluationResult {
     std::vector<ModelScores> scores;
+    std::optional<PhoneticScores> reference;  // with an articulation function
     std::string markdown;     // what <out>.md holds
     std::size_t utterances = 0;
 };

@@ -9,7 +9,17 @@
 // - Targets: u(t) is the target of the phone active at t + lead, i.e. each
 //   phone's command switches in `anticipation_s` (per parameter) before its
 //   segment starts. Short segments therefore undershoot their targets (the
-//   system never gets there), long ones reach them.
+//   system never gets there), long ones reach them — except the lips'
+//   constrictions: a bilabial aims beyond contact (a virtual target) and its
+//   closing gesture (jaw, upper lip raise, lower lip depression) starts as
+//   early as it must for the lip aperture to be closure_margin_mm beyond
+//   contact from closure_hold_s before the segment's centre to as long after
+//   (the release comes no earlier), and a labiodental's gesture (jaw, lower
+//   lip retraction and depression) as early as it must for the lower lip to
+//   be within 1 mm of its height under the upper incisors, as real speakers
+//   close the lips for every /p b m/ (the planning is in
+//   simulate_reference_speaker; the aperture and height are linear in the
+//   parameters as the built-in head's rig makes them).
 // - Phone targets: a fixed table per phone (reference_speaker.cpp). A
 //   consonant leaves the parameters its place of articulation does not
 //   constrain unspecified; they take the next vowel's target (look-ahead).
@@ -61,6 +71,15 @@ struct ReferenceSpeakerSettings {
     double jaw_shift_drift_sd = 0.06;       // sd of the slow jaw_shift drift, × range
     double sensor_noise_sd = 0.004;         // per-frame noise, × range
     double simulation_step_s = 0.001;
+    // Bilabials: the lip aperture (reference_speaker.cpp) at the segment's
+    // centre is at least this far beyond contact; a bilabial's or
+    // labiodental's gesture starts up to max_closure_lead_s earlier than the
+    // parameters' anticipation.
+    double closure_margin_mm = 2.0;
+    double max_closure_lead_s = 0.15;
+    // ... from this long before the centre to this long after it (a closure
+    // a video frame can show, whatever the frame rate from 25 fps up).
+    double closure_hold_s = 0.02;
     std::uint64_t split_seed = 2004;
     double test_fraction = 0.3;
 };

@@ -6,7 +6,10 @@
 // parallel, one renderer per worker thread; a stimulus whose inputs and
 // settings are unchanged (same input hash in the manifest, same file hash on
 // disk) is skipped. Writes DIR/<sentence>/<condition>.mp4 and .wav and
-// DIR/manifest.json (path, duration, frame count, settings, seeds, SHA-256).
+// DIR/manifest.json (path, duration, frame count, settings, seeds, SHA-256,
+// and each model stimulus's articulation: bilabials closed k of n,
+// labiodentals reached k of n, aperture range, violations) and the
+// articulation QC page DIR/qc/articulation.html (articulation.h).
 //
 // Determinism: x264 runs single-threaded with bit-exact flags and the audio
 // is produced from seeds, so the same inputs give byte-identical files and
@@ -62,7 +65,9 @@ struct VerifyReport {
 // and settings unchanged since it was built (else it is out of date); the MP4
 // and WAV with the manifest's SHA-256; the MP4 decoding to the manifest's
 // frame count at its frame rate, with an audio track as long as the video
-// within one frame. Manifest entries the protocol does not ask for are
+// within one frame; and every model stimulus's articulation, measured afresh
+// from its model and phones on the head: each segment that breaks a
+// constraint is a problem. Manifest entries the protocol does not ask for are
 // listed apart. Decodes on `jobs` threads. Throws InputError for a bad
 // protocol, or a missing or unreadable manifest.
 VerifyReport verify_stimuli(const BuildSettings& settings);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "avsi/stimuli/animation.h"
+#include "avsi/stimuli/articulation.h"
 #include "avsi/stimuli/contact_sheet.h"
 
 namespace avsi::stimuli {
@@ -30,6 +31,30 @@ struct RenderJobSettings {
 
 // Renders a trajectory (or FAP stream) to an MP4 or a PNG sequence.
 void run_render(const RenderJobSettings& settings);
+
+struct MeasureJobSettings {
+    std::filesystem::path trajectory_path;  // CSV trajectory, or
+    std::filesystem::path fap_path;         // MPEG-4 FAP v2.1 file, or
+    std::filesystem::path model_path;       // a control model driven by phones_path / text
+    std::filesystem::path phones_path;      // timed phones (labels and checks; required with model_path unless text)
+    std::string text;                       // text through the TTS front end (with model_path)
+    double fps = 30.0;                      // frame rate of a model's trajectory
+    std::filesystem::path out_path;         // measures CSV
+    std::filesystem::path plot_path;        // optional SVG of the aperture over time
+    HeadFiles head;
+    ArticulationLimits limits;
+};
+
+// What run_measure found.
+struct MeasureResult {
+    std::size_t frames = 0;
+    bool checked = false;  // phones were given, so the constraints were checked
+    ArticulationSummary summary;
+};
+
+// `avsi measure`: the articulation measures of every frame of a trajectory,
+// FAP stream or model output on a head, and (with phones) the constraints.
+MeasureResult run_measure(const MeasureJobSettings& settings);
 
 struct ContactSheetJobSettings {
     std::filesystem::path out_path;

@@ -8,10 +8,15 @@
 // standard deviation σ (smoothing_sigma_s, default 25 ms). The convolution
 // is evaluated in closed form (a piecewise-linear function convolved with a
 // Gaussian), so the result is a continuous-time function and identical at
-// shared time points for every frame rate.
+// shared time points for every frame rate. Beskow's rules articulate
+// clearly: the specified targets of the "held" phones (the default file's
+// /p b m f v/) are reached in every segment and held through it, the track
+// returning to the smoothed one outside with a Gaussian fall-off of the same
+// σ (target_hold.h), so a bilabial closes however short it is.
 //
 // Model file (kind "rule"): targets embedded,
 //     {"kind": "rule", "version": 1, "provenance": {…}, "smoothing_sigma_s": 0.025,
+//      "held_phones": ["P", "B", "M", "F", "V"],               // optional, default none
 //      "targets": {"P": {"jaw_rotation": 0.1, "lip_rounding": null, …}, …}}
 // or read from a TSV (phone, then the 10 parameters, "-" = unspecified):
 //     {…, "targets_file": "../rule_targets.tsv"}   // relative to the model file
@@ -21,6 +26,7 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "avsi/synth/control_model.h"
@@ -37,8 +43,8 @@ class RuleModel : public ControlModel {
 public:
     using Table = std::map<std::string, RuleTarget, std::less<>>;
 
-    RuleModel(Table targets, double smoothing_sigma_s)
-        : m_targets(std::move(targets)), m_sigma_s(smoothing_sigma_s) {}
+    RuleModel(Table targets, double smoothing_sigma_s, std::set<std::string, std::less<>> held_phones = {})
+        : m_targets(std::move(targets)), m_sigma_s(smoothing_sigma_s), m_held(std::move(held_phones)) {}
 
     std::string_view kind() const override { return "rule"; }
     void evaluate(const PhoneSequence& phones, std::span<const double> times_s,
@@ -51,10 +57,12 @@ public:
 
     const Table& targets() const { return m_targets; }
     double smoothing_sigma_s() const { return m_sigma_s; }
+    const std::set<std::string, std::less<>>& held_phones() const { return m_held; }
 
 private:
     Table m_targets;
     double m_sigma_s;
+    std::set<std::string, std::less<>> m_held;
 };
 
 }  // namespace avsi::synth

@@ -1,0 +1,123 @@
+// What the face shows: geometric articulation measures of the posed head, per
+// frame, in millimetres (mesh units), their plots, and the articulation QC
+// page of a stimulus set (DESIGN.md, "Validity checks").
+//
+// The measures come from landmark vertices the rig names
+// (ArticulationLandmarks, the rig file's "articulation" section), so they
+// work on the built-in head and on a lab's own head alike:
+//   - aperture: the vertical distance (along the head's up axis) between
+//     paired points of the upper and lower inner-lip contours, what a frontal
+//     viewer sees as the opening; negative where the lower contour lies above
+//     the upper one (the lips pass through each other). Reported at the
+//     midline and as the minimum and maximum over the central third of the
+//     mouth width.
+//   - mouth width: distance between the two corner landmarks.
+//   - upper and lower lip protrusion: forward displacement (along the head's
+//     forward axis) of the lips' midline vermilion points from rest.
+//   - jaw opening: increase of the vertical gap between the upper and lower
+//     incisal edges' midpoints from rest.
+//   - lower lip to upper incisors: the smallest distance from the lower lip's
+//     inner surface points to the upper incisal edge (a polyline).
+//
+// The constraints the measures are checked against (lip closure in
+// /p b m/, labiodental contact in /f v/, no interpenetration, rounding) are
+// in avsi/synth/articulation_check.h; the QC page of a stimulus set is here.
+//
+//   const auto& head = ...;                        // with an articulation section
+//   ArticulationMeter meter(head);
+//   auto measures = meter.measure(trajectory);     // one row per frame
+//   auto summary = check_articulation(phones, trajectory.fps, measures);
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "avsi/core/phones.h"
+#include "avsi/stimuli/head.h"
+#include "avsi/synth/articulation_check.h"
+#include "avsi/synth/trajectory.h"
+
+namespace avsi::stimuli {
+
+using synth::ArticulationLimits;
+using synth::ArticulationMeasures;
+using synth::ArticulationSummary;
+using synth::check_articulation;
+using synth::SegmentCheck;
+using synth::SegmentClass;
+using synth::worse_articulation;
+using synth::write_articulation_csv;
+
+// Poses only the landmark vertices of a head (the rig's transforms act on
+// each vertex independently), so measuring a frame costs a few microseconds.
+class ArticulationMeter {
+public:
+    // Throws InputError naming the rig file and every missing landmark when
+    // the head's rig has no (or an incomplete) "articulation" section.
+    explicit ArticulationMeter(const Head& head);
+
+    ArticulationMeasures measure(const Pose& pose) const;
+    // Measures every frame of a trajectory (frame k at k / fps), eyes open.
+    std::vector<ArticulationMeasures> measure(const synth::Trajectory& trajectory) const;
+
+private:
+    struct Sparse {
+        std::vector<std::uint32_t> slots;  // into m_rest
+        std::vector<float> weights;
+    };
+    void pose_landmarks(const Pose& pose, std::vector<glm::vec3>& out) const;
+
+    const Head& m_head;
+    std::vector<std::uint32_t> m_vertices;  // the landmark vertices, in slot order
+    std::vector<glm::vec3> m_rest;
+    std::vector<Sparse> m_transforms;       // per rig transform, the landmarks it moves
+    LipContactPoints m_contact;             // the landmarks the lip contact reads and moves
+    // Slot ranges of each landmark set.
+    std::vector<std::uint32_t> m_upper, m_lower, m_upper_edge, m_lower_edge, m_lip_surface;
+    std::uint32_t m_corner_left = 0, m_corner_right = 0, m_upper_front = 0, m_lower_front = 0;
+    std::size_t m_mid_pair = 0;
+    std::vector<std::size_t> m_central_pairs;
+    glm::vec3 m_up{0, 1, 0}, m_forward{0, 0, 1};
+    double m_rest_upper_front = 0.0, m_rest_lower_front = 0.0, m_rest_incisor_gap = 0.0;
+};
+
+// An SVG plot of the aperture over time (midline, and the band between the
+// central third's smallest and largest), with the phone labels along the
+// bottom, the /p b m/ segments shaded, the closure limit drawn and the
+// segments that break a constraint marked in red; the lower lip's distance
+// to the upper incisors (dashed) through the /f v/ segments, and a circle at
+// the frame each segment is judged by.
+std::string aperture_plot_svg(const std::string& title, const PhoneSequence& phones,
+                              const std::vector<ArticulationMeasures>& measures, const ArticulationSummary& summary,
+                              const ArticulationLimits& limits = {});
+// Writes aperture_plot_svg to `path`.
+void write_aperture_plot(const std::filesystem::path& path, const std::string& title,
+                         const PhoneSequence& phones, const std::vector<ArticulationMeasures>& measures,
+                         const ArticulationSummary& summary, const ArticulationLimits& limits = {});
+
+// One stimulus on the QC page.
+struct QcStimulus {
+    std::string path;       // the MP4, relative to the set's folder
+    std::string condition;
+    std::string sentence;   // id
+    std::string text;
+    ArticulationSummary summary;
+    // For the plotted ones: the phones and every frame's measures.
+    PhoneSequence phones;
+    std::vector<ArticulationMeasures> measures;
+};
+
+// The QC page of a stimulus set (HTML, self-contained): per condition the
+// bilabials closed and labiodentals reached over all its stimuli, the
+// aperture range and the violations; every stimulus that breaks a
+// constraint, named with its segments; and the aperture plots of the
+// stimuli given with measures (the worst ones).
+std::string articulation_qc_html(const std::string& title, const std::vector<QcStimulus>& stimuli,
+                                 const ArticulationLimits& limits = {});
+
+}  // namespace avsi::stimuli
