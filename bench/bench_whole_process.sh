@@ -19,10 +19,9 @@
 # AVSI_BEFORE: another avsi executable timed on the same tasks (e.g. one
 # built from an older commit) for a before/after column.
 #
-# Needs (Debian): hyperfine, sox, ffmpeg, espeak-ng, python3-numpy,
-# python3-scipy (not part of `make test`: `apt-get install hyperfine sox
-# python3-numpy python3-scipy`). The machine's load is printed before and
-# after; on a shared machine compare CPU time rather than wall time.
+# Needs (Debian, installed by scripts/install-deps): hyperfine, sox, ffmpeg,
+# espeak-ng, python3-numpy, python3-scipy. The machine's load is printed
+# before and after; on a shared machine compare CPU time rather than wall time.
 set -euo pipefail
 
 build_dir="${1:-build}"

@@ -109,13 +109,31 @@ TEST(FrontEnd, EveryListedCommandAnswersHelp) {
     const std::vector<std::string> names = listed_commands();
     // The commands of every group are there.
     for (const char* name : {"phones", "synth", "vocode", "stoi", "score", "power", "corpus", "train", "render",
-                             "build-stimuli", "design", "export-web", "run"})
+                             "build-stimuli", "measure", "evaluate", "design", "export-web", "run"})
         EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name << " not listed";
     for (const std::string& name : names) {
         const test::CliResult r = test::run_avsi(name + " --help", work_dir());
         EXPECT_EQ(r.exit_code, 0) << name << ": " << r.err;
         EXPECT_NE(r.out.find("avsi " + name), std::string::npos) << name << ": " << r.out.substr(0, 200);
     }
+}
+
+// Every command a cli/cmd_*.cpp file registers (register_command({"name", …)
+// is listed by `avsi --help`: none is left out of the helpers or the registry.
+TEST(FrontEnd, EveryRegisteredCommandIsListed) {
+    const std::vector<std::string> names = listed_commands();
+    const std::regex registration(R"re(register_command\(\{\s*"([a-z0-9-]+)")re");
+    std::size_t found = 0;
+    for (const auto& entry : fs::directory_iterator(AVSI_CLI_SOURCE_DIR)) {
+        const std::string file = entry.path().filename().string();
+        if (file.rfind("cmd_", 0) != 0 || entry.path().extension() != ".cpp") continue;
+        const std::string text = read_text_file(entry.path());
+        for (std::sregex_iterator m(text.begin(), text.end(), registration), end; m != end; ++m, ++found)
+            EXPECT_NE(std::find(names.begin(), names.end(), (*m)[1].str()), names.end())
+                << (*m)[1] << " (registered in cli/" << file << ") is not listed by avsi --help";
+    }
+    EXPECT_GE(found, 23u) << "the pattern no longer finds the registrations in " << AVSI_CLI_SOURCE_DIR;
+    EXPECT_EQ(names.size(), found);
 }
 
 TEST(FrontEnd, UsageErrorsOfACommandKeepTheirExitCode) {
