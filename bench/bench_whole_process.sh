@@ -28,6 +28,10 @@ build_dir="${1:-build}"
 runs="${RUNS:-7}"
 out="${OUT:-out/bench-whole}"
 before="${AVSI_BEFORE:-}"
+if [[ -n "$before" ]]; then
+  [[ -x "$before" ]] || { echo "bench_whole_process: AVSI_BEFORE=$before is not an executable" >&2; exit 1; }
+  before="$(cd "$(dirname "$before")" && pwd)/$(basename "$before")"  # before the cd below
+fi
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 avsi="$(cd "$build_dir" && pwd)/cli/avsi"
 python=/usr/bin/python3  # Debian's, where python3-numpy and python3-scipy install
@@ -100,7 +104,6 @@ tasks=(
   "score 25 subjects|$avsi score --protocol $repo/protocols/beskow2004-en.toml --responses responses.csv --out scores"
 )
 if [[ -n "$before" ]]; then
-  before="$(cd "$(dirname "$before")" && pwd)/$(basename "$before")"
   tasks+=(
     "before: startup|$before --version"
     "before: synth, phones|$before synth --phones sentence.tsv --out b1.csv"
@@ -117,7 +120,7 @@ table="$out/table.md"
   echo "| task | median wall (ms) | CPU user + sys (ms) | peak RSS (MiB) |"
   echo "| --- | ---: | ---: | ---: |"
 } > "$table"
-declare -A median
+declare -A median cpu
 for task in "${tasks[@]}"; do
   name="${task%%|*}"
   command="${task#*|}"
@@ -128,19 +131,22 @@ for task in "${tasks[@]}"; do
   rss=$(eval "/usr/bin/time -f %M $command" 2>&1 >/dev/null | tail -1)
   read -r med cpu < <("$python" -c "import json,sys; r=json.load(open(sys.argv[1]))['results'][0]; print(r['median']*1e3, (r['user']+r['system'])*1e3)" "$json")
   median["$name"]=$med
+  cpu["$name"]=$cpu
   printf '| %s | %.1f | %.1f | %.1f |\n' "$name" "$med" "$cpu" "$(echo "$rss / 1024" | bc -l)" | tee -a "$table"
 done
-ratio() { "$python" -c "print(f'{$1 / $2:.1f}')"; }
+ratio() { "$python" -c "print(f'{$1 / $2:.2f}')"; }
+# "a / b: wall x (CPU y)", medians of wall time, means of CPU time.
+ratios() { echo "$(ratio "${median[$1]}" "${median[$2]}")x wall ($(ratio "${cpu[$1]}" "${cpu[$2]}")x CPU)"; }
 {
   echo
-  echo "vocode 9 min: numpy/scipy / avsi = $(ratio "${median['vocode 9 min: numpy/scipy']}" "${median['vocode 9 min']}")x (wall, medians);" \
-       "avsi at $(ratio 540000 "${median['vocode 9 min']}")x real time"
-  echo "read + write 9 min with sox / avsi vocode = $(ratio "${median['read + write 9 min: sox']}" "${median['vocode 9 min']}")"
-  echo "ffmpeg encoding the frames / avsi render (render + encode + mux) = $(ratio "${median['encode its frames: ffmpeg']}" "${median['render a sentence (MP4)']}")"
+  echo "vocode 9 min, numpy/scipy / avsi: $(ratios 'vocode 9 min: numpy/scipy' 'vocode 9 min');" \
+       "avsi at $(ratio 540000 "${median['vocode 9 min']}")x real time wall, $(ratio 540000 "${cpu['vocode 9 min']}")x on CPU time"
+  echo "sox read + write 9 min / avsi vocode: $(ratios 'read + write 9 min: sox' 'vocode 9 min')"
+  echo "ffmpeg encoding the frames / avsi render (render + encode + mux): $(ratios 'encode its frames: ffmpeg' 'render a sentence (MP4)')"
   if [[ -n "$before" ]]; then
     for t in "startup:startup: avsi --version" "synth, phones:synth, phones of a sentence" "synth, text:synth, text of a sentence (espeak-ng)" \
              "vocode 9 min:vocode 9 min" "stoi 9 min:stoi 9 min" "render a sentence:render a sentence (MP4)" "score 25 subjects:score 25 subjects"; do
-      echo "before / now, ${t%%:*}: $(ratio "${median["before: ${t%%:*}"]}" "${median["${t#*:}"]}")x"
+      echo "before / now, ${t%%:*}: $(ratios "before: ${t%%:*}" "${t#*:}")"
     done
   fi
 } | tee -a "$table"
