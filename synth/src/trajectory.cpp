@@ -62,6 +62,16 @@ Trajectory read_trajectory_csv(const std::filesystem::path& path) {
                          fmt::format("expected the first frame at 0 s, got {}", times[0]));
     if (!(times[1] > times[0]))
         throw InputError(file, table.rows[1].line, 0, "time_s", "expected increasing times");
+    // Each step as the first one, up to the rounding of the written decimals:
+    // the error names the row where the step changes.
+    const double first_step_s = times[1] - times[0];
+    for (std::size_t k = 2; k < times.size(); ++k) {
+        const double step_s = times[k] - times[k - 1];
+        if (std::abs(step_s - first_step_s) > 2e-6 + 1e-3 * first_step_s)
+            throw InputError(file, table.rows[k].line, 0, "time_s",
+                             fmt::format("expected a constant frame step of {} s (frame {} at {} s), got {}",
+                                         first_step_s, k, times[k - 1] + first_step_s, times[k]));
+    }
     // The rate from the whole span (a step rounded to the written decimals,
     // 0.016667 for 60 fps, would drift a frame off in a few hundred frames),
     // snapped to a whole number of frames per second when that close.
