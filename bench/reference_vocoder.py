@@ -16,7 +16,8 @@ down as a whole if it would clip. 16-bit WAV in and out (scipy.io.wavfile).
 
 Used by bench/bench_whole_process.sh as the baseline avsi is timed against;
 `--check AVSI_OUTPUT.wav` compares the two outputs' band levels instead of
-writing (the carriers differ, so the samples do not).
+writing (the carriers differ, so the samples do not; the overall level can
+differ by the anti-clipping scale, the same for every band).
 """
 import argparse
 import sys
@@ -87,7 +88,8 @@ def main():
     ap.add_argument("--high-hz", type=float, default=5000.0)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--check", metavar="AVSI_OUTPUT",
-                    help="instead of writing, compare per-band RMS with avsi's output (exit 1 if > 0.5 dB apart)")
+                    help="instead of writing, compare per-band RMS with avsi's output (exit 1 if the band "
+                         "differences spread over more than 0.5 dB)")
     a = ap.parse_args()
     rate, x = read_wav(a.input)
     if x.ndim != 1:
@@ -96,14 +98,17 @@ def main():
     if a.check:
         _, z = read_wav(a.check)
         edges = band_edges(a.bands, a.low_hz, a.high_hz)
-        worst = 0.0
+        diffs = []
         for b in range(a.bands):
             sos = signal.butter(4, [edges[b], edges[b + 1]], btype="bandpass", fs=rate, output="sos")
             ours, theirs = signal.sosfilt(sos, y), signal.sosfilt(sos, z)
-            diff = 20 * np.log10(np.sqrt(np.mean(ours ** 2)) / np.sqrt(np.mean(theirs ** 2)))
-            print(f"band {b} ({edges[b]:.1f}-{edges[b + 1]:.1f} Hz): scipy - avsi = {diff:+.3f} dB")
-            worst = max(worst, abs(diff))
-        sys.exit(0 if worst <= 0.5 else 1)
+            diffs.append(20 * np.log10(np.sqrt(np.mean(ours ** 2)) / np.sqrt(np.mean(theirs ** 2))))
+            print(f"band {b} ({edges[b]:.1f}-{edges[b + 1]:.1f} Hz): scipy - avsi = {diffs[-1]:+.3f} dB")
+        # A common offset comes from the anti-clipping scale (the two noises
+        # peak differently); the spectral shape is the spread.
+        spread = max(diffs) - min(diffs)
+        print(f"spread across bands: {spread:.3f} dB (at most 0.5 dB: the same band levels)")
+        sys.exit(0 if spread <= 0.5 else 1)
     pcm = np.clip(np.round(y * 32767.0), -32768, 32767).astype(np.int16)
     wavfile.write(a.output, rate, pcm)
 
