@@ -1,6 +1,7 @@
 // Trajectory frame counts and CSV I/O (`time_s,<param>…`).
 #include "avsi/synth/trajectory.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -15,6 +16,31 @@ std::size_t frame_count(double duration_s, double fps) {
     AVSI_ASSERT(fps > 0.0);
     if (!(duration_s > 0.0)) return 0;
     return static_cast<std::size_t>(std::ceil(duration_s * fps - 1e-9));
+}
+
+bool RangeReport::any() const {
+    for (std::size_t n : frames_outside)
+        if (n > 0) return true;
+    return false;
+}
+
+RangeReport check_ranges(Trajectory& trajectory, bool clamp) {
+    RangeReport report;
+    for (std::size_t k = 0; k < trajectory.frames.size(); ++k)
+        for (const auto& info : params()) {
+            double& v = trajectory.frames[k][index(info.param)];
+            const std::size_t p = index(info.param);
+            if (!std::isfinite(v) || (v >= info.min && v <= info.max)) continue;
+            const double excess = v < info.min ? info.min - v : v - info.max;
+            const double worst = report.worst[p] < info.min ? info.min - report.worst[p] : report.worst[p] - info.max;
+            if (report.frames_outside[p] == 0 || excess > worst) {
+                report.worst[p] = v;
+                report.worst_frame[p] = k;
+            }
+            ++report.frames_outside[p];
+            if (clamp) v = std::clamp(v, info.min, info.max);
+        }
+    return report;
 }
 
 Trajectory read_trajectory_csv(const std::filesystem::path& path) {

@@ -62,8 +62,9 @@ MixResult add_noise(const Audio& audio, const NoiseSettings& noise, const LongTe
 }  // namespace
 
 Audio process_audio(const Audio& input, const ProcessSettings& s, const LongTermSpectrum* ltas,
-                    const std::vector<double>* noise_samples, std::uint64_t noise_seed, FileReport* report) {
-    Audio audio = input;
+                    const std::vector<double>* noise_samples, std::uint64_t noise_seed, FileReport* report,
+                    const std::string& source) {
+    Audio audio = s.channels == ChannelMode::Mono ? mix_down(input, source, "before processing") : input;
     const bool noisy = s.noise.kind != NoiseKind::None;
     if (noisy && (s.noise.stage == NoiseStage::BeforeVocoding || !s.vocode)) {
         MixResult mixed = add_noise(audio, s.noise, ltas, noise_samples, noise_seed);
@@ -92,10 +93,15 @@ namespace {
 // length, noise at another rate is resampled whole, and noise added after
 // vocoding would need the vocoded signal twice: those run in memory.
 bool streamable(const ProcessSettings& s, const fs::path& input) {
+    // A multi-channel input mixed down to mono (the default), or a
+    // multi-channel noise recording, goes through mix_down's note in memory.
+    const AudioFileReader in(input);
+    if (in.channels() > 1 && s.channels == ChannelMode::Mono) return false;
     if (s.noise.kind == NoiseKind::None) return s.vocode;
     if (s.noise.kind != NoiseKind::File) return false;
     if (s.vocode && s.noise.stage == NoiseStage::AfterVocoding) return false;
-    return AudioFileReader(s.noise.file).sample_rate_hz() == AudioFileReader(input).sample_rate_hz();
+    const AudioFileReader noise(s.noise.file);
+    return noise.channels() == 1 && noise.sample_rate_hz() == in.sample_rate_hz();
 }
 
 // File to file in blocks (streamable() holds): memory bounded whatever the
@@ -155,7 +161,7 @@ FileReport process_file(const fs::path& input, const fs::path& output, const Pro
         if (s.noise.kind == NoiseKind::File) noise = load_noise(s.noise.file, audio.sample_rate_hz);
         // The same per-file noise seed as in a folder run.
         const std::uint64_t seed = derive_seed(s.noise.mix.seed, input.filename().string());
-        const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, &noise, seed, &report);
+        const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, &noise, seed, &report, input.string());
         write_audio(output, out);
     } catch (const InputError& e) {
         // Give diagnostics without a path the input file's name.
@@ -205,7 +211,8 @@ std::vector<FileReport> process_folder(const fs::path& input_folder, const fs::p
                         noise = &it->second;
                     }
                     const std::uint64_t seed = derive_seed(s.noise.mix.seed, files[i].filename().string());
-                    const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, noise, seed, &report);
+                    const Audio out =
+                        process_audio(audio, s, ltas ? &*ltas : nullptr, noise, seed, &report, files[i].string());
                     write_audio(output, out);
                 }
                 reports[i] = report;

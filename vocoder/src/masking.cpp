@@ -11,6 +11,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
+#include "avsi/vocoder/channels.h"
 #include "avsi/core/rng.h"
 #include "avsi/vocoder/hilbert.h"
 #include "avsi/vocoder/resample.h"
@@ -246,6 +247,20 @@ void NoiseInMemory::read(std::size_t from, std::size_t count, double* out) {
 
 NoiseFile::NoiseFile(const std::filesystem::path& path) : m_reader(path) {
     if (m_reader.frames() == 0) throw InputError(path, "expected a noise recording with samples, got an empty file");
+    // As load_noise: a silent recording has no level to set (read up to its
+    // first non-zero sample).
+    const std::size_t channels = static_cast<std::size_t>(m_reader.channels());
+    m_block.resize(kBlock * channels);
+    bool energy = false;
+    for (std::size_t done = 0; done < m_reader.frames() && !energy;) {
+        const std::size_t n = std::min(kBlock, m_reader.frames() - done);
+        read_fully(m_reader, m_block.data(), n);
+        for (std::size_t i = 0; i < n * channels && !energy; ++i) energy = m_block[i] != 0.0f;
+        done += n;
+    }
+    if (!energy) throw InputError(path, "expected a noise recording with energy, got silence");
+    m_reader.seek(0);
+    m_position = 0;
 }
 
 void NoiseFile::read(std::size_t from, std::size_t count, double* out) {
@@ -370,7 +385,7 @@ MixResult mix_at_snr(const Audio& speech, std::span<const double> noise, const M
 }
 
 std::vector<double> load_noise(const std::filesystem::path& path, double rate) {
-    const Audio noise = read_audio(path);
+    const Audio noise = mix_down(read_audio(path), path.string(), "as masking noise (one noise is added to every channel)");
     const std::vector<float> mono = noise.mono();
     std::vector<double> x(mono.begin(), mono.end());
     if (noise.sample_rate_hz != rate) {
@@ -378,6 +393,9 @@ std::vector<double> load_noise(const std::filesystem::path& path, double rate) {
         x = resample(x, noise.sample_rate_hz, rate);
     }
     if (x.empty()) throw InputError(path, "expected a noise recording with samples, got an empty file");
+    double energy = 0.0;
+    for (double v : x) energy += v * v;
+    if (energy == 0.0) throw InputError(path, "expected a noise recording with energy, got silence");
     return x;
 }
 

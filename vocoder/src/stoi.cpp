@@ -377,4 +377,52 @@ double stoi(const Audio& clean, const Audio& degraded, const StoiSettings& setti
     return stoi(x, y, settings);
 }
 
+std::vector<double> stoi_files(const std::filesystem::path& clean_path, const std::filesystem::path& degraded_path,
+                               const StoiSettings& settings, ChannelMode channels) {
+    const std::string c = clean_path.string(), d = degraded_path.string();
+    AudioFileReader clean_reader(clean_path), degraded_reader(degraded_path);
+    const int rate = clean_reader.sample_rate_hz();
+    if (rate != degraded_reader.sample_rate_hz())
+        throw InputError(d, 0, 0, "sample rate",
+                         fmt::format("expected the sample rate of {} ({} Hz), got {} Hz", c, rate,
+                                     degraded_reader.sample_rate_hz()));
+    const std::size_t clean_frames = clean_reader.frames(), degraded_frames = degraded_reader.frames();
+    if (clean_frames != degraded_frames)
+        throw InputError(d, 0, 0, "length",
+                         fmt::format("expected as many samples as {} ({}, {:.3f} s), got {} ({:.3f} s): STOI compares "
+                                     "the signals frame by frame, so they must be aligned and of one length",
+                                     c, clean_frames, static_cast<double>(clean_frames) / rate, degraded_frames,
+                                     static_cast<double>(degraded_frames) / rate));
+    if (channels == ChannelMode::Keep && clean_reader.channels() != degraded_reader.channels())
+        throw InputError(d, 0, 0, "channels",
+                         fmt::format("expected the channel count of {} ({}) with --channels keep, got {}", c,
+                                     clean_reader.channels(), degraded_reader.channels()));
+    // Diagnostics without a path name the degraded file.
+    auto naming = [&](auto&& score) {
+        try {
+            return score();
+        } catch (const InputError& e) {
+            std::vector<Diagnostic> diagnostics = e.diagnostics();
+            for (Diagnostic& diag : diagnostics)
+                if (diag.path.empty()) diag.path = d;
+            throw InputError(std::move(diagnostics));
+        }
+    };
+    // Two mono files: read block by block (memory bounded whatever the length).
+    if (clean_reader.channels() == 1 && degraded_reader.channels() == 1)
+        return {naming([&] { return stoi(clean_reader, degraded_reader, settings); })};
+    const Audio clean = read_audio(clean_path), degraded = read_audio(degraded_path);
+    auto score = [&](const std::vector<float>& a, const std::vector<float>& b) {
+        const std::vector<double> x(a.begin(), a.end()), y(b.begin(), b.end());
+        return naming([&] { return stoi(x, y, clean.sample_rate_hz, settings); });
+    };
+    std::vector<double> out;
+    if (channels == ChannelMode::Keep) {
+        for (int ch = 0; ch < clean.channels; ++ch) out.push_back(score(clean.channel(ch), degraded.channel(ch)));
+    } else {
+        out.push_back(score(mix_down(clean, c, "for STOI").samples, mix_down(degraded, d, "for STOI").samples));
+    }
+    return out;
+}
+
 }  // namespace avsi::vocoder

@@ -607,8 +607,10 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     const std::size_t stored = whole ? frames : std::min(frames, limits.store_bytes / per_frame);
 
     std::vector<std::unique_ptr<ChannelEngine>> engines;
+    // Every channel gets channel 0's noise carrier: a dual-mono input stays
+    // dual-mono (independent carriers would make it dichotic).
     for (int c = 0; c < channels; ++c)
-        engines.push_back(std::make_unique<ChannelEngine>(s, rate, setup.filters, setup.centres, c, stored));
+        engines.push_back(std::make_unique<ChannelEngine>(s, rate, setup.filters, setup.centres, 0, stored));
     const std::size_t stride = engines.front()->stride();
     std::vector<float> interleaved(block * nc);
     std::vector<double> x(block), work(block * stride), carrier(block * stride), sum(block);
@@ -773,7 +775,7 @@ std::string describe(const VocoderSettings& s, double rate) {
     switch (s.carrier) {
         case CarrierType::Noise:
             carrier = fmt::format("white noise (uniform amplitude distribution, xoshiro256** generator), an "
-                                  "independent stream per band and channel derived from seed {}",
+                                  "independent stream per band, the same on every channel, derived from seed {}",
                                   s.seed);
             break;
         case CarrierType::Sine:

@@ -7,11 +7,13 @@
 // from 150 Hz, 30-frame (384 ms) segments, clipping at β = −15 dB (STOI).
 #pragma once
 
+#include <filesystem>
 #include <span>
 #include <vector>
 
 #include "avsi/core/audio.h"
 #include "avsi/core/audio_stream.h"
+#include "avsi/vocoder/channels.h"
 
 namespace avsi::vocoder {
 
@@ -34,5 +36,12 @@ double stoi(const Audio& clean, const Audio& degraded, const StoiSettings& setti
 // segment by segment as the frames arrive): memory bounded by a frame and a
 // segment, whatever the length.
 double stoi(AudioSource& clean, AudioSource& degraded, const StoiSettings& settings = {});
+// `avsi stoi`: reads the two files and scores them: one value (the channels
+// mixed down to mono, with a note naming the file) or, with ChannelMode::Keep,
+// one per channel (the clean file's channel c against the degraded file's).
+// Mismatched rates, lengths or channel counts, and signals too short to
+// score, throw InputError naming the degraded file and the clean one.
+std::vector<double> stoi_files(const std::filesystem::path& clean, const std::filesystem::path& degraded,
+                               const StoiSettings& settings = {}, ChannelMode channels = ChannelMode::Mono);
 
 }  // namespace avsi::vocoder
