@@ -6,7 +6,9 @@
 
 #include <fmt/format.h>
 
+#include "avsi/analysis/adaptive_report.h"
 #include "avsi/analysis/report.h"
+#include "avsi/core/error.h"
 #include "avsi/core/protocol.h"
 #include "command.h"
 
@@ -27,7 +29,7 @@ const bool registered_analyze = register_command({
         auto o = std::make_shared<AnalyzeOptions>();
         sub.add_option("input", o->input,
                        "scores.csv from `avsi score` (a session database must go through `avsi export` and "
-                       "`avsi score` first)")
+                       "`avsi score` first), or adaptive_trials.csv from `avsi export` (SRT analysis; needs --protocol)")
             ->required()
             ->check(CLI::ExistingFile);
         sub.add_option("--out", o->out, "Report folder")->capture_default_str();
@@ -50,7 +52,32 @@ const bool registered_analyze = register_command({
                        "Take the conditions and their order from the [[condition]] tables of this protocol (as --conditions)")
             ->check(CLI::ExistingFile)
             ->excludes(conditions);
-        return [o] {
+        return [o, title = sub.get_option("--title"), dv = sub.get_option("--dv")] {
+            if (analysis::is_adaptive_trials_file(o->input)) {
+                if (dv->count() > 0)
+                    throw UsageError("--dv: adaptive_trials.csv is analysed as SRTs in dB from its tracks; --dv is for "
+                                     "a scores table");
+                if (o->protocol.empty())
+                    throw UsageError("--protocol: adaptive_trials.csv is analysed under the protocol's [adaptive] "
+                                     "rules; give the protocol file");
+                analysis::AdaptiveAnalyzeSettings a;
+                a.input = o->input;
+                a.protocol = o->protocol;
+                a.out_dir = o->out;
+                a.confidence = o->confidence;
+                if (title->count() > 0) a.title = o->title;
+                const auto result = analysis::analyze_adaptive_file(a);
+                if (result.anova) fmt::print("SRT: {}\n", analysis::apa_anova(result.anova->anova));
+                for (const auto& b : result.benefits)
+                    if (b.n >= 2)
+                        fmt::print("visual benefit of {} over {}: {:.2f} dB, {:.0f} % CI [{:.2f}, {:.2f}] (n = {})\n",
+                                   b.condition, b.reference, b.mean_db, 100 * a.confidence, b.ci_low_db, b.ci_high_db, b.n);
+                    else
+                        fmt::print("visual benefit of {} over {}: {:.2f} dB (n = {}: no interval)\n", b.condition,
+                                   b.reference, b.mean_db, b.n);
+                fmt::print("report: {}\n", (a.out_dir / "index.html").string());
+                return 0;
+            }
             analysis::AnalyzeSettings s;
             s.input = o->input;
             s.out_dir = o->out;

@@ -16,11 +16,51 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
+#include "report_html.h"
 #include "report_plot.h"
 
 namespace avsi::analysis {
 
 using nlohmann::json;
+
+namespace detail {
+
+std::string html_escape(std::string_view s) {
+    std::string out;
+    for (char c : s) {
+        switch (c) {
+        case '&': out += "&amp;"; break;
+        case '<': out += "&lt;"; break;
+        case '>': out += "&gt;"; break;
+        case '"': out += "&quot;"; break;
+        default: out += c;
+        }
+    }
+    return out;
+}
+
+std::string base64(std::string_view bytes) {
+    static const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    std::size_t i = 0;
+    for (; i + 2 < bytes.size(); i += 3) {
+        const unsigned v = (unsigned(static_cast<unsigned char>(bytes[i])) << 16) |
+                           (unsigned(static_cast<unsigned char>(bytes[i + 1])) << 8) |
+                           unsigned(static_cast<unsigned char>(bytes[i + 2]));
+        for (int s = 18; s >= 0; s -= 6) out += alphabet[(v >> s) & 63];
+    }
+    if (i < bytes.size()) {
+        unsigned v = unsigned(static_cast<unsigned char>(bytes[i])) << 16;
+        if (i + 1 < bytes.size()) v |= unsigned(static_cast<unsigned char>(bytes[i + 1])) << 8;
+        out += alphabet[(v >> 18) & 63];
+        out += alphabet[(v >> 12) & 63];
+        out += i + 1 < bytes.size() ? alphabet[(v >> 6) & 63] : '=';
+        out += '=';
+    }
+    return out;
+}
+
+}  // namespace detail
 
 AnalysisResult analyze(const WithinData& data, double confidence) {
     AnalysisResult r;
@@ -168,40 +208,8 @@ json result_json(const AnalysisResult& r, const ReportSettings& settings) {
     };
 }
 
-std::string html_escape(std::string_view s) {
-    std::string out;
-    for (char c : s) {
-        switch (c) {
-        case '&': out += "&amp;"; break;
-        case '<': out += "&lt;"; break;
-        case '>': out += "&gt;"; break;
-        case '"': out += "&quot;"; break;
-        default: out += c;
-        }
-    }
-    return out;
-}
-
-std::string base64(std::string_view bytes) {
-    static const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    std::string out;
-    std::size_t i = 0;
-    for (; i + 2 < bytes.size(); i += 3) {
-        const unsigned v = (unsigned(static_cast<unsigned char>(bytes[i])) << 16) |
-                           (unsigned(static_cast<unsigned char>(bytes[i + 1])) << 8) |
-                           unsigned(static_cast<unsigned char>(bytes[i + 2]));
-        for (int s = 18; s >= 0; s -= 6) out += alphabet[(v >> s) & 63];
-    }
-    if (i < bytes.size()) {
-        unsigned v = unsigned(static_cast<unsigned char>(bytes[i])) << 16;
-        if (i + 1 < bytes.size()) v |= unsigned(static_cast<unsigned char>(bytes[i + 1])) << 8;
-        out += alphabet[(v >> 18) & 63];
-        out += alphabet[(v >> 12) & 63];
-        out += i + 1 < bytes.size() ? alphabet[(v >> 6) & 63] : '=';
-        out += '=';
-    }
-    return out;
-}
+using detail::base64;
+using detail::html_escape;
 
 // How a number is shown; the stored value is always the JSON one.
 enum class Show { Fixed2, Fixed3, Fixed4, P, Df, Int };

@@ -330,9 +330,16 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
     else
         p.online = absent_section(file, "online");
 
+    // [adaptive] — adaptive SRT tracks, validated by the analysis module (adaptive.h).
+    if (const ConfigSection* a = root.get_table("adaptive", problems))
+        p.adaptive = *a;
+    else
+        p.adaptive = absent_section(file, "adaptive");
+
     // Top-level keys.
     root.check_unknown_keys(
-        {"experiment", "corpus", "condition", "vocoder", "design", "render", "session", "scoring", "online"},
+        {"experiment", "corpus", "condition", "vocoder", "design", "render", "session", "scoring", "online",
+         "adaptive"},
         problems);
 
     // Report in reading order (line, then column); file-level problems first.

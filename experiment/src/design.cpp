@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "avsi/analysis/adaptive.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
@@ -232,6 +233,29 @@ std::vector<PlannedTrial> design_subject(const Protocol& protocol, const ListAss
         shuffle(sentences, rng);
         for (const auto& id : sentences)
             add(Phase::Test, b + 1, std::to_string(l + 1), protocol.conditions[static_cast<std::size_t>(c)].name, id);
+    }
+    // Adaptive tracks interleaved: the blocks' sentences alternate one by one
+    // in the block order (one test block, so no break between conditions).
+    if (protocol.adaptive.present() &&
+        analysis::adaptive_protocol(protocol).order == analysis::TrackOrder::Interleaved) {
+        const auto first_test = std::find_if(trials.begin(), trials.end(), [](const PlannedTrial& t) {
+            return t.phase == Phase::Test;
+        });
+        std::vector<std::vector<PlannedTrial>> blocks(static_cast<std::size_t>(k));
+        for (auto it = first_test; it != trials.end(); ++it) blocks[static_cast<std::size_t>(it->block - 1)].push_back(*it);
+        trials.erase(first_test, trials.end());
+        for (std::size_t i = 0;; ++i) {
+            bool any = false;
+            for (const auto& block : blocks)
+                if (i < block.size()) {
+                    PlannedTrial t = block[i];
+                    t.position = static_cast<int>(trials.size()) + 1;
+                    t.block = 1;
+                    trials.push_back(std::move(t));
+                    any = true;
+                }
+            if (!any) break;
+        }
     }
     return trials;
 }

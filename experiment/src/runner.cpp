@@ -31,6 +31,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/core/protocol.h"
+#include "avsi/experiment/adaptive_session.h"
 #include "avsi/experiment/design.h"
 #include "avsi/experiment/session.h"
 #include "avsi/experiment/store.h"
@@ -406,7 +407,46 @@ struct Playback {
     int uploaded = -1;      // frame index in the window's texture
     bool started = false;   // pacer started (onset known)
     bool shown_any = false;
+    std::optional<MixedPresentation> mixed;  // adaptive protocols: the audio as mixed and played
 };
+
+// A scripted answer: one line per planned trial; for adaptive protocols a
+// line may hold the answers to successive presentations of a repeated trial,
+// separated by " || " (the last one answers any further presentation), and
+// each answer may end in " ## 101": the experimenter's keyword marks on the
+// score check screen (confirm_scores).
+std::string scripted_part(const std::string& line, int attempt) {
+    std::vector<std::string> parts;
+    std::size_t start = 0;
+    while (true) {
+        const std::size_t bar = line.find(" || ", start);
+        parts.push_back(line.substr(start, bar == std::string::npos ? std::string::npos : bar - start));
+        if (bar == std::string::npos) break;
+        start = bar + 4;
+    }
+    return parts[static_cast<std::size_t>(std::clamp(attempt, 1, static_cast<int>(parts.size())) - 1)];
+}
+
+std::string scripted_answer(const std::string& line, int attempt) {
+    std::string part = scripted_part(line, attempt);
+    if (const std::size_t marks = part.find(" ## "); marks != std::string::npos) part.erase(marks);
+    return part == "-" ? std::string() : part;
+}
+
+// The scripted experimenter's marks ("1"/"0" per keyword), if the answer has them.
+std::optional<std::vector<bool>> scripted_marks(const std::string& line, int attempt, const std::string& script_path) {
+    const std::string part = scripted_part(line, attempt);
+    const std::size_t at = part.find(" ## ");
+    if (at == std::string::npos) return std::nullopt;
+    std::vector<bool> marks;
+    for (char c : part.substr(at + 4)) {
+        if (c != '0' && c != '1')
+            throw InputError(script_path, 0, 0, "marks",
+                             fmt::format("expected keyword marks of 0 and 1 after \" ## \", got \"{}\"", part.substr(at + 4)));
+        marks.push_back(c == '1');
+    }
+    return marks;
+}
 
 }  // namespace
 
@@ -457,11 +497,35 @@ RunResult run_session(const RunSettings& settings) {
         stimuli_note = fmt::format("{} (manifest.json sha256 {}, {} stimuli checked)", settings.stimuli_dir.string(),
                                    folder->manifest().sha256, std::set<std::string>(stimuli.begin(), stimuli.end()).size());
     }
+    // Adaptive SRT tracks: replayed from the stored presentations.
+    std::unique_ptr<AdaptiveSession> adaptive;
+    if (protocol.adaptive.present()) {
+        adaptive = std::make_unique<AdaptiveSession>(protocol, corpus, store.adaptive_trials(settings.subject),
+                                                     settings.database.string());
+    }
     const std::vector<int> answered = store.answered_positions(settings.subject);
     RunResult result;
     result.answered_before = static_cast<int>(answered.size());
     result.total = static_cast<int>(plan.size());
     SessionMachine machine(plan, answered, protocol.session);
+    // Live scores of the answers not yet committed (trial index → keyword
+    // marks as they count, and as the live scorer gave them).
+    std::map<int, std::vector<bool>> live_marks, auto_marks;
+    if (adaptive) {
+        machine.set_confirm_scores(adaptive->settings().confirm_scores);
+        machine.set_repeat_rule([&](int index, const Response& response) {
+            const PlannedTrial& t = plan[static_cast<std::size_t>(index)];
+            const auto checked = live_marks.find(index);
+            std::vector<bool> marks = checked != live_marks.end() ? checked->second : adaptive->score(t, response.text);
+            const bool again = adaptive->repeats(t, marks);
+            live_marks[index] = std::move(marks);
+            return again;
+        });
+    }
+    auto script_line = [&](int index) {
+        const std::string& line = script[static_cast<std::size_t>(index)];
+        return adaptive ? scripted_answer(line, adaptive->next_attempt(plan[static_cast<std::size_t>(index)])) : line;
+    };
     const int first_position = machine.trial() ? machine.trial()->position : 0;
 
     std::unique_ptr<AudioOutput> audio;
@@ -497,6 +561,17 @@ RunResult run_session(const RunSettings& settings) {
                     fmt::format("first trial {}, {} of {} answered before", first_position, result.answered_before,
                                 result.total));
     store.add_event(session, settings.subject, "stimuli", stimuli_note);
+    if (adaptive) {
+        std::string levels;
+        for (const auto& c : protocol.conditions) {
+            const auto& track = adaptive->track(c.name);
+            levels += fmt::format("{}{}: next {} dB after {} presentations", levels.empty() ? "" : "; ", c.name,
+                                  track.level_db(), track.steps().size());
+        }
+        store.add_event(session, settings.subject, "adaptive-tracks", levels);
+        log_info("adaptive tracks ({} scoring, {}): {}", analysis::to_string(adaptive->settings().track.procedure),
+                 analysis::to_string(adaptive->settings().order), levels);
+    }
     log_info("subject {}: session {} {} at trial {} of {} ({} answered before), audio {}", settings.subject, session,
              result.answered_before > 0 ? "resumes" : "starts", first_position, result.total,
              result.answered_before, audio->name());
@@ -529,6 +604,12 @@ RunResult run_session(const RunSettings& settings) {
 
         // Input: scripted, or keys.
         const Screen screen = machine.screen();
+        // An answer waiting for the experimenter's check: scored live once.
+        if (screen == Screen::ScoreCheck && !auto_marks.count(machine.trial_index())) {
+            const int index = machine.trial_index();
+            auto_marks[index] = adaptive->score(plan[static_cast<std::size_t>(index)], machine.pending_response().text);
+            live_marks[index] = auto_marks[index];
+        }
         const bool settled =
             fmt::format("{}-{}", to_string(screen), machine.trial_index()) == last_screen_key && screen_frames >= 1;
         if (scripted) {
@@ -538,9 +619,24 @@ RunResult run_session(const RunSettings& settings) {
                     case Screen::Break:
                     case Screen::Feedback: machine.continue_pressed(next_flip_s); break;
                     case Screen::Response:
-                        machine.submit(script[static_cast<std::size_t>(machine.trial_index())], next_flip_s);
+                        machine.submit(script_line(machine.trial_index()), next_flip_s);
                         break;
                     case Screen::ConfirmEmpty: machine.confirm_empty(true, next_flip_s); break;
+                    case Screen::ScoreCheck: {
+                        const int index = machine.trial_index();
+                        if (const auto marks = scripted_marks(script[static_cast<std::size_t>(index)],
+                                                              adaptive->next_attempt(plan[static_cast<std::size_t>(index)]),
+                                                              settings.script.string())) {
+                            if (marks->size() != live_marks[index].size())
+                                throw InputError(settings.script, 0, 0, "marks",
+                                                 fmt::format("trial {}: expected {} keyword marks, got {}",
+                                                             plan[static_cast<std::size_t>(index)].position,
+                                                             live_marks[index].size(), marks->size()));
+                            live_marks[index] = *marks;
+                        }
+                        machine.confirm_score(next_flip_s);
+                        break;
+                    }
                     case Screen::End: running = false; break;
                     default: break;
                 }
@@ -553,6 +649,11 @@ RunResult run_session(const RunSettings& settings) {
                 machine.quit();
             } else if (screen == Screen::Instructions || screen == Screen::Break || screen == Screen::Feedback) {
                 if (named_key_pressed(ImGuiKey_Space) || named_key_pressed(ImGuiKey_Enter)) machine.continue_pressed(next_flip_s);
+            } else if (screen == Screen::ScoreCheck) {
+                auto& marks = live_marks[machine.trial_index()];
+                for (std::size_t k = 0; k < marks.size() && k < 9; ++k)
+                    if (key_pressed(GLFW_KEY_1 + static_cast<int>(k))) marks[k] = !marks[k];
+                if (named_key_pressed(ImGuiKey_Enter)) machine.confirm_score(next_flip_s);
             } else if (screen == Screen::ConfirmEmpty) {
                 if (key_pressed(GLFW_KEY_Y) || named_key_pressed(ImGuiKey_Enter)) machine.confirm_empty(true, next_flip_s);
                 else if (key_pressed(GLFW_KEY_N)) machine.confirm_empty(false, next_flip_s);
@@ -574,14 +675,19 @@ RunResult run_session(const RunSettings& settings) {
                     playback.source = opener->open(t->stimulus);
                     playback.pacer = std::make_unique<FramePacer>(playback.source->fps(), playback.source->frame_count(),
                                                                   simulated ? refresh_hz : 1.0 / flip_period.seconds());
-                    audio->play(playback.source->audio(), playback.source->sample_rate(), next_flip_s + audio->lead_s());
+                    if (adaptive)
+                        playback.mixed = adaptive->mix(*t, playback.source->audio(), playback.source->sample_rate());
+                    const std::vector<float>& samples = playback.mixed ? playback.mixed->samples : playback.source->audio();
+                    audio->play(samples, playback.source->sample_rate(), next_flip_s + audio->lead_s());
                     if (!settings.audio_capture.empty()) {
                         Audio sent;
                         sent.sample_rate_hz = playback.source->sample_rate();
-                        sent.samples = playback.source->audio();
+                        sent.samples = samples;
                         fs::create_directories(settings.audio_capture);
-                        write_audio(settings.audio_capture / fmt::format("trial{:03}.wav", t->position), sent,
-                                    SampleFormat::Float32);
+                        const int attempt = playback.mixed ? playback.mixed->attempt : 1;
+                        write_audio(settings.audio_capture / (attempt == 1 ? fmt::format("trial{:03}.wav", t->position)
+                                                                           : fmt::format("trial{:03}_{}.wav", t->position, attempt)),
+                                    sent, SampleFormat::Float32);
                     }
                     break;
                 }
@@ -593,7 +699,41 @@ RunResult run_session(const RunSettings& settings) {
                     break;
                 case SessionAction::Kind::CommitResponse: {
                     Presentation p = playback.pacer ? playback.pacer->summary() : Presentation{};
-                    store.commit_trial(session, *t, p, action.response);
+                    if (adaptive) {
+                        if (!playback.mixed) throw std::logic_error("adaptive: an answer without a mixed presentation");
+                        auto cached = live_marks.find(action.trial_index);
+                        const std::vector<bool> marks =
+                            cached != live_marks.end() ? cached->second : adaptive->score(*t, action.response.text);
+                        const auto live = auto_marks.find(action.trial_index);
+                        const std::vector<bool> scored = live != auto_marks.end() ? live->second : marks;
+                        live_marks.erase(action.trial_index);
+                        auto_marks.erase(action.trial_index);
+                        const AdaptiveRecord record =
+                            adaptive->record(*t, *playback.mixed, action.response.text, scored, marks);
+                        if (record.corrected)
+                            store.add_event(session, settings.subject, "score-corrected",
+                                            fmt::format("trial {} presentation {}: live score {} of {}, corrected to {} "
+                                                        "({}) by the experimenter",
+                                                        t->position, record.attempt, record.auto_correct,
+                                                        record.keywords, record.correct, record.marks));
+                        if (action.repeat) {
+                            store.commit_attempt(session, *t, record);
+                        } else {
+                            store.commit_trial(session, *t, p, action.response, record);
+                        }
+                        log_info("trial {}{}: SNR {:.2f} dB, {} of {} keywords{}", t->position,
+                                 record.attempt > 1 ? fmt::format(" (presentation {})", record.attempt) : "",
+                                 record.level_db, record.correct, record.keywords,
+                                 record.track.empty() ? std::string(" (no track)")
+                                                      : fmt::format(", next {:.2f} dB{}", record.next_level_db,
+                                                                    record.repeat ? " (the same sentence again)" : ""));
+                        if (action.repeat) {
+                            playback = Playback{};
+                            break;
+                        }
+                    } else {
+                        store.commit_trial(session, *t, p, action.response);
+                    }
                     ++result.answered;
                     ++result.presentations;
                     result.dropped_frames += p.dropped_frames;
@@ -703,7 +843,7 @@ RunResult run_session(const RunSettings& settings) {
                 centered_text("What did you hear? Type every word, then press Enter.", 0.35f);
                 ImGui::SetCursorPos(ImVec2(display.x * 0.15f, display.y * 0.5f));
                 ImGui::PushItemWidth(display.x * 0.7f);
-                if (scripted && trial) answer = script[static_cast<std::size_t>(machine.trial_index())];
+                if (scripted && trial) answer = script_line(machine.trial_index());
                 if (!scripted && (new_screen || focus_answer)) {
                     ImGui::SetKeyboardFocusHere();
                     focus_answer = false;
@@ -715,6 +855,18 @@ RunResult run_session(const RunSettings& settings) {
                 }
                 ImGui::PopItemWidth();
                 hint_text("Enter: submit    Esc: pause");
+                break;
+            }
+            case Screen::ScoreCheck: {
+                std::string text = fmt::format("Score check: \"{}\"\n\n", machine.pending_response().text);
+                if (trial) {
+                    const Sentence& s = corpus.sentence(trial->sentence);
+                    const auto& marks = live_marks[machine.trial_index()];
+                    for (std::size_t k = 0; k < s.keywords.size() && k < marks.size(); ++k)
+                        text += fmt::format("{}  [{}]  {}\n", k + 1, marks[k] ? "x" : " ", s.keywords[k].word);
+                }
+                centered_text(text);
+                hint_text("1-9: toggle a keyword    Enter: accept the score");
                 break;
             }
             case Screen::ConfirmEmpty:

@@ -25,6 +25,7 @@ std::string to_string(Screen screen) {
         case Screen::Wait: return "wait";
         case Screen::Response: return "response";
         case Screen::ConfirmEmpty: return "confirm-empty";
+        case Screen::ScoreCheck: return "score-check";
         case Screen::Feedback: return "feedback";
         case Screen::Break: return "break";
         case Screen::Paused: return "paused";
@@ -153,6 +154,15 @@ void SessionMachine::confirm_empty(bool accept, double now_s) {
     commit("", true, now_s);
 }
 
+void SessionMachine::confirm_score(double now_s) {
+    if (m_screen != Screen::ScoreCheck) return;
+    SessionAction a;
+    a.kind = SessionAction::Kind::CommitResponse;
+    a.trial_index = m_current;
+    a.response = m_pending;
+    finish_commit(std::move(a), now_s);
+}
+
 void SessionMachine::commit(const std::string& text, bool confirmed_empty, double now_s) {
     SessionAction a;
     a.kind = SessionAction::Kind::CommitResponse;
@@ -160,6 +170,23 @@ void SessionMachine::commit(const std::string& text, bool confirmed_empty, doubl
     a.response.text = text;
     a.response.response_time_ms = (now_s - m_response_start_s) * 1000.0;
     a.response.confirmed_empty = confirmed_empty;
+    if (m_confirm_scores) {
+        // The response time ends at Enter; the check is the experimenter's.
+        m_pending = a.response;
+        m_screen = Screen::ScoreCheck;
+        return;
+    }
+    finish_commit(std::move(a), now_s);
+}
+
+void SessionMachine::finish_commit(SessionAction a, double now_s) {
+    if (m_repeat_rule && m_repeat_rule(m_current, a.response)) {
+        // The track presents this trial again: not answered yet.
+        a.repeat = true;
+        m_actions.push_back(std::move(a));
+        begin_fixation(now_s);
+        return;
+    }
     m_actions.push_back(std::move(a));
     m_answered[static_cast<std::size_t>(m_current)] = true;
     ++m_answered_count;

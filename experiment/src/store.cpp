@@ -176,6 +176,37 @@ CREATE TABLE screening(
   PRIMARY KEY(subject, session, test));
 )sql";
 
+// Version 2 → 3: adaptive SRT tracks.
+const char* migration_v3 = R"sql(
+CREATE TABLE adaptive_trials(
+  subject INTEGER NOT NULL,
+  position INTEGER NOT NULL,
+  attempt INTEGER NOT NULL,
+  session INTEGER NOT NULL REFERENCES sessions(session),
+  track TEXT NOT NULL,
+  presentation INTEGER NOT NULL,
+  sentence_index INTEGER NOT NULL,
+  level_db REAL NOT NULL,
+  keywords INTEGER NOT NULL,
+  correct INTEGER NOT NULL,
+  auto_correct INTEGER NOT NULL,
+  marks TEXT NOT NULL,
+  corrected INTEGER NOT NULL,
+  next_level_db REAL NOT NULL,
+  step_db REAL NOT NULL,
+  reversal INTEGER NOT NULL,
+  reversals INTEGER NOT NULL,
+  repeat INTEGER NOT NULL,
+  at_bound INTEGER NOT NULL,
+  speech_gain_db REAL NOT NULL,
+  noise_gain_db REAL NOT NULL,
+  limit_gain_db REAL NOT NULL,
+  response TEXT NOT NULL,
+  answered_utc TEXT NOT NULL,
+  PRIMARY KEY(subject, position, attempt),
+  FOREIGN KEY(subject, position) REFERENCES planned_trials(subject, position));
+)sql";
+
 }  // namespace
 
 std::string utc_now() {
@@ -226,6 +257,7 @@ Store::Store(const std::filesystem::path& path) : m_path(path) {
                     throw InputError(path, "not an avsi session database (it has tables but no avsi schema version)");
                 exec(schema_v1);
                 exec(migration_v2);
+                exec(migration_v3);
                 exec(fmt::format("PRAGMA user_version={}", store_schema_version));
             }
             tx.commit();
@@ -238,7 +270,8 @@ Store::Store(const std::filesystem::path& path) : m_path(path) {
                 Statement again(m_db, "PRAGMA user_version");
                 if (again.step()) current = again.integer(0);
             }
-            if (current == 1) exec(migration_v2);
+            if (current < 2) exec(migration_v2);
+            if (current < 3) exec(migration_v3);
             exec(fmt::format("PRAGMA user_version={}", store_schema_version));
             tx.commit();
         }
@@ -413,18 +446,97 @@ void insert_trial(sqlite3* db, int session, const PlannedTrial& trial, const Pre
 
 }  // namespace
 
+namespace {
+
+void check_unanswered(sqlite3* db, const PlannedTrial& trial) {
+    Statement check(db, "SELECT count(*) FROM responses WHERE subject = ? AND position = ?");
+    check.bind(1, trial.subject).bind(2, trial.position);
+    check.step();
+    if (check.integer(0) != 0)
+        throw std::runtime_error(fmt::format("trial {} of subject {} already has a response", trial.position,
+                                             trial.subject));
+}
+
+void insert_adaptive(sqlite3* db, int session, const PlannedTrial& trial, const AdaptiveRecord& a,
+                     const std::string& answered_utc) {
+    Statement s(db,
+                "INSERT INTO adaptive_trials(subject, position, attempt, session, track, presentation, sentence_index, "
+                "level_db, keywords, correct, auto_correct, marks, corrected, next_level_db, step_db, reversal, "
+                "reversals, repeat, at_bound, speech_gain_db, noise_gain_db, limit_gain_db, response, answered_utc) "
+                "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+    s.bind(1, trial.subject).bind(2, trial.position).bind(3, a.attempt).bind(4, session).bind(5, a.track);
+    s.bind(6, a.presentation).bind(7, a.sentence_index).bind(8, a.level_db).bind(9, a.keywords).bind(10, a.correct);
+    s.bind(11, a.auto_correct).bind(12, a.marks).bind(13, a.corrected ? 1 : 0).bind(14, a.next_level_db);
+    s.bind(15, a.step_db).bind(16, a.reversal ? 1 : 0).bind(17, a.reversals).bind(18, a.repeat ? 1 : 0);
+    s.bind(19, a.at_bound ? 1 : 0).bind(20, a.speech_gain_db).bind(21, a.noise_gain_db).bind(22, a.limit_gain_db);
+    s.bind(23, a.response).bind(24, answered_utc);
+    s.run();
+}
+
+}  // namespace
+
 void Store::commit_trial(int session, const PlannedTrial& trial, const Presentation& p, const Response& r) {
     Transaction tx(m_db);
-    {
-        Statement check(m_db, "SELECT count(*) FROM responses WHERE subject = ? AND position = ?");
-        check.bind(1, trial.subject).bind(2, trial.position);
-        check.step();
-        if (check.integer(0) != 0)
-            throw std::runtime_error(fmt::format("trial {} of subject {} already has a response",
-                                                 trial.position, trial.subject));
-    }
+    check_unanswered(m_db, trial);
     insert_trial(m_db, session, trial, p, r, utc_now());
     tx.commit();
+}
+
+void Store::commit_trial(int session, const PlannedTrial& trial, const Presentation& p, const Response& r,
+                         const AdaptiveRecord& adaptive) {
+    Transaction tx(m_db);
+    check_unanswered(m_db, trial);
+    const std::string now = utc_now();
+    insert_trial(m_db, session, trial, p, r, now);
+    insert_adaptive(m_db, session, trial, adaptive, now);
+    tx.commit();
+}
+
+void Store::commit_attempt(int session, const PlannedTrial& trial, const AdaptiveRecord& adaptive) {
+    Transaction tx(m_db);
+    check_unanswered(m_db, trial);
+    insert_adaptive(m_db, session, trial, adaptive, utc_now());
+    tx.commit();
+}
+
+std::vector<Store::AdaptiveRow> Store::adaptive_trials(int subject) const {
+    Statement s(m_db,
+                "SELECT subject, position, session, attempt, track, presentation, sentence_index, level_db, keywords, "
+                "correct, auto_correct, marks, corrected, next_level_db, step_db, reversal, reversals, repeat, "
+                "at_bound, speech_gain_db, noise_gain_db, limit_gain_db, response, answered_utc FROM adaptive_trials "
+                "WHERE ? = 0 OR subject = ? ORDER BY subject, position, attempt");
+    s.bind(1, subject).bind(2, subject);
+    std::vector<AdaptiveRow> out;
+    while (s.step()) {
+        AdaptiveRow row;
+        row.subject = s.integer(0);
+        row.position = s.integer(1);
+        row.session = s.integer(2);
+        AdaptiveRecord& a = row.record;
+        a.attempt = s.integer(3);
+        a.track = s.text(4);
+        a.presentation = s.integer(5);
+        a.sentence_index = s.integer(6);
+        a.level_db = s.real(7);
+        a.keywords = s.integer(8);
+        a.correct = s.integer(9);
+        a.auto_correct = s.integer(10);
+        a.marks = s.text(11);
+        a.corrected = s.integer(12) != 0;
+        a.next_level_db = s.real(13);
+        a.step_db = s.real(14);
+        a.reversal = s.integer(15) != 0;
+        a.reversals = s.integer(16);
+        a.repeat = s.integer(17) != 0;
+        a.at_bound = s.integer(18) != 0;
+        a.speech_gain_db = s.real(19);
+        a.noise_gain_db = s.real(20);
+        a.limit_gain_db = s.real(21);
+        a.response = s.text(22);
+        a.answered_utc = s.text(23);
+        out.push_back(std::move(row));
+    }
+    return out;
 }
 
 OnlineImportCounts Store::import_online(const std::vector<OnlineSubject>& subjects, const std::string& event_detail) {
@@ -725,6 +837,35 @@ std::vector<std::filesystem::path> export_store(const Store& store, const std::f
         events_csv += csv_line({std::to_string(e.session), std::to_string(e.subject), e.time_utc, e.kind, e.detail});
     written.push_back(out_dir / "events.csv");
     write_text_file(written.back(), events_csv);
+
+    // Adaptive protocols: every presentation with its level and score.
+    if (const auto adaptive = store.adaptive_trials(); !adaptive.empty()) {
+        std::map<std::pair<int, int>, PlannedTrial> planned;
+        for (int subject : store.subjects())
+            for (auto& t : store.planned_trials(subject)) planned[{subject, t.position}] = t;
+        // Levels in full precision: the analysis replays the tracks and compares.
+        auto full = [](double v) { return fmt::format("{}", v); };
+        std::string csv = csv_line({"subject", "session", "trial", "attempt", "phase", "condition", "track",
+                                    "presentation", "sentence_index", "sentence", "level_db", "keywords", "correct",
+                                    "auto_correct", "marks", "corrected", "next_level_db", "step_db", "reversal",
+                                    "reversals", "repeat", "at_bound", "speech_gain_db", "noise_gain_db",
+                                    "limit_gain_db", "response", "answered_utc"});
+        for (const auto& row : adaptive) {
+            const auto it = planned.find({row.subject, row.position});
+            const PlannedTrial t = it == planned.end() ? PlannedTrial{} : it->second;
+            const AdaptiveRecord& a = row.record;
+            csv += csv_line({std::to_string(row.subject), std::to_string(row.session), std::to_string(row.position),
+                             std::to_string(a.attempt), to_string(t.phase), t.condition, a.track,
+                             std::to_string(a.presentation), std::to_string(a.sentence_index), t.sentence,
+                             full(a.level_db), std::to_string(a.keywords), std::to_string(a.correct),
+                             std::to_string(a.auto_correct), a.marks, a.corrected ? "1" : "0", full(a.next_level_db),
+                             full(a.step_db), a.reversal ? "1" : "0", std::to_string(a.reversals),
+                             a.repeat ? "1" : "0", a.at_bound ? "1" : "0", full(a.speech_gain_db),
+                             full(a.noise_gain_db), full(a.limit_gain_db), a.response, a.answered_utc});
+        }
+        written.push_back(out_dir / "adaptive_trials.csv");
+        write_text_file(written.back(), csv);
+    }
 
     // Online sessions: browser timing and headphone checks.
     const auto web = store.web_timing();

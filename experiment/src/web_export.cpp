@@ -178,6 +178,12 @@ std::vector<std::string> spread(const std::vector<std::string>& items, std::size
 
 ExportWebResult export_web(const ExportWebSettings& settings) {
     const Protocol protocol = load_protocol(settings.protocol);
+    // Adaptive SRT tracks need live scoring and mixing between trials; the
+    // web study presents fixed stimuli only.
+    if (protocol.adaptive.present())
+        throw InputError(settings.protocol, protocol.adaptive.line(), protocol.adaptive.column(), "adaptive",
+                         "adaptive SRT tracks run in the lab runner (`avsi run`) only; the web study does not "
+                         "implement them (export a protocol without [adaptive])");
     const OnlineSettings online = read_online_settings(protocol);
     const Corpus corpus = read_corpus(protocol.corpus.sentences);
     const auto subjects = check_lists(protocol, corpus, settings.lists);

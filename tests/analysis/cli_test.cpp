@@ -237,6 +237,38 @@ TEST_F(Cli, PowerIsLabelledSimulation) {
     EXPECT_NE(bad.output.find("--means"), std::string::npos) << bad.output;
 }
 
+TEST_F(Cli, SimulateSrtPrintsBiasAndSpreadAndRefusesShortTracks) {
+    const std::string protocol = std::string(AVSI_TEST_DATA_DIR) + "/adaptive/protocol.toml";
+    const CliRun r = run_cli(fmt::format("simulate-srt --protocol {} --sentences 10,20 --listeners 100 --seed 4 --out {}/sim",
+                                         protocol, dir.string()));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("SRT by simulation (100 simulated listeners per row, seed 4): sentence scoring"),
+              std::string::npos)
+        << r.output;
+    const auto csv = avsi::read_csv(dir / "sim" / "srt_simulation.csv");
+    EXPECT_EQ(csv.rows.size(), 4u);  // 2 lengths × (mean, ml)
+    EXPECT_TRUE(fs::exists(dir / "sim" / "srt_simulation.png"));
+    const CliRun bad = run_cli(fmt::format("simulate-srt --protocol {} --sentences 3", protocol));
+    EXPECT_EQ(bad.code, 1);
+    EXPECT_NE(bad.output.find("--sentences: expected sentence counts in [6 (srt_from + 1), 1000], got 3"),
+              std::string::npos)
+        << bad.output;
+    const CliRun both = run_cli(fmt::format("simulate-srt --protocol {} --procedure word", protocol));
+    EXPECT_EQ(both.code, 2) << both.output;
+}
+
+TEST_F(Cli, AnalyzeOfAdaptiveTrialsNeedsTheProtocol) {
+    avsi::write_text_file(dir / "adaptive_trials.csv",
+                    "subject,condition,presentation,level_db,keywords,correct\n1,audio-only,1,0,3,3\n");
+    const CliRun r = run_cli(fmt::format("analyze {}/adaptive_trials.csv --out {}/r", dir.string(), dir.string()));
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("--protocol"), std::string::npos) << r.output;
+    const CliRun dv = run_cli(fmt::format("analyze {}/adaptive_trials.csv --dv level_db --protocol {}/adaptive/protocol.toml",
+                                          dir.string(), AVSI_TEST_DATA_DIR));
+    EXPECT_EQ(dv.code, 2) << dv.output;
+    EXPECT_NE(dv.output.find("--dv: adaptive_trials.csv is analysed as SRTs"), std::string::npos) << dv.output;
+}
+
 TEST_F(Cli, AnalyzeAnyDependentVariableReproducesTheReferenceAnova) {
     // The reference data (tests/data/analysis/balanced.csv, R's numbers in
     // balanced.expected.json) as a lab's own long-format table: a score that

@@ -17,14 +17,17 @@
 #include <algorithm>
 #include <cmath>
 
+#include "avsi/analysis/adaptive.h"
 #include "avsi/core/audio.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/rng.h"
 #include "avsi/experiment/design.h"
+#include "avsi/experiment/media.h"
 #include "avsi/experiment/runner.h"
 #include "avsi/experiment/store.h"
 #include "avsi/stimuli/image_io.h"
 #include "avsi/stimuli/video.h"
+#include "avsi/vocoder/masking.h"
 #include "test_support.h"
 
 namespace avsi::experiment {
@@ -105,15 +108,15 @@ protected:
         return path;
     }
 
-    // Responses committed so far, read without writing (0 before the database exists).
-    static int committed(const fs::path& db) {
+    // Rows of a table so far, read without writing (0 before the database exists).
+    static int count_rows(const fs::path& db, const std::string& table) {
         if (!fs::exists(db)) return 0;
         sqlite3* handle = nullptr;
         int n = 0;
         if (sqlite3_open_v2(db.c_str(), &handle, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
             sqlite3_busy_timeout(handle, 2000);
             sqlite3_stmt* st = nullptr;
-            if (sqlite3_prepare_v2(handle, "SELECT count(*) FROM responses", -1, &st, nullptr) == SQLITE_OK &&
+            if (sqlite3_prepare_v2(handle, ("SELECT count(*) FROM " + table).c_str(), -1, &st, nullptr) == SQLITE_OK &&
                 sqlite3_step(st) == SQLITE_ROW)
                 n = sqlite3_column_int(st, 0);
             sqlite3_finalize(st);
@@ -121,6 +124,8 @@ protected:
         sqlite3_close(handle);
         return n;
     }
+    // Responses committed so far.
+    static int committed(const fs::path& db) { return count_rows(db, "responses"); }
 
     static inline pid_t s_xvfb = -1;
 };
@@ -502,6 +507,204 @@ TEST_F(RunnerE2E, AStimulusChangedAfterTheBuildIsRefused) {
     EXPECT_NE(log.find("w01/audio-only.mp4: error: sha256: expected"), std::string::npos) << log;
     EXPECT_NE(log.find("changed after the build"), std::string::npos) << log;
     EXPECT_NE(log.find("t02/rule.mp4 is not in the manifest"), std::string::npos) << log;
+}
+
+// An adaptive SRT session (tests/data/adaptive: two interleaved HINT-style
+// tracks, speech-shaped noise mixed live) killed twice in the middle of its
+// tracks and resumed: every presentation's captured device audio has the
+// noise at the logged SNR (measured from the capture), each track continues
+// at the level it left off at, and no trial is lost or answered twice.
+TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
+    const fs::path dir = temp_dir("e2e_adaptive");
+    const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "adaptive" / "protocol.toml";
+    const Protocol p = load_protocol(protocol);
+    const Corpus corpus = read_corpus(p.corpus.sentences);
+    const std::vector<PlannedTrial> plan = make_design(p, corpus, 1);
+    ASSERT_EQ(plan.size(), 22u);
+    // Answers: each track's first sentence wrong once, then right (a repeat);
+    // then two of every three test sentences right, the third with nothing.
+    std::string script;
+    std::set<std::string> started;
+    for (std::size_t i = 0; i < plan.size(); ++i) {
+        const std::string text = corpus.sentence(plan[i].sentence).text;
+        if (plan[i].phase != Phase::Test) script += text + "\n";
+        else if (started.insert(plan[i].condition).second) script += "no idea || " + text + "\n";
+        else script += i % 3 == 0 ? "-\n" : text + "\n";
+    }
+    write_text_file(dir / "script.txt", script);
+    const fs::path db = dir / "adaptive.sqlite";
+    std::vector<std::string> args = run_args(protocol, 1, db, dir / "script.txt");
+    args.insert(args.end(), {"--audio-capture", (dir / "audio").string()});
+    // Presentations committed so far (repeats included).
+    auto presentations = [&]() { return count_rows(db, "adaptive_trials"); };
+    // Two kills: after the 6th and the 14th committed presentation (both in
+    // the tracks), then a run to the end.
+    int kills = 0;
+    for (const int target : {6, 14}) {
+        const pid_t pid = spawn(args, dir / "log.txt");
+        const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+        while (presentations() < target && std::chrono::steady_clock::now() < give_up)
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        ::kill(pid, SIGKILL);
+        int status = 0;
+        ::waitpid(pid, &status, 0);
+        ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill:\n" << read_text_file(dir / "log.txt");
+        ++kills;
+        const int stored = presentations();
+        ASSERT_GE(stored, target);
+        ASSERT_LT(stored, 26) << "killed too late to be mid-track";
+    }
+    ASSERT_EQ(run(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+
+    // Every planned trial answered once.
+    const CsvTable responses = read_csv(dir / "export" / "responses.csv");
+    ASSERT_EQ(responses.rows.size(), plan.size());
+    std::set<int> positions;
+    for (const auto& row : responses.rows) EXPECT_TRUE(positions.insert(std::stoi(row.fields[2])).second);
+    const CsvTable sessions = read_csv(dir / "export" / "sessions.csv");
+    EXPECT_EQ(sessions.rows.size(), static_cast<std::size_t>(kills + 1));
+
+    // Every presentation once; each track's levels follow from its own steps
+    // across the kills (the next presentation is at the last one's next level),
+    // and the protocol's rules replayed on the stored scores give them all.
+    const CsvTable t = read_csv(dir / "export" / "adaptive_trials.csv");
+    const auto c_trial = t.require_column("trial"), c_attempt = t.require_column("attempt"),
+               c_track = t.require_column("track"), c_level = t.require_column("level_db"),
+               c_next = t.require_column("next_level_db"), c_keywords = t.require_column("keywords"),
+               c_correct = t.require_column("correct"), c_gain = t.require_column("speech_gain_db"),
+               c_presentation = t.require_column("presentation"), c_phase = t.require_column("phase");
+    std::set<std::pair<int, int>> seen;
+    std::map<std::string, std::vector<const CsvRow*>> tracks;
+    int repeats = 0;
+    for (const auto& row : t.rows) {
+        const int trial = std::stoi(row.fields[c_trial]), attempt = std::stoi(row.fields[c_attempt]);
+        EXPECT_TRUE(seen.insert({trial, attempt}).second) << "trial " << trial << " presentation " << attempt << " twice";
+        if (attempt > 1) {
+            EXPECT_TRUE(seen.count({trial, attempt - 1})) << "trial " << trial << " lost presentation " << attempt - 1;
+            ++repeats;
+        }
+        if (row.fields[c_phase] == "test") tracks[row.fields[c_track]].push_back(&row);
+        else EXPECT_EQ(*parse_double(row.fields[c_level]), 10.0);  // the fixed practice SNR
+    }
+    EXPECT_EQ(repeats, 2);
+    ASSERT_EQ(tracks.size(), 2u);
+    const analysis::TrackSettings rules = analysis::adaptive_protocol(p).track;
+    for (const auto& [name, rows] : tracks) {
+        SCOPED_TRACE(name);
+        analysis::AdaptiveTrack replay(rules);
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+            const auto& f = rows[k]->fields;
+            EXPECT_EQ(std::stoi(f[c_presentation]), static_cast<int>(k) + 1);
+            EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), replay.level_db());
+            if (k > 0) {
+                EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), *parse_double(rows[k - 1]->fields[c_next]));
+            }
+            replay.record(std::stoi(f[c_keywords]), std::stoi(f[c_correct]));
+            EXPECT_DOUBLE_EQ(*parse_double(f[c_next]), replay.level_db());
+        }
+        EXPECT_EQ(replay.sentences(), 10);
+    }
+
+    // The captured device audio: the clean test-pattern audio times the logged
+    // speech gain, plus noise whose level gives the logged SNR.
+    TestPatternSettings pattern;
+    pattern.fps = p.render.fps;
+    const auto clip = make_test_pattern(pattern);
+    const std::vector<float>& clean = clip->audio();
+    int measured = 0;
+    for (const auto& row : t.rows) {
+        const int trial = std::stoi(row.fields[c_trial]), attempt = std::stoi(row.fields[c_attempt]);
+        const fs::path wav = dir / "audio" / (attempt == 1 ? fmt::format("trial{:03}.wav", trial)
+                                                           : fmt::format("trial{:03}_{}.wav", trial, attempt));
+        SCOPED_TRACE(wav.string());
+        const Audio captured = read_audio(wav);
+        ASSERT_EQ(captured.samples.size(), clean.size());
+        const double g = std::pow(10.0, *parse_double(row.fields[c_gain]) / 20.0);
+        std::vector<double> speech(clean.size());
+        double noise_sq = 0;
+        for (std::size_t i = 0; i < clean.size(); ++i) {
+            speech[i] = g * clean[i];
+            const double n = captured.samples[i] - speech[i];
+            noise_sq += n * n;
+        }
+        const double snr = 20 * std::log10(vocoder::speech_level_rms(speech, clip->sample_rate(),
+                                                                      vocoder::SnrReference::ActiveFrames) /
+                                           std::sqrt(noise_sq / clean.size()));
+        EXPECT_NEAR(snr, *parse_double(row.fields[c_level]), 0.01);
+        ++measured;
+    }
+    EXPECT_EQ(measured, static_cast<int>(t.rows.size()));
+    std::cerr << "[ info ] " << kills << " kills, " << t.rows.size() << " presentations measured from the capture\n";
+
+    // The report on the exported tracks (one subject: no ANOVA, SRTs and plots).
+    ASSERT_EQ(run({"analyze", (dir / "export" / "adaptive_trials.csv").string(), "--protocol", protocol.string(),
+                   "--out", (dir / "report").string()},
+                  dir / "analyze.txt"),
+              0)
+        << read_text_file(dir / "analyze.txt");
+    const CsvTable srt = read_csv(dir / "report" / "srt.csv");
+    ASSERT_EQ(srt.rows.size(), 2u);
+    EXPECT_TRUE(fs::exists(dir / "report" / "tracks" / "subject_1.png"));
+}
+
+// The experimenter's score check: scripted marks after " ## " correct the live
+// score; the track steps on the corrected score, the record keeps both and
+// the correction is logged. Without experimenter response mode it is refused.
+TEST_F(RunnerE2E, AdaptiveScoreCheckCorrectionsCountAndAreLogged) {
+    const fs::path dir = temp_dir("e2e_adaptive_check");
+    const fs::path source = fs::path(AVSI_TEST_DATA_DIR) / "adaptive";
+    fs::copy_file(source / "corpus.csv", dir / "corpus.csv");
+    std::string text = read_text_file(source / "protocol.toml");
+    text += "confirm_scores = true\n";
+    write_text_file(dir / "subject_mode.toml", text);
+    text.replace(text.find("[session]\n"), 10, "[session]\nresponse_mode = \"experimenter\"\n");
+    write_text_file(dir / "protocol.toml", text);
+    const Protocol p = load_protocol(dir / "protocol.toml");
+    const Corpus corpus = read_corpus(p.corpus.sentences);
+    const std::vector<PlannedTrial> plan = make_design(p, corpus, 1);
+    // Every answer typed in full; the experimenter marks the 2nd keyword of
+    // every 4th trial after the tracks' first sentences wrong (a correction),
+    // and confirms the rest as scored.
+    std::string script;
+    int corrections = 0;
+    for (std::size_t i = 0; i < plan.size(); ++i) {
+        script += corpus.sentence(plan[i].sentence).text;
+        if (i % 4 == 3 && i > 4) {
+            script += " ## 101";
+            ++corrections;
+        }
+        script += "\n";
+    }
+    write_text_file(dir / "script.txt", script);
+    const fs::path db = dir / "check.sqlite";
+    EXPECT_EQ(run(run_args(dir / "subject_mode.toml", 1, db, dir / "script.txt"), dir / "refused.txt"), 1);
+    EXPECT_NE(read_text_file(dir / "refused.txt").find("adaptive.confirm_scores: expected session.response_mode"),
+              std::string::npos)
+        << read_text_file(dir / "refused.txt");
+    ASSERT_EQ(run(run_args(dir / "protocol.toml", 1, db, dir / "script.txt"), dir / "log.txt"), 0)
+        << read_text_file(dir / "log.txt");
+    Store store(db);
+    const auto rows = store.adaptive_trials(1);
+    ASSERT_EQ(rows.size(), plan.size());  // all right at first: no repeats
+    int corrected = 0;
+    for (const auto& row : rows) {
+        const bool marked = (row.position - 1) % 4 == 3 && row.position > 5;
+        EXPECT_EQ(row.record.auto_correct, 3) << row.position;
+        EXPECT_EQ(row.record.corrected, marked) << row.position;
+        EXPECT_EQ(row.record.correct, marked ? 2 : 3) << row.position;
+        EXPECT_EQ(row.record.marks, marked ? "101" : "111") << row.position;
+        corrected += row.record.corrected ? 1 : 0;
+    }
+    EXPECT_EQ(corrected, corrections);
+    int events = 0;
+    for (const auto& e : store.events()) events += e.kind == "score-corrected" ? 1 : 0;
+    EXPECT_EQ(events, corrections);
+    // The tracks stepped on the corrected scores (2 of 3 is not "all right": up).
+    for (const auto& row : rows)
+        if (row.record.corrected && !row.record.track.empty()) {
+            EXPECT_GT(row.record.next_level_db, row.record.level_db);
+        }
 }
 
 }  // namespace

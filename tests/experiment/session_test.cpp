@@ -109,6 +109,29 @@ TEST(Session, EmptyAnswerAsksForConfirmation) {
     EXPECT_NEAR(actions[0].response.response_time_ms, 2000.0, 1e-6);
 }
 
+TEST(Session, ScoreCheckHoldsTheAnswerUntilTheExperimenterAccepts) {
+    SessionMachine m(small_plan(), {}, fast());
+    m.set_confirm_scores(true);
+    m.continue_pressed(0.0);
+    const double t = present(m, 0.0);
+    m.take_actions();
+    m.submit("the boy", t + 1.0);
+    EXPECT_EQ(m.screen(), Screen::ScoreCheck);
+    EXPECT_TRUE(m.take_actions().empty());
+    EXPECT_EQ(m.pending_response().text, "the boy");
+    m.escape(t + 2.0);  // a pause keeps the check
+    m.escape(t + 3.0);
+    EXPECT_EQ(m.screen(), Screen::ScoreCheck);
+    m.confirm_score(t + 9.0);
+    const auto actions = m.take_actions();
+    ASSERT_EQ(actions.size(), 1u);
+    EXPECT_EQ(actions[0].kind, SessionAction::Kind::CommitResponse);
+    EXPECT_EQ(actions[0].response.text, "the boy");
+    // The response time ends at Enter in the answer box, not at the check.
+    EXPECT_NEAR(actions[0].response.response_time_ms, 1000.0, 1e-6);
+    EXPECT_EQ(m.answered_count(), 1);
+}
+
 TEST(Session, ResumeSkipsAnsweredTrialsAndPausingAStimulusShowsItAgain) {
     SessionMachine m(small_plan(), {1, 2, 3}, fast());
     EXPECT_TRUE(m.resumed());

@@ -539,7 +539,9 @@ TEST_F(WebStudy, MigratesASchemaOneLabDatabaseAndKeepsItsData) {
     fs::copy_file(web_data / "schema1-lab.sqlite", dir / "lab.sqlite");
     {
         const Store store(dir / "lab.sqlite");
-        EXPECT_EQ(store.schema_version(), 2);
+        // Migrated through every version (2: online sessions, 3: adaptive tracks).
+        EXPECT_EQ(store.schema_version(), 3);
+        EXPECT_TRUE(store.adaptive_trials().empty());
         const auto responses = store.responses();
         ASSERT_EQ(responses.size(), 4u);
         EXPECT_EQ(responses[0].response.text, "first answer");

@@ -8,7 +8,8 @@
 // Sections: [experiment], [corpus], [[condition]], [vocoder] (kept as a
 // ConfigSection; the vocoder module validates it), [design], [render],
 // [session], [scoring], [online] (kept as a ConfigSection; the experiment
-// module's web study export validates it). Paths in the file are relative to the protocol file.
+// module's web study export validates it), [adaptive] (kept as a ConfigSection;
+// analysis/adaptive.h validates it). Paths in the file are relative to the protocol file.
 #pragma once
 
 #include <cstdint>
@@ -131,6 +132,7 @@ struct Protocol {
     ConfigSection render_section;  // [render]
     ConfigSection session_section; // [session]
     ConfigSection online;          // [online], validated by the experiment module (web study export/import)
+    ConfigSection adaptive;        // [adaptive], adaptive SRT tracks, validated by the analysis module (adaptive.h)
 
     // Index of the condition with that name, or -1.
     int condition_index(const std::string& name) const;

@@ -5,7 +5,9 @@
 // so over k·m subjects every list meets every condition m times. Condition
 // order is a seeded random permutation per subject, or a Williams design
 // (Williams 1949: balanced for first-order carry-over; 2k rows for odd k).
-// Sentence order within a block is shuffled per subject (seeded).
+// Sentence order within a block is shuffled per subject (seeded). With an
+// [adaptive] section whose tracks are interleaved, the blocks' sentences then
+// alternate one by one in block order (all in test block 1).
 //
 // lists.csv: subject,position,phase,block,list,condition,sentence,stimulus
 // (stimulus = "<sentence>/<condition>.mp4", the stimulus folder layout).

@@ -4,13 +4,15 @@
 // inputs with timestamps — so the whole flow is testable headless.
 //
 //   Instructions ─continue→ Fixation ─fixation_ms→ Stimulus ─finished→ Wait
-//   ─response_delay_ms→ Response ─Enter→ (empty? ConfirmEmpty) → commit →
+//   ─response_delay_ms→ Response ─Enter→ (empty? ConfirmEmpty) → (adaptive
+//   tracks with confirm_scores: ScoreCheck ─Enter→) commit →
 //   Feedback (practice: the sentence text) → next trial: Fixation, or
 //   Instructions at a phase change, Break between blocks / every N trials,
 //   End after the last. Esc pauses from anywhere; a stimulus interrupted by a
 //   pause is shown again from the start.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -21,7 +23,7 @@
 
 namespace avsi::experiment {
 
-enum class Screen { Instructions, Fixation, Stimulus, Wait, Response, ConfirmEmpty, Feedback, Break, Paused, End };
+enum class Screen { Instructions, Fixation, Stimulus, Wait, Response, ConfirmEmpty, ScoreCheck, Feedback, Break, Paused, End };
 std::string to_string(Screen screen);
 
 struct SessionAction {
@@ -29,6 +31,7 @@ struct SessionAction {
     Kind kind = Kind::StartStimulus;
     int trial_index = -1;  // index into the plan
     Response response;     // for CommitResponse
+    bool repeat = false;   // CommitResponse of a presentation the adaptive track repeats
 };
 
 class SessionMachine {
@@ -63,16 +66,33 @@ public:
     void submit(const std::string& text, double now_s);
     // The answer to "submit an empty answer?".
     void confirm_empty(bool accept, double now_s);
+    // With score confirmation on, an answer waits on the ScoreCheck screen
+    // (the experimenter checks or corrects the live score) until this call.
+    void set_confirm_scores(bool on) { m_confirm_scores = on; }
+    // Enter on the ScoreCheck screen: the answer counts.
+    void confirm_score(double now_s);
+    // The answer waiting on the ScoreCheck screen.
+    const Response& pending_response() const { return m_pending; }
+
     // Esc: pause, or resume when paused.
     void escape(double now_s);
     // From the pause screen: end the session now (resumable later).
     void quit();
+
+    // Adaptive tracks: asked at each answer whether the trial is presented
+    // again (the first-sentence rule). A repeated trial is not marked answered;
+    // its CommitResponse action has repeat = true and the trial starts again
+    // from its fixation.
+    void set_repeat_rule(std::function<bool(int trial_index, const Response& response)> rule) {
+        m_repeat_rule = std::move(rule);
+    }
 
     // Actions for the front end, in order; clears the queue.
     std::vector<SessionAction> take_actions();
 
 private:
     void go_to_next(double now_s, bool first);
+    void finish_commit(SessionAction action, double now_s);
     void begin_fixation(double now_s);
     void commit(const std::string& text, bool confirmed_empty, double now_s);
 
@@ -89,6 +109,9 @@ private:
     double m_response_start_s = 0.0;
     std::string m_message;
     std::vector<SessionAction> m_actions;
+    std::function<bool(int, const Response&)> m_repeat_rule;
+    bool m_confirm_scores = false;
+    Response m_pending;
 };
 
 }  // namespace avsi::experiment

@@ -9,8 +9,10 @@
 // an online import (`avsi import-web`) is one transaction for all its subjects.
 //
 // Schema history: 1 = the lab runner's tables; 2 = sessions.mode and
-// sessions.external_id, web_presentations, screening_trials, screening.
-// Opening a version-1 database migrates it in place (one transaction).
+// sessions.external_id, web_presentations, screening_trials, screening;
+// 3 = adaptive_trials (every presentation of an adaptive SRT protocol: its
+// level, score, correction, the track's step and the mixing gains).
+// Opening an older database migrates it in place (one transaction).
 #pragma once
 
 #include <filesystem>
@@ -28,7 +30,7 @@ namespace avsi::experiment {
 
 // The schema version this build writes; older databases are migrated, newer
 // ones are refused.
-constexpr int store_schema_version = 2;
+constexpr int store_schema_version = 3;
 
 // Timing of one frame of a presented stimulus, in seconds on the audio clock.
 struct FrameFlip {
@@ -57,6 +59,36 @@ struct Response {
     std::string text;
     double response_time_ms = 0.0;  // from the answer box appearing to Enter
     bool confirmed_empty = false;
+};
+
+// One presentation of an adaptive SRT protocol (schema 3): the SNR it was
+// mixed at, the live score (and the experimenter's correction), and the step
+// of its track. Warm-up and practice trials have no track (track "") and are
+// mixed at the protocol's fixed practice SNR.
+struct AdaptiveRecord {
+    int attempt = 1;              // presentation of this planned trial (first-sentence repeats)
+    std::string track;            // the condition whose track it belongs to; "" for none
+    int presentation = 0;         // 1-based within the track (0 without a track)
+    int sentence_index = 0;       // 1-based sentence of the track
+    double level_db = 0.0;        // the SNR presented
+    int keywords = 0;
+    int correct = 0;              // keywords counted (after a correction)
+    int auto_correct = 0;         // keywords the live scorer credited
+    std::string marks;            // per keyword, "1" right / "0" wrong, as counted
+    bool corrected = false;       // the experimenter changed the live score
+    double next_level_db = 0.0;   // the track's level for its next presentation
+    double step_db = 0.0;
+    bool reversal = false;
+    int reversals = 0;
+    bool repeat = false;          // the next presentation repeats this trial
+    bool at_bound = false;
+    double speech_gain_db = 0.0;  // applied to the stimulus audio (limiter included)
+    double noise_gain_db = 0.0;   // noise RMS relative to full scale, dBFS, after the limiter
+    double limit_gain_db = 0.0;   // < 0 when the mixture was scaled down to avoid clipping
+    std::string response;         // what was typed for this presentation
+    std::string answered_utc;
+
+    bool operator==(const AdaptiveRecord&) const = default;
 };
 
 struct SessionInfo {
@@ -189,6 +221,22 @@ public:
     // transaction. Throws if the trial already has a response (never asked twice).
     void commit_trial(int session, const PlannedTrial& trial, const Presentation& presentation,
                       const Response& response);
+    // The same with the trial's adaptive record, in the same transaction.
+    void commit_trial(int session, const PlannedTrial& trial, const Presentation& presentation,
+                      const Response& response, const AdaptiveRecord& adaptive);
+    // Commits a presentation that the track repeats (no response row: the
+    // trial is answered by its last presentation). Throws if the trial
+    // already has a response or this attempt is stored.
+    void commit_attempt(int session, const PlannedTrial& trial, const AdaptiveRecord& adaptive);
+
+    struct AdaptiveRow {
+        int subject = 0;
+        int position = 0;
+        int session = 0;
+        AdaptiveRecord record;
+    };
+    // Adaptive records (ordered by subject, position, attempt); subject 0: all.
+    std::vector<AdaptiveRow> adaptive_trials(int subject = 0) const;
 
     // Stores imported online subjects in one transaction: new subjects with
     // their plan, each browser session (marked online; one already stored
@@ -244,8 +292,9 @@ private:
 };
 
 // Writes responses.csv, timing.csv, timing_summary.csv, frames.csv,
-// sessions.csv and events.csv into `out_dir`, and for databases with online
-// sessions web_timing.csv, screening.csv and screening_trials.csv; returns
+// sessions.csv and events.csv into `out_dir`, for databases with online
+// sessions web_timing.csv, screening.csv and screening_trials.csv, and for
+// adaptive protocols adaptive_trials.csv (every presentation); returns
 // the files written. responses.csv and sessions.csv end with a `mode` column
 // (lab or online).
 std::vector<std::filesystem::path> export_store(const Store& store, const std::filesystem::path& out_dir);

@@ -1,0 +1,280 @@
+// Adaptive speech reception thresholds (SRT): the level rules of an adaptive
+// track, the SRT estimates, the maximum-likelihood fit of the psychometric
+// function, and simulated listeners for planning. Pure computation: the lab
+// runner drives a track trial by trial, the analysis replays stored tracks,
+// `avsi simulate-srt` runs them against simulated listeners.
+//
+// Two procedures (protocol [adaptive] procedure = "sentence" | "word"):
+//   * sentence scoring, 1-up/1-down on "all keywords correct" (MacLeod &
+//     Summerfield 1990; HINT, Nilsson, Soli & Sullivan 1994): after sentence k
+//     the level goes down by the step if every keyword was correct, up
+//     otherwise; the step is large_step_db after sentences 1..large_steps,
+//     small_step_db after. With repeat_first, the first sentence is presented
+//     again, large_step_db higher each time, until it is correct. SRT = mean of
+//     the levels of sentences srt_from..N (the last presentation of a repeated
+//     sentence), plus the level the next sentence would get when
+//     srt_include_next (HINT). This converges on the level where the whole
+//     sentence is right half the time — for a listener whose keywords are
+//     independent with word probability p(L), where p(L)^keywords = 0.5.
+//   * word scoring, Brand & Kollmeier (2002): after each sentence
+//       ΔL = −f(i) · (prop_correct − target) / slope_per_db,
+//       f(i) = max(f_min, f_start · f_ratio^(−i)),
+//     i = the number of reversals of the track so far (a reversal: a step of
+//     the other sign than the last non-zero step). SRT from the mean of the
+//     levels from sentence srt_from on, or from the maximum-likelihood fit of
+//     a logistic psychometric function to every keyword of the track.
+// Levels are bounded to [min_db, max_db]; a step that the bound shortens is
+// recorded (TrackStep::at_bound), never hidden.
+//
+// Psychometric function (Brand & Kollmeier's form, slope at the midpoint):
+//   p(L) = 1 / (1 + exp(−4·s·(L − L50)))
+// with s the slope in proportion per dB at L50; the level for another target
+// t is L_t = L50 + logit(t) / (4·s).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <filesystem>
+
+#include "avsi/core/config.h"
+#include "avsi/core/rng.h"
+
+namespace avsi {
+struct Protocol;
+}
+
+namespace avsi::analysis {
+
+enum class AdaptiveProcedure { Sentence, Word };
+// How a word track's SRT is estimated.
+enum class SrtEstimator { MeanOfLevels, MaximumLikelihood };
+// What the track varies.
+enum class AdaptiveVariable { Snr };
+// Interleaved: the conditions' tracks alternate sentence by sentence; blocked:
+// one condition's track after the other (the design's blocks).
+enum class TrackOrder { Interleaved, Blocked };
+// Which signal the SNR moves: the noise (speech level fixed) or the speech (noise fixed).
+enum class LevelRule { NoiseVaries, SpeechVaries };
+
+std::string to_string(AdaptiveProcedure procedure);
+std::string to_string(SrtEstimator estimator);
+std::string to_string(TrackOrder order);
+std::string to_string(LevelRule rule);
+
+// The rules of one track (every condition's track of a protocol uses the same).
+struct TrackSettings {
+    AdaptiveProcedure procedure = AdaptiveProcedure::Sentence;
+    double start_db = 0.0;     // level of the first sentence
+    double min_db = -30.0;     // bounds of the level
+    double max_db = 30.0;
+    // sentence scoring
+    double large_step_db = 4.0;
+    int large_steps = 4;       // steps after sentences 1..large_steps are large
+    double small_step_db = 2.0;
+    bool repeat_first = true;  // first sentence repeated upward until correct
+    int max_first_repeats = 10;  // then the track goes on as if it was wrong
+    // word scoring (Brand & Kollmeier 2002)
+    double target = 0.5;
+    double slope_per_db = 0.15;  // assumed slope at the target, proportion per dB
+    double f_start = 1.5;
+    double f_ratio = 1.41;
+    double f_min = 0.1;
+    // estimates
+    int srt_from = 5;               // first sentence (1-based) averaged
+    bool srt_include_next = true;   // also the level the next sentence would get
+    SrtEstimator estimator = SrtEstimator::MeanOfLevels;  // word tracks; sentence tracks use the mean
+};
+
+// One presentation of a track and the step it caused.
+struct TrackStep {
+    int presentation = 0;   // 1-based, repeats included
+    int sentence = 0;       // 1-based; repeats of the first sentence share it
+    int attempt = 1;        // presentation of this sentence (repeat_first)
+    double level_db = 0.0;
+    int keywords = 0;
+    int correct = 0;
+    bool sentence_correct = false;  // every keyword correct
+    double step_db = 0.0;           // next_level_db − level_db
+    double next_level_db = 0.0;
+    bool reversal = false;          // this step reverses the track's direction
+    int reversals = 0;              // reversals up to and including this step
+    bool repeat = false;            // the next presentation repeats this sentence
+    bool at_bound = false;          // the bound shortened this step
+};
+
+// An adaptive track: the level of the next presentation from the scored
+// responses so far. Replaying the same scores gives the same levels (the
+// runner resumes a track this way).
+class AdaptiveTrack {
+public:
+    // Throws InputError (field "adaptive") for settings outside their ranges.
+    explicit AdaptiveTrack(TrackSettings settings);
+
+    // Level of the next presentation.
+    double level_db() const { return m_level_db; }
+    // Whether the next presentation repeats the last sentence (first-sentence rule).
+    bool repeating() const { return m_repeat; }
+    // Sentences completed (a repeated sentence counts once, when it ends).
+    int sentences() const;
+    int reversals() const { return m_reversals; }
+    const std::vector<TrackStep>& steps() const { return m_steps; }
+    const TrackSettings& settings() const { return m_settings; }
+
+    // Scores the presentation at level_db(): `correct` of `keywords`
+    // (keywords ≥ 1, 0 ≤ correct ≤ keywords) and steps. Returns the step.
+    const TrackStep& record(int keywords, int correct);
+
+private:
+    TrackSettings m_settings;
+    double m_level_db = 0.0;
+    bool m_repeat = false;
+    int m_reversals = 0;
+    int m_last_direction = 0;  // sign of the last non-zero step
+    std::vector<TrackStep> m_steps;
+};
+
+// Checks the settings; every problem is reported at once (InputError, field "adaptive.<key>").
+void validate(const TrackSettings& settings, const std::string& source = "adaptive");
+
+// Brand & Kollmeier's step factor after i reversals.
+double bk_step_factor(const TrackSettings& settings, int reversals);
+
+// The levels an SRT averages: the last presentation of each sentence from
+// srt_from on (and the next level when srt_include_next).
+std::vector<double> srt_levels(const TrackSettings& settings, const std::vector<TrackStep>& steps);
+
+// One point of a psychometric function: `correct` of `trials` at a level.
+struct PsychometricPoint {
+    double level_db = 0.0;
+    int trials = 0;
+    int correct = 0;
+};
+
+// A maximum-likelihood fit of p(L) = 1/(1 + exp(−4 s (L − L50))).
+struct PsychometricFit {
+    bool converged = false;
+    std::string note;          // why not, when not converged
+    double l50_db = 0.0;
+    double slope_per_db = 0.0; // s (fixed when slope_fixed)
+    bool slope_fixed = false;
+    double se_l50_db = 0.0;    // from the inverse Fisher information (delta method)
+    double se_slope = 0.0;     // 0 when fixed
+    double log_likelihood = 0.0;
+    int points = 0;
+    int trials = 0;
+    int iterations = 0;
+
+    // p(level) of the fitted function.
+    double p(double level_db) const;
+    // The level where p = target (0 < target < 1).
+    double level_at(double target) const;
+    // Its standard error (delta method; slope's uncertainty included when free).
+    double se_level_at(double target) const;
+    double cov_a_b = 0.0, var_a = 0.0, var_b = 0.0;  // of the logit intercept a and slope b = 4s
+};
+
+// Binomial maximum likelihood (Newton–Raphson with step halving on the
+// logistic regression logit p = a + b·L). With `fixed_slope_per_db` only L50
+// is fitted. Data without a crossing (every trial right, every trial wrong,
+// or a perfect separation) give converged = false and a note: there is no
+// finite estimate.
+PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points,
+                                 std::optional<double> fixed_slope_per_db = std::nullopt);
+
+// The keywords of a track as psychometric points (one per presentation).
+std::vector<PsychometricPoint> track_points(const std::vector<TrackStep>& steps);
+
+// An SRT estimate of one track.
+struct SrtEstimate {
+    bool valid = false;
+    std::string note;        // why not valid
+    double srt_db = 0.0;
+    double se_db = 0.0;      // mean: SD/sqrt(n) of the averaged levels (they are correlated, so it is
+                             // optimistic); ML: from the Fisher information
+    int levels = 0;          // levels averaged (mean estimator)
+    SrtEstimator estimator = SrtEstimator::MeanOfLevels;
+    std::optional<PsychometricFit> fit;  // ML estimator
+};
+
+// The track's SRT by the settings' estimator (sentence tracks: the mean of levels).
+SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackStep>& steps);
+// The track's SRT by a given estimator. ML on a sentence track fits the words
+// and reports the level where the sentence (all `keywords` independent) is
+// right half the time: p^k = 0.5.
+SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackStep>& steps,
+                         SrtEstimator estimator);
+
+// The level a procedure converges on for a listener whose keywords are each
+// right with p(L) (logistic, l50_db, slope_per_db): for word tracks the level
+// where p = target; for sentence tracks where p^keywords = 0.5.
+double procedure_threshold_db(const TrackSettings& settings, double l50_db, double slope_per_db, int keywords);
+
+// A simulated listener: each keyword independently right with the logistic
+// p(L) of l50_db and slope_per_db.
+struct SimulatedListener {
+    double l50_db = -6.0;
+    double slope_per_db = 0.15;
+    int keywords = 3;
+};
+
+// `avsi simulate-srt`: tracks of `sentences` sentences against simulated
+// listeners, for each sentence count.
+struct SrtSimulationSettings {
+    TrackSettings track;
+    SimulatedListener listener;
+    std::vector<int> sentence_counts = {10, 15, 20, 25, 30};
+    int listeners = 1000;
+    std::uint64_t seed = 1;
+    double start_offset_sd_db = 0.0;  // the start level varies around track.start_db by N(0, sd²)
+};
+
+// Bias and spread of one estimator at one track length.
+struct SrtSimulationRow {
+    int sentences = 0;
+    std::string estimator;      // "mean" or "ml"
+    double true_db = 0.0;       // procedure_threshold_db (what the estimate targets)
+    int estimates = 0;          // listeners with a valid estimate
+    double mean_db = 0.0;
+    double bias_db = 0.0;       // mean − true
+    double sd_db = 0.0;         // spread of the estimates across listeners
+    double rmse_db = 0.0;
+    double mean_presentations = 0.0;  // repeats of the first sentence included
+};
+
+struct SrtSimulationResult {
+    SrtSimulationSettings settings;
+    std::vector<SrtSimulationRow> rows;
+};
+
+// Runs the simulation (deterministic for a seed). Throws InputError for bad settings.
+SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings);
+// A plain-text table headed "SRT by simulation".
+std::string srt_simulation_table(const SrtSimulationResult& result);
+// srt_simulation.csv and srt_simulation.png (SD and bias by sentence count) into `out_dir`.
+void write_srt_simulation(const std::filesystem::path& out_dir, const SrtSimulationResult& result);
+
+// One simulated presentation: `keywords` Bernoulli(p(level)) draws.
+int simulate_response(const SimulatedListener& listener, double level_db, Rng& rng);
+
+// The [adaptive] section of a protocol.
+struct AdaptiveProtocol {
+    bool enabled = false;  // the protocol has an [adaptive] section
+    TrackSettings track;
+    AdaptiveVariable variable = AdaptiveVariable::Snr;
+    TrackOrder order = TrackOrder::Interleaved;
+    LevelRule level_rule = LevelRule::NoiseVaries;
+    std::string noise = "speech-shaped";  // or a noise recording (resolved path)
+    double fixed_level_dbfs = -26.0;      // the level that stays: the noise's when the speech varies
+    std::string snr_reference = "active"; // vocoder::parse_snr_reference: "whole" or "active"
+    double practice_snr_db = 10.0;        // warm-up and practice sentences (fixed)
+    bool confirm_scores = false;          // the experimenter confirms or corrects each score
+    std::string reference;                // the audio-only condition (visual benefit); "" = the first
+};
+
+// Reads and validates protocol.adaptive (every problem at once, with file:line:col).
+AdaptiveProtocol adaptive_protocol(const Protocol& protocol);
+
+}  // namespace avsi::analysis

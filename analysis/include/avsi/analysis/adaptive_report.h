@@ -1,0 +1,115 @@
+// `avsi analyze` on adaptive tracks: from the trials of adaptive SRT tracks
+// (adaptive_trials.csv, written by `avsi export`) per subject and condition
+// the SRT and its standard error, the visual benefit (reference SRT minus
+// condition SRT, positive when the face helps) with a paired-t confidence
+// interval, the repeated-measures ANOVA on the SRTs in dB (rm_anova.h, the
+// same machinery as for percent correct), pairwise comparisons, one figure
+// per subject with its tracks (level by presentation, reversals ringed), and
+// a maximum-likelihood psychometric function per condition pooled across
+// subjects. Each track is replayed under the protocol's [adaptive] rules
+// and must give the stored levels, so a report never mixes rules.
+//
+//   adaptive_trials.csv: subject,condition,presentation,sentence_index,attempt,
+//                        level_db,keywords,correct,next_level_db,... (extra columns ignored)
+//
+// Report folder: index.html, report.md, srt.csv, benefit.csv, anova.json,
+// pairwise.csv, psychometric.csv, srt.png, psychometric.png, tracks/subject_<id>.png.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "avsi/analysis/adaptive.h"
+#include "avsi/analysis/report.h"
+
+namespace avsi::analysis {
+
+// One presentation of a stored track.
+struct AdaptiveTrialRow {
+    std::string subject, condition;
+    int presentation = 0;   // 1-based within the subject's track for the condition
+    int sentence_index = 0; // 1-based sentence of the track
+    int attempt = 1;
+    double level_db = 0.0;
+    int keywords = 0, correct = 0;
+    double next_level_db = 0.0;
+    int line = 0;           // in the file
+    int level_column = 0;   // of level_db (1-based), for messages
+};
+
+// Reads adaptive_trials.csv (every field checked; problems with file:line).
+std::vector<AdaptiveTrialRow> read_adaptive_trials(const std::filesystem::path& path);
+
+// One subject × condition track, replayed.
+struct TrackResult {
+    std::string subject, condition;
+    std::vector<TrackStep> steps;
+    SrtEstimate srt;  // the protocol's estimator
+    SrtEstimate ml;   // the ML fit of the same track (for comparison)
+};
+
+// Reference minus condition, per subject.
+struct VisualBenefit {
+    std::string condition, reference;
+    std::size_t n = 0;
+    double mean_db = 0.0, sd_db = 0.0, se_db = 0.0;
+    double ci_low_db = 0.0, ci_high_db = 0.0;
+    std::optional<double> t, p_value;
+    double df = 0.0;
+};
+
+// The pooled psychometric function of one condition.
+struct ConditionFit {
+    std::string condition;
+    PsychometricFit fit;
+    std::vector<PsychometricPoint> points;  // pooled per level (rounded to 0.1 dB)
+};
+
+struct SrtAnalysis {
+    TrackSettings settings;
+    std::string reference;
+    std::vector<TrackResult> tracks;
+    std::vector<std::string> conditions;  // report order
+    Scores srts;                          // subject × condition SRT in the `percent` field (dB)
+    std::optional<AnalysisResult> anova;  // nullopt with fewer than 2 complete subjects
+    std::vector<VisualBenefit> benefits;
+    std::vector<ConditionFit> fits;
+    std::vector<std::string> notes;
+};
+
+// Replays and estimates every track, then the statistics. `conditions`
+// orders the report (empty: first appearance); `reference` is the audio-only
+// condition (empty: the first). Throws InputError naming `source` and the
+// line when a stored level is not what the rules give.
+SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSettings& settings,
+                        const std::vector<std::string>& conditions, const std::string& reference,
+                        const std::string& source, double confidence = 0.95);
+
+struct SrtReportSettings {
+    std::filesystem::path out_dir;
+    std::filesystem::path source;
+    std::filesystem::path protocol;
+    std::string title = "Speech reception thresholds by condition";
+    double confidence = 0.95;
+};
+
+// Writes the report folder listed above.
+void write_srt_report(const SrtAnalysis& analysis, const SrtReportSettings& settings);
+
+struct AdaptiveAnalyzeSettings {
+    std::filesystem::path input;     // adaptive_trials.csv
+    std::filesystem::path protocol;  // its [adaptive] rules, conditions and reference
+    std::filesystem::path out_dir;
+    double confidence = 0.95;
+    std::string title = "Speech reception thresholds by condition";
+};
+
+// `avsi analyze --adaptive`: reads, replays, analyses and writes the report.
+SrtAnalysis analyze_adaptive_file(const AdaptiveAnalyzeSettings& settings);
+
+// True when a CSV file's header has the adaptive trial columns (level_db and presentation).
+bool is_adaptive_trials_file(const std::filesystem::path& path);
+
+}  // namespace avsi::analysis

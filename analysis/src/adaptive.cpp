@@ -1,0 +1,536 @@
+// Adaptive SRT tracks, estimates, the psychometric fit and simulated
+// listeners (see adaptive.h: MacLeod & Summerfield 1990, HINT, Brand &
+// Kollmeier 2002).
+#include "avsi/analysis/adaptive.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <fmt/format.h>
+
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/core/protocol.h"
+
+namespace avsi::analysis {
+
+namespace {
+
+double srt_logit(double p) { return std::log(p / (1.0 - p)); }
+double srt_logistic(double x) { return 1.0 / (1.0 + std::exp(-x)); }
+
+}  // namespace
+
+std::string to_string(AdaptiveProcedure procedure) {
+    return procedure == AdaptiveProcedure::Sentence ? "sentence" : "word";
+}
+std::string to_string(SrtEstimator estimator) {
+    return estimator == SrtEstimator::MeanOfLevels ? "mean" : "ml";
+}
+std::string to_string(TrackOrder order) { return order == TrackOrder::Interleaved ? "interleaved" : "blocked"; }
+std::string to_string(LevelRule rule) { return rule == LevelRule::NoiseVaries ? "noise" : "speech"; }
+
+void validate(const TrackSettings& s, const std::string& source) {
+    DiagnosticList problems;
+    auto bad = [&](const char* field, const std::string& what) {
+        problems.add(source, 0, 0, fmt::format("adaptive.{}", field), what);
+    };
+    if (!std::isfinite(s.min_db) || !std::isfinite(s.max_db) || s.min_db >= s.max_db)
+        bad("min_snr_db", fmt::format("expected min_snr_db < max_snr_db, got {} and {}", s.min_db, s.max_db));
+    else if (!(s.start_db >= s.min_db && s.start_db <= s.max_db))
+        bad("start_snr_db", fmt::format("expected a level in [{}, {}], got {}", s.min_db, s.max_db, s.start_db));
+    if (!(s.large_step_db > 0 && s.large_step_db <= 20))
+        bad("large_step_db", fmt::format("expected a step in (0, 20] dB, got {}", s.large_step_db));
+    if (!(s.small_step_db > 0 && s.small_step_db <= 20))
+        bad("small_step_db", fmt::format("expected a step in (0, 20] dB, got {}", s.small_step_db));
+    if (s.large_steps < 0 || s.large_steps > 1000)
+        bad("large_steps", fmt::format("expected an integer in [0, 1000], got {}", s.large_steps));
+    if (s.max_first_repeats < 0 || s.max_first_repeats > 100)
+        bad("max_first_repeats", fmt::format("expected an integer in [0, 100], got {}", s.max_first_repeats));
+    if (!(s.target > 0 && s.target < 1)) bad("target", fmt::format("expected a proportion in (0, 1), got {}", s.target));
+    if (!(s.slope_per_db > 0 && s.slope_per_db <= 1))
+        bad("slope_per_db", fmt::format("expected a slope in (0, 1] per dB, got {}", s.slope_per_db));
+    if (!(s.f_start > 0 && s.f_start <= 10)) bad("f_start", fmt::format("expected a factor in (0, 10], got {}", s.f_start));
+    if (!(s.f_ratio >= 1 && s.f_ratio <= 10)) bad("f_ratio", fmt::format("expected a ratio in [1, 10], got {}", s.f_ratio));
+    if (!(s.f_min > 0 && s.f_min <= s.f_start))
+        bad("f_min", fmt::format("expected a factor in (0, f_start = {}], got {}", s.f_start, s.f_min));
+    if (s.srt_from < 1 || s.srt_from > 1000)
+        bad("srt_from", fmt::format("expected a sentence number in [1, 1000], got {}", s.srt_from));
+    problems.throw_if_any();
+}
+
+AdaptiveTrack::AdaptiveTrack(TrackSettings settings) : m_settings(std::move(settings)) {
+    validate(m_settings);
+    m_level_db = m_settings.start_db;
+}
+
+int AdaptiveTrack::sentences() const {
+    if (m_steps.empty()) return 0;
+    return m_steps.back().repeat ? m_steps.back().sentence - 1 : m_steps.back().sentence;
+}
+
+double bk_step_factor(const TrackSettings& s, int reversals) {
+    return std::max(s.f_min, s.f_start * std::pow(s.f_ratio, -static_cast<double>(reversals)));
+}
+
+const TrackStep& AdaptiveTrack::record(int keywords, int correct) {
+    if (keywords < 1 || correct < 0 || correct > keywords)
+        throw InputError("adaptive track", 0, 0, "score",
+                         fmt::format("expected 0 ≤ correct ≤ keywords and keywords ≥ 1, got {} of {}", correct, keywords));
+    const TrackSettings& s = m_settings;
+    TrackStep step;
+    step.presentation = static_cast<int>(m_steps.size()) + 1;
+    if (m_repeat) {
+        step.sentence = m_steps.back().sentence;
+        step.attempt = m_steps.back().attempt + 1;
+    } else {
+        step.sentence = m_steps.empty() ? 1 : m_steps.back().sentence + 1;
+        step.attempt = 1;
+    }
+    step.level_db = m_level_db;
+    step.keywords = keywords;
+    step.correct = correct;
+    step.sentence_correct = correct == keywords;
+
+    double wanted = 0.0;  // the signed step before the bounds
+    step.repeat = false;
+    if (s.procedure == AdaptiveProcedure::Sentence) {
+        const bool first = step.sentence == 1;
+        if (first && s.repeat_first && !step.sentence_correct && step.attempt <= s.max_first_repeats) {
+            // First sentence, still wrong: the same sentence again, higher.
+            wanted = s.large_step_db;
+            step.repeat = true;
+        } else {
+            const double size = step.sentence <= s.large_steps ? s.large_step_db : s.small_step_db;
+            wanted = step.sentence_correct ? -size : size;
+        }
+    } else {
+        const double prop = static_cast<double>(correct) / keywords;
+        wanted = -bk_step_factor(s, m_reversals) * (prop - s.target) / s.slope_per_db;
+    }
+    double next = m_level_db + wanted;
+    if (next > s.max_db || next < s.min_db) {
+        next = std::clamp(next, s.min_db, s.max_db);
+        step.at_bound = true;
+    }
+    step.next_level_db = next;
+    step.step_db = next - m_level_db;
+    // Reversals follow the direction of the rule's step (the bound may make it zero).
+    const int direction = wanted > 0 ? 1 : (wanted < 0 ? -1 : 0);
+    // The upward repeats of the first sentence are the track's approach, not
+    // part of its up-down sequence: they set the direction without reversing.
+    if (direction != 0) {
+        if (m_last_direction != 0 && direction != m_last_direction) {
+            step.reversal = true;
+            ++m_reversals;
+        }
+        m_last_direction = direction;
+    }
+    step.reversals = m_reversals;
+    m_level_db = next;
+    m_repeat = step.repeat;
+    m_steps.push_back(step);
+    return m_steps.back();
+}
+
+std::vector<double> srt_levels(const TrackSettings& settings, const std::vector<TrackStep>& steps) {
+    std::vector<double> levels;
+    for (std::size_t i = 0; i < steps.size(); ++i) {
+        const TrackStep& st = steps[i];
+        if (st.repeat) continue;  // not the sentence's last presentation
+        if (st.sentence >= settings.srt_from) levels.push_back(st.level_db);
+    }
+    if (settings.srt_include_next && !steps.empty() && !steps.back().repeat &&
+        steps.back().sentence + 1 >= settings.srt_from)
+        levels.push_back(steps.back().next_level_db);
+    return levels;
+}
+
+double PsychometricFit::p(double level_db) const { return srt_logistic(4.0 * slope_per_db * (level_db - l50_db)); }
+
+double PsychometricFit::level_at(double target) const { return l50_db + srt_logit(target) / (4.0 * slope_per_db); }
+
+double PsychometricFit::se_level_at(double target) const {
+    // L_t = (logit(t) − a) / b with a = −b·L50, b = 4s.
+    const double b = 4.0 * slope_per_db;
+    const double a = -b * l50_db;
+    const double da = -1.0 / b;
+    const double db = -(srt_logit(target) - a) / (b * b);
+    const double var = da * da * var_a + 2 * da * db * cov_a_b + db * db * var_b;
+    return std::sqrt(std::max(0.0, var));
+}
+
+PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points, std::optional<double> fixed_slope) {
+    PsychometricFit fit;
+    fit.slope_fixed = fixed_slope.has_value();
+    int total = 0, correct = 0;
+    double sum_level = 0.0;
+    for (const auto& pt : points) {
+        if (pt.trials < 0 || pt.correct < 0 || pt.correct > pt.trials || !std::isfinite(pt.level_db))
+            throw InputError("psychometric fit", 0, 0, "points",
+                             fmt::format("expected 0 ≤ correct ≤ trials at a finite level, got {} of {} at {}",
+                                         pt.correct, pt.trials, pt.level_db));
+        if (pt.trials == 0) continue;
+        ++fit.points;
+        total += pt.trials;
+        correct += pt.correct;
+        sum_level += pt.level_db * pt.trials;
+    }
+    fit.trials = total;
+    if (total == 0 || correct == 0 || correct == total) {
+        fit.note = total == 0 ? "no trials" : (correct == 0 ? "every trial wrong: no finite threshold"
+                                                            : "every trial right: no finite threshold");
+        return fit;
+    }
+    if (fixed_slope && !(*fixed_slope > 0)) throw InputError("psychometric fit", 0, 0, "slope", "expected a slope > 0");
+    // (Quasi-)complete separation: every trial below some level wrong, every
+    // trial above it right (any at that level): the likelihood keeps rising
+    // as the slope grows, so there is no finite free-slope estimate.
+    if (!fixed_slope) {
+        for (const auto& cut : points) {
+            bool separated = true;
+            for (const auto& pt : points) {
+                if (pt.trials == 0) continue;
+                if (pt.level_db < cut.level_db && pt.correct != 0) separated = false;
+                if (pt.level_db > cut.level_db && pt.correct != pt.trials) separated = false;
+            }
+            if (separated) {
+                fit.note = fmt::format("the responses separate perfectly by level (all wrong below {} dB, all right "
+                                       "above): no finite slope",
+                                       cut.level_db);
+                return fit;
+            }
+        }
+    }
+    const double center = sum_level / total;  // centring keeps the Hessian well conditioned
+
+    auto loglik = [&](double a, double b) {
+        double ll = 0.0;
+        for (const auto& pt : points) {
+            if (pt.trials == 0) continue;
+            const double eta = a + b * (pt.level_db - center);
+            // log p = −log(1 + e^−η), log(1 − p) = −log(1 + e^η), both stable.
+            const double log_p = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, -eta);
+            const double log_q = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, eta);
+            ll += pt.correct * log_p + (pt.trials - pt.correct) * log_q;
+        }
+        return ll;
+    };
+    // Start: the pooled logit at the centre, a moderate slope.
+    double a = srt_logit(static_cast<double>(correct) / total);
+    double b = fixed_slope ? 4.0 * *fixed_slope : 0.4;
+    double ll = loglik(a, b);
+    bool done = false;
+    for (int it = 1; it <= 200 && !done; ++it) {
+        fit.iterations = it;
+        double ga = 0, gb = 0, haa = 0, hab = 0, hbb = 0;
+        for (const auto& pt : points) {
+            if (pt.trials == 0) continue;
+            const double x = pt.level_db - center;
+            const double p = srt_logistic(a + b * x);
+            const double r = pt.correct - pt.trials * p;
+            const double w = pt.trials * p * (1 - p);
+            ga += r;
+            gb += r * x;
+            haa += w;
+            hab += w * x;
+            hbb += w * x * x;
+        }
+        double da = 0, db = 0;
+        if (fixed_slope) {
+            if (haa <= 0) break;
+            da = ga / haa;
+        } else {
+            const double det = haa * hbb - hab * hab;
+            if (!(det > 0)) break;
+            da = (hbb * ga - hab * gb) / det;
+            db = (haa * gb - hab * ga) / det;
+        }
+        // Step halving until the likelihood does not fall.
+        double t = 1.0;
+        double na = a + da, nb = b + db, nll = loglik(na, nb);
+        while (nll < ll - 1e-12 && t > 1e-6) {
+            t *= 0.5;
+            na = a + t * da;
+            nb = b + t * db;
+            nll = loglik(na, nb);
+        }
+        const bool small = std::fabs(na - a) < 1e-10 && std::fabs(nb - b) < 1e-10;
+        a = na;
+        b = nb;
+        ll = nll;
+        if (small || (std::fabs(t * da) < 1e-9 && std::fabs(t * db) < 1e-9)) done = true;
+        if (std::fabs(b) > 200.0) break;  // running off to a step function
+    }
+    if (!done) {
+        fit.note = std::fabs(b) > 200.0 ? "the responses separate perfectly by level: no finite slope"
+                                        : "the fit did not converge";
+        return fit;
+    }
+    if (!(b > 0)) {
+        fit.note = fmt::format("the fitted slope is not positive ({:.4f} per dB): performance does not rise with level",
+                               b / 4.0);
+        return fit;
+    }
+    // Covariance of (a, b) (centred) from the Fisher information.
+    double haa = 0, hab = 0, hbb = 0;
+    for (const auto& pt : points) {
+        if (pt.trials == 0) continue;
+        const double x = pt.level_db - center;
+        const double p = srt_logistic(a + b * x);
+        const double w = pt.trials * p * (1 - p);
+        haa += w;
+        hab += w * x;
+        hbb += w * x * x;
+    }
+    double var_a = 0, var_b = 0, cov = 0;
+    if (fixed_slope) {
+        var_a = 1.0 / haa;
+    } else {
+        const double det = haa * hbb - hab * hab;
+        var_a = hbb / det;
+        var_b = haa / det;
+        cov = -hab / det;
+    }
+    fit.converged = true;
+    fit.slope_per_db = b / 4.0;
+    fit.l50_db = center - a / b;
+    fit.log_likelihood = ll;
+    // Back to the uncentred intercept A = a − b·center for the public covariance.
+    fit.var_a = var_a + center * center * var_b - 2 * center * cov;
+    fit.var_b = var_b;
+    fit.cov_a_b = cov - center * var_b;
+    fit.se_slope = std::sqrt(var_b) / 4.0;
+    fit.se_l50_db = fit.se_level_at(0.5);
+    return fit;
+}
+
+std::vector<PsychometricPoint> track_points(const std::vector<TrackStep>& steps) {
+    std::vector<PsychometricPoint> out;
+    out.reserve(steps.size());
+    for (const auto& s : steps) out.push_back({s.level_db, s.keywords, s.correct});
+    return out;
+}
+
+double procedure_threshold_db(const TrackSettings& s, double l50_db, double slope_per_db, int keywords) {
+    double p = s.target;
+    if (s.procedure == AdaptiveProcedure::Sentence) p = std::pow(0.5, 1.0 / std::max(1, keywords));
+    return l50_db + srt_logit(p) / (4.0 * slope_per_db);
+}
+
+SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackStep>& steps) {
+    return estimate_srt(settings, steps,
+                        settings.procedure == AdaptiveProcedure::Sentence ? SrtEstimator::MeanOfLevels
+                                                                          : settings.estimator);
+}
+
+SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackStep>& steps, SrtEstimator estimator) {
+    SrtEstimate e;
+    e.estimator = estimator;
+    if (estimator == SrtEstimator::MeanOfLevels) {
+        const std::vector<double> levels = srt_levels(settings, steps);
+        e.levels = static_cast<int>(levels.size());
+        if (levels.size() < 2) {
+            e.note = fmt::format("{} level(s) from sentence {} on: the track is too short for the mean of levels",
+                                 levels.size(), settings.srt_from);
+            return e;
+        }
+        const double mean = std::accumulate(levels.begin(), levels.end(), 0.0) / levels.size();
+        double ss = 0.0;
+        for (double l : levels) ss += (l - mean) * (l - mean);
+        e.srt_db = mean;
+        e.se_db = std::sqrt(ss / (levels.size() - 1)) / std::sqrt(static_cast<double>(levels.size()));
+        e.valid = true;
+        return e;
+    }
+    const PsychometricFit fit = fit_psychometric(track_points(steps));
+    e.fit = fit;
+    if (!fit.converged) {
+        e.note = fit.note;
+        return e;
+    }
+    int keywords = 1;
+    for (const auto& s : steps) keywords = std::max(keywords, s.keywords);
+    const double target =
+        settings.procedure == AdaptiveProcedure::Sentence ? std::pow(0.5, 1.0 / keywords) : settings.target;
+    e.srt_db = fit.level_at(target);
+    e.se_db = fit.se_level_at(target);
+    e.valid = true;
+    return e;
+}
+
+int simulate_response(const SimulatedListener& listener, double level_db, Rng& rng) {
+    const double p = srt_logistic(4.0 * listener.slope_per_db * (level_db - listener.l50_db));
+    int correct = 0;
+    for (int k = 0; k < listener.keywords; ++k)
+        if (rng.uniform() < p) ++correct;
+    return correct;
+}
+
+SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings) {
+    validate(settings.track, "simulate-srt");
+    DiagnosticList problems;
+    if (settings.listener.keywords < 1 || settings.listener.keywords > 20)
+        problems.add("simulate-srt", 0, 0, "--keywords",
+                     fmt::format("expected an integer in [1, 20], got {}", settings.listener.keywords));
+    if (!(settings.listener.slope_per_db > 0 && settings.listener.slope_per_db <= 1))
+        problems.add("simulate-srt", 0, 0, "--slope",
+                     fmt::format("expected a slope in (0, 1] per dB, got {}", settings.listener.slope_per_db));
+    if (settings.listeners < 2 || settings.listeners > 1000000)
+        problems.add("simulate-srt", 0, 0, "--listeners",
+                     fmt::format("expected an integer in [2, 1000000], got {}", settings.listeners));
+    if (settings.sentence_counts.empty())
+        problems.add("simulate-srt", 0, 0, "--sentences", "expected at least one sentence count");
+    for (int n : settings.sentence_counts)
+        if (n < settings.track.srt_from + 1 || n > 1000)
+            problems.add("simulate-srt", 0, 0, "--sentences",
+                         fmt::format("expected sentence counts in [{} (srt_from + 1), 1000], got {}",
+                                     settings.track.srt_from + 1, n));
+    if (!(settings.start_offset_sd_db >= 0 && settings.start_offset_sd_db <= 30))
+        problems.add("simulate-srt", 0, 0, "--start-sd",
+                     fmt::format("expected an SD in [0, 30] dB, got {}", settings.start_offset_sd_db));
+    problems.throw_if_any();
+
+    SrtSimulationResult result;
+    result.settings = settings;
+    const double truth = procedure_threshold_db(settings.track, settings.listener.l50_db,
+                                                settings.listener.slope_per_db, settings.listener.keywords);
+    std::vector<SrtEstimator> estimators = {SrtEstimator::MeanOfLevels, SrtEstimator::MaximumLikelihood};
+    for (int n : settings.sentence_counts) {
+        std::vector<std::vector<double>> values(estimators.size());
+        double presentations = 0.0;
+        for (int listener = 0; listener < settings.listeners; ++listener) {
+            // One stream per (length, listener): a row does not depend on the other rows.
+            Rng rng(derive_seed(settings.seed, fmt::format("n{}/listener{}", n, listener)));
+            TrackSettings track = settings.track;
+            if (settings.start_offset_sd_db > 0)
+                track.start_db = std::clamp(track.start_db + rng.normal(0.0, settings.start_offset_sd_db),
+                                            track.min_db, track.max_db);
+            AdaptiveTrack t(track);
+            while (t.sentences() < n) t.record(settings.listener.keywords, simulate_response(settings.listener, t.level_db(), rng));
+            presentations += static_cast<double>(t.steps().size());
+            for (std::size_t e = 0; e < estimators.size(); ++e) {
+                const SrtEstimate est = estimate_srt(track, t.steps(), estimators[e]);
+                if (est.valid) values[e].push_back(est.srt_db);
+            }
+        }
+        for (std::size_t e = 0; e < estimators.size(); ++e) {
+            SrtSimulationRow row;
+            row.sentences = n;
+            row.estimator = to_string(estimators[e]);
+            row.true_db = truth;
+            row.estimates = static_cast<int>(values[e].size());
+            row.mean_presentations = presentations / settings.listeners;
+            if (!values[e].empty()) {
+                const double m = std::accumulate(values[e].begin(), values[e].end(), 0.0) / values[e].size();
+                double ss = 0.0, sq = 0.0;
+                for (double v : values[e]) {
+                    ss += (v - m) * (v - m);
+                    sq += (v - truth) * (v - truth);
+                }
+                row.mean_db = m;
+                row.bias_db = m - truth;
+                row.sd_db = values[e].size() > 1 ? std::sqrt(ss / (values[e].size() - 1)) : 0.0;
+                row.rmse_db = std::sqrt(sq / values[e].size());
+            }
+            result.rows.push_back(row);
+        }
+    }
+    return result;
+}
+
+std::string srt_simulation_table(const SrtSimulationResult& r) {
+    const auto& s = r.settings;
+    std::string out = fmt::format(
+        "SRT by simulation ({} simulated listeners per row, seed {}): {} scoring, listener L50 {:.2f} dB, slope "
+        "{:.3f}/dB, {} keywords per sentence; the procedure targets {:.2f} dB\n",
+        s.listeners, s.seed, to_string(s.track.procedure), s.listener.l50_db, s.listener.slope_per_db,
+        s.listener.keywords, r.rows.empty() ? 0.0 : r.rows.front().true_db);
+    out += fmt::format("{:>9}  {:>9}  {:>9}  {:>9}  {:>8}  {:>8}  {:>8}  {:>13}\n", "sentences", "estimator", "valid",
+                       "mean dB", "bias dB", "SD dB", "RMSE dB", "presentations");
+    for (const auto& row : r.rows)
+        out += fmt::format("{:>9}  {:>9}  {:>9}  {:>9.2f}  {:>8.2f}  {:>8.2f}  {:>8.2f}  {:>13.1f}\n", row.sentences,
+                           row.estimator, row.estimates, row.mean_db, row.bias_db, row.sd_db, row.rmse_db,
+                           row.mean_presentations);
+    return out;
+}
+
+AdaptiveProtocol adaptive_protocol(const Protocol& protocol) {
+    AdaptiveProtocol a;
+    const ConfigSection& c = protocol.adaptive;
+    if (!c.present()) return a;
+    a.enabled = true;
+    DiagnosticList problems;
+    TrackSettings& t = a.track;
+    const std::string procedure = c.get_choice("procedure", {"sentence", "word"}, "sentence", problems);
+    t.procedure = procedure == "word" ? AdaptiveProcedure::Word : AdaptiveProcedure::Sentence;
+    const std::string variable = c.get_choice("variable", {"snr", "bands", "cutoff"}, "snr", problems);
+    if (variable != "snr")
+        c.report("variable",
+                 fmt::format("\"{}\" tracks (pre-rendered vocoder variants) are not implemented yet; only \"snr\" is",
+                             variable),
+                 problems);
+    a.order = c.get_choice("tracks", {"interleaved", "blocked"}, "interleaved", problems) == "blocked"
+                  ? TrackOrder::Blocked
+                  : TrackOrder::Interleaved;
+    a.level_rule = c.get_choice("level_rule", {"noise", "speech"}, "noise", problems) == "speech"
+                       ? LevelRule::SpeechVaries
+                       : LevelRule::NoiseVaries;
+    a.noise = c.get_string("noise", "speech-shaped", problems);
+    if (a.noise != "speech-shaped") {
+        const auto resolved = protocol.path.parent_path() / a.noise;
+        if (!std::filesystem::is_regular_file(resolved))
+            c.report("noise",
+                     fmt::format("expected \"speech-shaped\" or an existing noise recording, got \"{}\" (resolved to {})",
+                                 a.noise, resolved.string()),
+                     problems);
+        a.noise = resolved.string();
+    }
+    a.fixed_level_dbfs = c.get_number("fixed_level_dbfs", protocol.corpus.level_dbfs, -80.0, -3.0, problems);
+    a.snr_reference = c.get_choice("snr_reference", {"active", "whole"}, "active", problems);
+    t.start_db = c.get_number("start_snr_db", t.start_db, -60.0, 60.0, problems);
+    t.min_db = c.get_number("min_snr_db", t.min_db, -60.0, 60.0, problems);
+    t.max_db = c.get_number("max_snr_db", t.max_db, -60.0, 60.0, problems);
+    t.large_step_db = c.get_number("large_step_db", t.large_step_db, 0.1, 20.0, problems);
+    t.large_steps = static_cast<int>(c.get_int("large_steps", t.large_steps, 0, 1000, problems));
+    t.small_step_db = c.get_number("small_step_db", t.small_step_db, 0.1, 20.0, problems);
+    t.repeat_first = c.get_bool("repeat_first", t.repeat_first, problems);
+    t.max_first_repeats = static_cast<int>(c.get_int("max_first_repeats", t.max_first_repeats, 0, 100, problems));
+    t.target = c.get_number("target", t.target, 0.01, 0.99, problems);
+    t.slope_per_db = c.get_number("slope_per_db", t.slope_per_db, 0.01, 1.0, problems);
+    t.f_start = c.get_number("f_start", t.f_start, 0.01, 10.0, problems);
+    t.f_ratio = c.get_number("f_ratio", t.f_ratio, 1.0, 10.0, problems);
+    t.f_min = c.get_number("f_min", t.f_min, 0.001, 10.0, problems);
+    t.srt_from = static_cast<int>(c.get_int("srt_from", t.srt_from, 1, 1000, problems));
+    t.srt_include_next = c.get_bool("srt_include_next", t.srt_include_next, problems);
+    t.estimator = c.get_choice("estimate", {"mean", "ml"}, "mean", problems) == "ml" ? SrtEstimator::MaximumLikelihood
+                                                                                    : SrtEstimator::MeanOfLevels;
+    if (t.procedure == AdaptiveProcedure::Sentence && t.estimator == SrtEstimator::MaximumLikelihood)
+        c.report("estimate", "expected \"mean\" for sentence scoring (the ML fit is reported beside it)", problems);
+    a.practice_snr_db = c.get_number("practice_snr_db", a.practice_snr_db, -60.0, 60.0, problems);
+    a.confirm_scores = c.get_bool("confirm_scores", a.confirm_scores, problems);
+    a.reference = c.get_string("reference", "", problems);
+    if (!a.reference.empty() && protocol.condition_index(a.reference) < 0)
+        c.report("reference",
+                 fmt::format("expected one of the conditions ({}), got \"{}\"",
+                             fmt::join(protocol.condition_names(), ", "), a.reference),
+                 problems);
+    if (t.min_db >= t.max_db)
+        c.report("min_snr_db", fmt::format("expected min_snr_db < max_snr_db ({}), got {}", t.max_db, t.min_db), problems);
+    else if (t.start_db < t.min_db || t.start_db > t.max_db)
+        c.report("start_snr_db", fmt::format("expected a level in [{}, {}], got {}", t.min_db, t.max_db, t.start_db),
+                 problems);
+    if (t.f_min > t.f_start)
+        c.report("f_min", fmt::format("expected f_min ≤ f_start ({}), got {}", t.f_start, t.f_min), problems);
+    if (t.srt_from > protocol.design.sentences_per_list)
+        c.report("srt_from",
+                 fmt::format("expected a sentence of the track (design.sentences_per_list = {}), got {}",
+                             protocol.design.sentences_per_list, t.srt_from),
+                 problems);
+    c.check_unknown_keys(problems);
+    problems.throw_if_any();
+    return a;
+}
+
+}  // namespace avsi::analysis

@@ -1,0 +1,613 @@
+// The adaptive SRT analysis and its report (see adaptive_report.h), and the
+// files of `avsi simulate-srt` (adaptive.h).
+#include "avsi/analysis/adaptive_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+
+#include <fmt/format.h>
+
+#include "adaptive_plot.h"
+#include "avsi/analysis/rm_anova.h"
+#include "avsi/core/csv.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/core/log.h"
+#include "avsi/core/protocol.h"
+#include "report_html.h"
+
+namespace avsi::analysis {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string full(double v) { return fmt::format("{}", v); }
+std::string fixed2(double v) { return fmt::format("{:.2f}", v); }
+
+// Levels of pooled psychometric points are rounded to this grid (dB).
+constexpr double kPoolGridDb = 0.1;
+
+}  // namespace
+
+bool is_adaptive_trials_file(const fs::path& path) {
+    try {
+        const CsvTable t = read_csv(path);
+        return t.column("level_db") && t.column("presentation");
+    } catch (const InputError&) {
+        return false;
+    }
+}
+
+std::vector<AdaptiveTrialRow> read_adaptive_trials(const fs::path& path) {
+    const CsvTable t = read_csv(path);
+    const std::size_t c_subject = t.require_column("subject"), c_condition = t.require_column("condition"),
+                      c_presentation = t.require_column("presentation"), c_level = t.require_column("level_db"),
+                      c_keywords = t.require_column("keywords"), c_correct = t.require_column("correct");
+    const auto c_sentence = t.column("sentence_index");
+    const auto c_attempt = t.column("attempt");
+    const auto c_next = t.column("next_level_db");
+    const auto c_phase = t.column("phase");
+    DiagnosticList problems;
+    std::vector<AdaptiveTrialRow> rows;
+    for (const auto& r : t.rows) {
+        auto field = [&](std::size_t c) -> const std::string& { return r.fields[c]; };
+        if (c_phase && field(*c_phase) != "test") continue;  // warm-up and practice have no track
+        AdaptiveTrialRow row;
+        row.line = r.line;
+        row.level_column = static_cast<int>(c_level) + 1;
+        row.subject = field(c_subject);
+        row.condition = field(c_condition);
+        auto integer = [&](std::size_t c, const char* name, long long lo, long long hi, int& out) {
+            const auto v = parse_int(field(c));
+            if (!v || *v < lo || *v > hi)
+                problems.add(t.path, r.line, static_cast<int>(c) + 1, name,
+                             fmt::format("expected an integer in [{}, {}], got \"{}\"", lo, hi, field(c)));
+            else
+                out = static_cast<int>(*v);
+        };
+        auto number = [&](std::size_t c, const char* name, double& out) {
+            const auto v = parse_double(field(c));
+            if (!v || std::fabs(*v) > 200.0)
+                problems.add(t.path, r.line, static_cast<int>(c) + 1, name,
+                             fmt::format("expected a level in [-200, 200] dB, got \"{}\"", field(c)));
+            else
+                out = *v;
+        };
+        if (row.subject.empty()) problems.add(t.path, r.line, static_cast<int>(c_subject) + 1, "subject", "expected a subject, got \"\"");
+        if (row.condition.empty())
+            problems.add(t.path, r.line, static_cast<int>(c_condition) + 1, "condition", "expected a condition, got \"\"");
+        integer(c_presentation, "presentation", 1, 100000, row.presentation);
+        number(c_level, "level_db", row.level_db);
+        integer(c_keywords, "keywords", 1, 100, row.keywords);
+        integer(c_correct, "correct", 0, 100, row.correct);
+        if (row.correct > row.keywords)
+            problems.add(t.path, r.line, static_cast<int>(c_correct) + 1, "correct",
+                         fmt::format("expected at most keywords ({}), got {}", row.keywords, row.correct));
+        if (c_sentence) integer(*c_sentence, "sentence_index", 1, 100000, row.sentence_index);
+        if (c_attempt) integer(*c_attempt, "attempt", 1, 1000, row.attempt);
+        if (c_next) number(*c_next, "next_level_db", row.next_level_db);
+        rows.push_back(std::move(row));
+    }
+    problems.throw_if_any();
+    if (rows.empty()) throw InputError(path, "no test-phase trials of adaptive tracks in this file");
+    return rows;
+}
+
+SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSettings& settings,
+                        const std::vector<std::string>& conditions, const std::string& reference,
+                        const std::string& source, double confidence) {
+    validate(settings, source);
+    SrtAnalysis a;
+    a.settings = settings;
+    // Tracks in first-appearance order of subject, then condition.
+    std::vector<std::string> subjects, seen_conditions;
+    std::map<std::pair<std::string, std::string>, std::vector<const AdaptiveTrialRow*>> by_track;
+    for (const auto& r : rows) {
+        if (std::find(subjects.begin(), subjects.end(), r.subject) == subjects.end()) subjects.push_back(r.subject);
+        if (std::find(seen_conditions.begin(), seen_conditions.end(), r.condition) == seen_conditions.end())
+            seen_conditions.push_back(r.condition);
+        by_track[{r.subject, r.condition}].push_back(&r);
+    }
+    a.conditions = conditions.empty() ? seen_conditions : conditions;
+    for (const auto& c : seen_conditions)
+        if (std::find(a.conditions.begin(), a.conditions.end(), c) == a.conditions.end())
+            throw InputError(source, 0, 0, "condition",
+                             fmt::format("expected one of the protocol's conditions ({}), got \"{}\"",
+                                         fmt::join(a.conditions, ", "), c));
+    // Conditions without any track are left out of the report order (noted).
+    std::vector<std::string> present;
+    for (const auto& c : a.conditions)
+        if (std::find(seen_conditions.begin(), seen_conditions.end(), c) != seen_conditions.end())
+            present.push_back(c);
+        else
+            a.notes.push_back(fmt::format("condition {} has no adaptive trials", c));
+    a.conditions = present;
+    a.reference = reference.empty() ? a.conditions.front() : reference;
+    if (std::find(a.conditions.begin(), a.conditions.end(), a.reference) == a.conditions.end())
+        throw InputError(source, 0, 0, "reference",
+                         fmt::format("expected a condition with tracks ({}), got \"{}\"", fmt::join(a.conditions, ", "),
+                                     a.reference));
+
+    // Replay every track under the rules: the stored levels must be theirs.
+    DiagnosticList problems;
+    for (const auto& subject : subjects)
+        for (const auto& condition : a.conditions) {
+            auto it = by_track.find({subject, condition});
+            if (it == by_track.end()) continue;
+            auto trials = it->second;
+            std::stable_sort(trials.begin(), trials.end(),
+                             [](const auto* x, const auto* y) { return x->presentation < y->presentation; });
+            TrackResult tr;
+            tr.subject = subject;
+            tr.condition = condition;
+            AdaptiveTrack track(settings);
+            bool ok = true;
+            for (std::size_t i = 0; i < trials.size() && ok; ++i) {
+                const AdaptiveTrialRow& r = *trials[i];
+                if (r.presentation != static_cast<int>(i) + 1) {
+                    problems.add(source, r.line, 0, "presentation",
+                                 fmt::format("expected presentation {} of subject {}'s {} track, got {}", i + 1,
+                                             subject, condition, r.presentation));
+                    ok = false;
+                    break;
+                }
+                if (std::fabs(track.level_db() - r.level_db) > 1e-6) {
+                    problems.add(source, r.line, r.level_column, "level_db",
+                                 fmt::format("expected {} (the [adaptive] rules replayed on the stored scores of "
+                                             "subject {}, {}), got {}",
+                                             track.level_db(), subject, condition, r.level_db));
+                    ok = false;
+                    break;
+                }
+                track.record(r.keywords, r.correct);
+            }
+            if (!ok) continue;
+            tr.steps = track.steps();
+            tr.srt = estimate_srt(settings, tr.steps);
+            tr.ml = estimate_srt(settings, tr.steps, SrtEstimator::MaximumLikelihood);
+            a.tracks.push_back(std::move(tr));
+        }
+    problems.throw_if_any();
+
+    // Subject × condition SRTs (the Scores layout, dB in `percent`).
+    for (const auto& t : a.tracks) {
+        ScoreCell cell;
+        cell.subject = t.subject;
+        cell.condition = t.condition;
+        cell.keywords = static_cast<int>(t.steps.size());
+        if (t.srt.valid)
+            cell.percent = t.srt.srt_db;
+        else
+            a.notes.push_back(fmt::format("subject {}, {}: no SRT ({})", t.subject, t.condition, t.srt.note));
+        a.srts.cells.push_back(cell);
+    }
+    a.srts = select_conditions(a.srts, a.conditions, source);
+
+    // The ANOVA on SRTs in dB, when there is an error term.
+    if (a.conditions.size() >= 2) {
+        try {
+            a.anova = analyze(make_within_data(a.srts, source), confidence);
+        } catch (const InputError& e) {
+            a.notes.push_back(fmt::format("no ANOVA: {}", e.what()));
+        }
+    }
+
+    // Visual benefit: reference SRT − condition SRT, paired over subjects with both.
+    std::map<std::pair<std::string, std::string>, double> srt;
+    for (const auto& c : a.srts.cells)
+        if (c.percent) srt[{c.subject, c.condition}] = *c.percent;
+    for (const auto& condition : a.conditions) {
+        if (condition == a.reference) continue;
+        VisualBenefit b;
+        b.condition = condition;
+        b.reference = a.reference;
+        std::vector<double> d;
+        for (const auto& s : subjects) {
+            const auto r = srt.find({s, a.reference});
+            const auto c = srt.find({s, condition});
+            if (r != srt.end() && c != srt.end()) d.push_back(r->second - c->second);
+        }
+        b.n = d.size();
+        if (b.n >= 1) b.mean_db = std::accumulate(d.begin(), d.end(), 0.0) / b.n;
+        if (b.n >= 2) {
+            double ss = 0.0;
+            for (double v : d) ss += (v - b.mean_db) * (v - b.mean_db);
+            b.sd_db = std::sqrt(ss / (b.n - 1));
+            b.se_db = b.sd_db / std::sqrt(static_cast<double>(b.n));
+            b.df = static_cast<double>(b.n - 1);
+            const double q = t_quantile_upper(1.0 - confidence, b.df);
+            b.ci_low_db = b.mean_db - q * b.se_db;
+            b.ci_high_db = b.mean_db + q * b.se_db;
+            if (b.se_db > 0) {
+                b.t = b.mean_db / b.se_db;
+                b.p_value = t_two_sided_p(*b.t, b.df);
+            }
+        } else {
+            a.notes.push_back(fmt::format("visual benefit of {}: {} subject(s) with both SRTs, no interval", condition, b.n));
+        }
+        a.benefits.push_back(b);
+    }
+
+    // Pooled psychometric function per condition.
+    for (const auto& condition : a.conditions) {
+        std::map<long long, PsychometricPoint> pooled;
+        for (const auto& t : a.tracks) {
+            if (t.condition != condition) continue;
+            for (const auto& s : t.steps) {
+                const long long key = std::llround(s.level_db / kPoolGridDb);
+                PsychometricPoint& p = pooled[key];
+                p.level_db = key * kPoolGridDb;
+                p.trials += s.keywords;
+                p.correct += s.correct;
+            }
+        }
+        ConditionFit f;
+        f.condition = condition;
+        for (const auto& [key, p] : pooled) f.points.push_back(p);
+        f.fit = fit_psychometric(f.points);
+        if (!f.fit.converged) a.notes.push_back(fmt::format("psychometric function of {}: {}", condition, f.fit.note));
+        a.fits.push_back(std::move(f));
+    }
+    return a;
+}
+
+namespace {
+
+std::string opt_text(const std::optional<double>& v, const char* format = "{:.4f}") {
+    return v ? fmt::format(fmt::runtime(format), *v) : "NA";
+}
+
+// The target of the pooled fit the procedure estimates (sentence: all keywords).
+double fit_target(const SrtAnalysis& a) {
+    int keywords = 1;
+    for (const auto& t : a.tracks)
+        for (const auto& s : t.steps) keywords = std::max(keywords, s.keywords);
+    return a.settings.procedure == AdaptiveProcedure::Sentence ? std::pow(0.5, 1.0 / keywords) : a.settings.target;
+}
+
+void write_png(const fs::path& path, const detail::XyPlot& plot, int width = 800, int height = 500) {
+    AtomicFile file(path);
+    detail::write_xy_plot_png(file.temp_path(), plot, width, height);
+    file.commit();
+}
+
+}  // namespace
+
+void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
+    fs::create_directories(settings.out_dir / "tracks");
+    const double target = fit_target(a);
+
+    // srt.csv
+    std::string srt_csv = csv_line({"subject", "condition", "srt_db", "se_db", "estimator", "levels", "presentations",
+                                    "reversals", "ml_srt_db", "ml_se_db", "ml_slope_per_db", "note"});
+    for (const auto& t : a.tracks)
+        srt_csv += csv_line({t.subject, t.condition, t.srt.valid ? full(t.srt.srt_db) : "NA",
+                             t.srt.valid ? full(t.srt.se_db) : "NA", to_string(t.srt.estimator),
+                             std::to_string(t.srt.levels), std::to_string(t.steps.size()),
+                             std::to_string(t.steps.empty() ? 0 : t.steps.back().reversals),
+                             t.ml.valid ? full(t.ml.srt_db) : "NA", t.ml.valid ? full(t.ml.se_db) : "NA",
+                             t.ml.fit && t.ml.fit->converged ? full(t.ml.fit->slope_per_db) : "NA",
+                             t.srt.valid ? (t.ml.valid ? "" : t.ml.note) : t.srt.note});
+    write_text_file(settings.out_dir / "srt.csv", srt_csv);
+
+    // benefit.csv
+    std::string benefit_csv = csv_line({"condition", "reference", "n", "benefit_db", "sd_db", "se_db", "ci_low_db",
+                                        "ci_high_db", "t", "df", "p", "confidence"});
+    for (const auto& b : a.benefits)
+        benefit_csv += csv_line({b.condition, b.reference, std::to_string(b.n), full(b.mean_db), full(b.sd_db),
+                                 full(b.se_db), full(b.ci_low_db), full(b.ci_high_db), b.t ? full(*b.t) : "NA",
+                                 full(b.df), b.p_value ? full(*b.p_value) : "NA", full(settings.confidence)});
+    write_text_file(settings.out_dir / "benefit.csv", benefit_csv);
+
+    // psychometric.csv
+    std::string psy_csv = csv_line({"condition", "converged", "l50_db", "se_l50_db", "slope_per_db", "se_slope",
+                                    "target", "level_at_target_db", "se_level_at_target_db", "levels", "keywords", "note"});
+    for (const auto& f : a.fits)
+        psy_csv += csv_line({f.condition, f.fit.converged ? "1" : "0", f.fit.converged ? full(f.fit.l50_db) : "NA",
+                             f.fit.converged ? full(f.fit.se_l50_db) : "NA",
+                             f.fit.converged ? full(f.fit.slope_per_db) : "NA",
+                             f.fit.converged ? full(f.fit.se_slope) : "NA", full(target),
+                             f.fit.converged ? full(f.fit.level_at(target)) : "NA",
+                             f.fit.converged ? full(f.fit.se_level_at(target)) : "NA", std::to_string(f.points.size()),
+                             std::to_string(f.fit.trials), f.fit.note});
+    write_text_file(settings.out_dir / "psychometric.csv", psy_csv);
+
+    // anova.json and pairwise.csv (the percent report's machinery, on dB).
+    ReportSettings rs;
+    rs.out_dir = settings.out_dir;
+    rs.source = settings.source;
+    rs.title = settings.title;
+    rs.confidence = settings.confidence;
+    if (a.anova) {
+        write_text_file(settings.out_dir / "anova.json", anova_json(*a.anova, rs));
+        std::string pw = csv_line({"a", "b", "mean_difference_db", "sd_difference_db", "t", "df", "p", "p_holm",
+                                   "ci_low_db", "ci_high_db", "d_z"});
+        for (const auto& c : a.anova->pairwise)
+            pw += csv_line({c.a, c.b, full(c.mean_difference), full(c.sd_difference), c.t ? full(*c.t) : "NA",
+                            full(c.df), c.p_value ? full(*c.p_value) : "NA", c.p_holm ? full(*c.p_holm) : "NA",
+                            full(c.ci_low), full(c.ci_high), c.d_z ? full(*c.d_z) : "NA"});
+        write_text_file(settings.out_dir / "pairwise.csv", pw);
+    }
+
+    // Figures.
+    std::vector<std::pair<std::string, fs::path>> figures;
+    if (a.anova) {
+        detail::XyPlot p;
+        p.title = settings.title;
+        p.y_label = "SRT (dB SNR)";
+        p.x_categories = a.conditions;
+        detail::XySeries s;
+        s.line = false;
+        for (std::size_t j = 0; j < a.anova->descriptives.size(); ++j) {
+            const auto& d = a.anova->descriptives[j];
+            s.x.push_back(static_cast<double>(j));
+            s.y.push_back(d.mean);
+            s.low.push_back(d.ci_low);
+            s.high.push_back(d.ci_high);
+        }
+        p.series.push_back(s);
+        p.caption = fmt::format("n = {} subjects; error bars: {:.0f} % within-subject CI (Cousineau-Morey); lower is "
+                                "better. {}",
+                                a.anova->anova.n, 100 * settings.confidence, apa_anova(a.anova->anova));
+        write_png(settings.out_dir / "srt.png", p);
+        figures.push_back({"SRT by condition", "srt.png"});
+    }
+    {
+        detail::XyPlot p;
+        p.title = "Psychometric functions (keywords, pooled over subjects)";
+        p.x_label = "SNR (dB)";
+        p.y_label = "Keywords correct (proportion)";
+        p.caption = fmt::format("points: pooled proportions per {:.1f} dB level; lines: ML logistic fits", kPoolGridDb);
+        p.y_from_zero = true;
+        int color = 0;
+        for (const auto& f : a.fits) {
+            detail::XySeries pts;
+            pts.name = f.condition;
+            pts.line = false;
+            pts.color = color;
+            for (const auto& q : f.points) {
+                pts.x.push_back(q.level_db);
+                pts.y.push_back(static_cast<double>(q.correct) / q.trials);
+            }
+            if (f.fit.converged && !f.points.empty()) {
+                detail::XySeries curve;
+                curve.name = f.condition + " fit";
+                curve.markers = false;
+                curve.color = color;
+                const double lo = f.points.front().level_db, hi = f.points.back().level_db;
+                for (int i = 0; i <= 100; ++i) {
+                    const double x = lo + (hi - lo) * i / 100.0;
+                    curve.x.push_back(x);
+                    curve.y.push_back(f.fit.p(x));
+                }
+                p.series.push_back(curve);
+            }
+            p.series.push_back(pts);
+            ++color;
+        }
+        write_png(settings.out_dir / "psychometric.png", p);
+        figures.push_back({"Psychometric functions", "psychometric.png"});
+    }
+    std::vector<std::string> subjects;
+    for (const auto& t : a.tracks)
+        if (std::find(subjects.begin(), subjects.end(), t.subject) == subjects.end()) subjects.push_back(t.subject);
+    std::vector<std::pair<std::string, fs::path>> track_figures;
+    for (const auto& subject : subjects) {
+        detail::XyPlot p;
+        p.title = fmt::format("Subject {}: adaptive tracks", subject);
+        p.x_label = "Presentation";
+        p.y_label = "SNR (dB)";
+        p.caption = "filled: every keyword right; open: not; ringed: reversal (the step after it changes direction)";
+        for (const auto& t : a.tracks) {
+            if (t.subject != subject) continue;
+            detail::XySeries s;
+            s.name = t.condition + (t.srt.valid ? fmt::format(" ({:.1f} dB)", t.srt.srt_db) : "");
+            s.color = static_cast<int>(std::find(a.conditions.begin(), a.conditions.end(), t.condition) -
+                                       a.conditions.begin());
+            for (const auto& st : t.steps) {
+                s.x.push_back(st.presentation);
+                s.y.push_back(st.level_db);
+                s.filled.push_back(st.sentence_correct);
+                s.ringed.push_back(st.reversal);
+            }
+            p.series.push_back(s);
+        }
+        const fs::path rel = fs::path("tracks") / fmt::format("subject_{}.png", subject);
+        write_png(settings.out_dir / rel, p, 800, 400);
+        track_figures.push_back({fmt::format("Subject {}", subject), rel});
+    }
+
+    // report.md and index.html.
+    const std::string procedure =
+        a.settings.procedure == AdaptiveProcedure::Sentence
+            ? fmt::format("sentence scoring, 1-up/1-down on all keywords correct ({} dB steps after sentences 1-{}, "
+                          "then {} dB{}); SRT = mean of the levels from sentence {}{}",
+                          a.settings.large_step_db, a.settings.large_steps, a.settings.small_step_db,
+                          a.settings.repeat_first ? "; first sentence repeated upward until correct" : "",
+                          a.settings.srt_from, a.settings.srt_include_next ? " plus the next level" : "")
+            : fmt::format("word scoring after Brand & Kollmeier (2002), target {:.2f}, assumed slope {:.3f}/dB, f(i) = "
+                          "max({}, {}·{}^-i); SRT by {}",
+                          a.settings.target, a.settings.slope_per_db, a.settings.f_min, a.settings.f_start,
+                          a.settings.f_ratio,
+                          a.settings.estimator == SrtEstimator::MeanOfLevels
+                              ? fmt::format("the mean of the levels from sentence {}", a.settings.srt_from)
+                              : std::string("the ML fit of the psychometric function"));
+    std::string md = fmt::format("# {}\n\nData: `{}`{}. Procedure: {}.\n\n", settings.title, settings.source.string(),
+                                 settings.protocol.empty() ? "" : fmt::format(", protocol `{}`", settings.protocol.string()),
+                                 procedure);
+    std::string html = fmt::format(
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{0}</title><style>body{{font-family:sans-serif;"
+        "max-width:60rem;margin:2rem auto;padding:0 1rem}}table{{border-collapse:collapse}}td,th{{border:1px solid "
+        "#ccc;padding:.2rem .5rem;text-align:right}}th{{background:#f3f3f3}}</style></head><body>\n<h1>{0}</h1>\n"
+        "<p>Data: <code>{1}</code>. Procedure: {2}.</p>\n",
+        detail::html_escape(settings.title), detail::html_escape(settings.source.string()), detail::html_escape(procedure));
+
+    // SRT means.
+    md += "## SRT by condition (dB SNR; lower is better)\n\n";
+    html += "<h2>SRT by condition (dB SNR; lower is better)</h2>\n";
+    if (a.anova) {
+        md += "| condition | n | mean SRT | SD | within-subject CI |\n| --- | ---: | ---: | ---: | --- |\n";
+        html += "<table><tr><th>condition</th><th>n</th><th>mean SRT (dB)</th><th>SD</th><th>within-subject CI</th></tr>\n";
+        for (const auto& d : a.anova->descriptives) {
+            md += fmt::format("| {} | {} | {:.2f} | {:.2f} | [{:.2f}, {:.2f}] |\n", d.condition, d.n, d.mean, d.sd,
+                              d.ci_low, d.ci_high);
+            html += fmt::format("<tr><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>[{:.2f}, {:.2f}]</td></tr>\n",
+                                detail::html_escape(d.condition), d.n, d.mean, d.sd, d.ci_low, d.ci_high);
+        }
+        html += "</table>\n";
+        const std::string apa = apa_anova(a.anova->anova);
+        md += fmt::format("\nRepeated-measures ANOVA on the SRTs: {} (n = {}).\n\n", apa, a.anova->anova.n);
+        html += fmt::format("<p>Repeated-measures ANOVA on the SRTs: {} (n = {}).</p>\n", detail::html_escape(apa),
+                            a.anova->anova.n);
+    } else {
+        md += "Too few complete subjects for an ANOVA (see the notes).\n\n";
+        html += "<p>Too few complete subjects for an ANOVA (see the notes).</p>\n";
+    }
+    // Visual benefit.
+    md += fmt::format("## Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)\n\n", a.reference);
+    html += fmt::format("<h2>Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)</h2>\n",
+                        detail::html_escape(a.reference));
+    md += fmt::format("| condition | n | benefit (dB) | {:.0f} % CI | t | df | p |\n| --- | ---: | ---: | --- | ---: | ---: | ---: |\n",
+                      100 * settings.confidence);
+    html += fmt::format("<table><tr><th>condition</th><th>n</th><th>benefit (dB)</th><th>{:.0f} % CI</th><th>t</th>"
+                        "<th>df</th><th>p</th></tr>\n",
+                        100 * settings.confidence);
+    for (const auto& b : a.benefits) {
+        const std::string p = b.p_value ? apa_p(*b.p_value) : "NA";
+        md += fmt::format("| {} | {} | {:.2f} | [{:.2f}, {:.2f}] | {} | {:.0f} | {} |\n", b.condition, b.n, b.mean_db,
+                          b.ci_low_db, b.ci_high_db, opt_text(b.t, "{:.2f}"), b.df, p);
+        html += fmt::format("<tr><td>{}</td><td>{}</td><td>{:.2f}</td><td>[{:.2f}, {:.2f}]</td><td>{}</td><td>{:.0f}</td>"
+                            "<td>{}</td></tr>\n",
+                            detail::html_escape(b.condition), b.n, b.mean_db, b.ci_low_db, b.ci_high_db,
+                            opt_text(b.t, "{:.2f}"), b.df, detail::html_escape(p));
+    }
+    html += "</table>\n";
+    // Per-subject SRTs.
+    md += "\n## SRT per subject and condition\n\n| subject | condition | SRT (dB) | SE | ML SRT | ML SE | presentations | reversals |\n"
+          "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+    html += "<h2>SRT per subject and condition</h2>\n<table><tr><th>subject</th><th>condition</th><th>SRT (dB)</th>"
+            "<th>SE</th><th>ML SRT</th><th>ML SE</th><th>presentations</th><th>reversals</th></tr>\n";
+    for (const auto& t : a.tracks) {
+        const std::string srt = t.srt.valid ? fixed2(t.srt.srt_db) : "NA", se = t.srt.valid ? fixed2(t.srt.se_db) : "NA";
+        const std::string ml = t.ml.valid ? fixed2(t.ml.srt_db) : "NA", mlse = t.ml.valid ? fixed2(t.ml.se_db) : "NA";
+        const int reversals = t.steps.empty() ? 0 : t.steps.back().reversals;
+        md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", t.subject, t.condition, srt, se, ml, mlse,
+                          t.steps.size(), reversals);
+        html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                            detail::html_escape(t.subject), detail::html_escape(t.condition), srt, se, ml, mlse,
+                            t.steps.size(), reversals);
+    }
+    html += "</table>\n";
+    md += "\nSE of the mean of levels: SD/√n of the averaged levels, which are serially correlated, so it is optimistic; "
+          "ML SE: from the Fisher information of the track's own fit.\n\n";
+    // Pooled psychometric functions.
+    md += "## Psychometric functions (pooled over subjects)\n\n| condition | L50 (dB) | slope (/dB) | level at target | keywords |\n"
+          "| --- | ---: | ---: | ---: | ---: |\n";
+    html += "<h2>Psychometric functions (pooled over subjects)</h2>\n<table><tr><th>condition</th><th>L50 (dB)</th>"
+            "<th>slope (/dB)</th><th>level at target</th><th>keywords</th></tr>\n";
+    for (const auto& f : a.fits) {
+        const std::string l50 = f.fit.converged ? fixed2(f.fit.l50_db) : "NA";
+        const std::string slope = f.fit.converged ? fmt::format("{:.3f}", f.fit.slope_per_db) : "NA";
+        const std::string at = f.fit.converged ? fixed2(f.fit.level_at(target)) : "NA";
+        md += fmt::format("| {} | {} | {} | {} | {} |\n", f.condition, l50, slope, at, f.fit.trials);
+        html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                            detail::html_escape(f.condition), l50, slope, at, f.fit.trials);
+    }
+    html += "</table>\n";
+    md += fmt::format("\nTarget {:.3f} per keyword ({}). Pooling subjects with different SRTs flattens the slope.\n\n",
+                      target,
+                      a.settings.procedure == AdaptiveProcedure::Sentence ? "every keyword of a sentence right half the time"
+                                                                          : "the word procedure's target");
+    for (const auto& [caption, file] : figures) {
+        md += fmt::format("![{}]({})\n\n", caption, file.string());
+        html += fmt::format("<figure><img alt=\"{0}\" src=\"data:image/png;base64,{1}\"><figcaption>{0}</figcaption></figure>\n",
+                            detail::html_escape(caption), detail::base64(read_text_file(settings.out_dir / file)));
+    }
+    md += "## Tracks\n\n";
+    html += "<h2>Tracks</h2>\n";
+    for (const auto& [caption, file] : track_figures) {
+        md += fmt::format("![{}]({})\n\n", caption, file.string());
+        html += fmt::format("<figure><img alt=\"{0}\" src=\"data:image/png;base64,{1}\"></figure>\n",
+                            detail::html_escape(caption), detail::base64(read_text_file(settings.out_dir / file)));
+    }
+    if (!a.notes.empty()) {
+        md += "## Notes\n\n";
+        html += "<h2>Notes</h2>\n<ul>\n";
+        for (const auto& n : a.notes) {
+            md += "- " + n + "\n";
+            html += "<li>" + detail::html_escape(n) + "</li>\n";
+        }
+        html += "</ul>\n";
+    }
+    html += "</body></html>\n";
+    write_text_file(settings.out_dir / "report.md", md);
+    write_text_file(settings.out_dir / "index.html", html);
+}
+
+SrtAnalysis analyze_adaptive_file(const AdaptiveAnalyzeSettings& s) {
+    if (s.protocol.empty())
+        throw UsageError("--protocol: the adaptive analysis needs the protocol whose [adaptive] rules made the tracks");
+    const Protocol protocol = load_protocol(s.protocol);
+    const AdaptiveProtocol adaptive = adaptive_protocol(protocol);
+    if (!adaptive.enabled)
+        throw InputError(s.protocol, 0, 0, "adaptive", "expected an [adaptive] section: the protocol runs no adaptive tracks");
+    const auto rows = read_adaptive_trials(s.input);
+    SrtAnalysis a = analyze_srt(rows, adaptive.track, protocol.condition_names(), adaptive.reference, s.input.string(),
+                                s.confidence);
+    SrtReportSettings rs;
+    rs.out_dir = s.out_dir;
+    rs.source = s.input;
+    rs.protocol = s.protocol;
+    rs.title = s.title;
+    rs.confidence = s.confidence;
+    write_srt_report(a, rs);
+    log_info("SRT report written to {}", s.out_dir.string());
+    return a;
+}
+
+void write_srt_simulation(const fs::path& out_dir, const SrtSimulationResult& r) {
+    fs::create_directories(out_dir);
+    std::string csv = csv_line({"method", "procedure", "estimator", "sentences", "listeners", "valid", "l50_db",
+                                "slope_per_db", "keywords", "true_db", "mean_db", "bias_db", "sd_db", "rmse_db",
+                                "mean_presentations", "seed"});
+    for (const auto& row : r.rows)
+        csv += csv_line({"simulation", to_string(r.settings.track.procedure), row.estimator, std::to_string(row.sentences),
+                         std::to_string(r.settings.listeners), std::to_string(row.estimates),
+                         full(r.settings.listener.l50_db), full(r.settings.listener.slope_per_db),
+                         std::to_string(r.settings.listener.keywords), full(row.true_db), full(row.mean_db),
+                         full(row.bias_db), full(row.sd_db), full(row.rmse_db), full(row.mean_presentations),
+                         std::to_string(r.settings.seed)});
+    write_text_file(out_dir / "srt_simulation.csv", csv);
+    detail::XyPlot p;
+    p.title = "SRT by simulation: spread and bias by track length";
+    p.x_label = "Sentences per track";
+    p.y_label = "dB";
+    p.y_from_zero = true;
+    p.caption = fmt::format("filled: SD, open: bias; {} simulated listeners per point (L50 {} dB, slope {}/dB, {} keywords), seed {}",
+                            r.settings.listeners, r.settings.listener.l50_db, r.settings.listener.slope_per_db,
+                            r.settings.listener.keywords, r.settings.seed);
+    int color = 0;
+    for (const std::string estimator : {"mean", "ml"}) {
+        detail::XySeries sd, bias;
+        sd.name = "SD, " + estimator;
+        bias.name = "bias, " + estimator;
+        sd.color = bias.color = color++;
+        bias.filled.clear();
+        for (const auto& row : r.rows) {
+            if (row.estimator != estimator || row.estimates == 0) continue;
+            sd.x.push_back(row.sentences);
+            sd.y.push_back(row.sd_db);
+            bias.x.push_back(row.sentences);
+            bias.y.push_back(row.bias_db);
+            bias.filled.push_back(false);
+        }
+        p.series.push_back(sd);
+        p.series.push_back(bias);
+    }
+    write_png(out_dir / "srt_simulation.png", p);
+}
+
+}  // namespace avsi::analysis

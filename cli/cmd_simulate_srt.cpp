@@ -1,0 +1,81 @@
+// `avsi simulate-srt`: an adaptive SRT procedure against simulated listeners
+// (logistic psychometric function, word-level binomial responses) — bias and
+// spread of the SRT estimate by track length, to choose the list length.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "avsi/analysis/adaptive.h"
+#include "avsi/core/error.h"
+#include "avsi/core/protocol.h"
+#include "command.h"
+
+namespace avsi::cli {
+namespace {
+
+struct SimulateSrtOptions {
+    std::string protocol, procedure = "sentence", out;
+    std::vector<int> sentences = {10, 15, 20, 25, 30};
+    double l50_db = -6.0, slope = 0.15, start_sd_db = 2.0;
+    int keywords = 3, listeners = 1000;
+    std::uint64_t seed = 1;
+};
+
+int run_simulate_srt(const SimulateSrtOptions& o, bool procedure_given) {
+    analysis::SrtSimulationSettings s;
+    if (!o.protocol.empty()) {
+        const analysis::AdaptiveProtocol a = analysis::adaptive_protocol(load_protocol(o.protocol));
+        if (!a.enabled)
+            throw InputError(o.protocol, 0, 0, "adaptive", "expected an [adaptive] section: the protocol runs no adaptive tracks");
+        if (procedure_given) throw UsageError("--procedure: the protocol's [adaptive] section sets the procedure");
+        s.track = a.track;
+    } else {
+        s.track.procedure = o.procedure == "word" ? analysis::AdaptiveProcedure::Word : analysis::AdaptiveProcedure::Sentence;
+    }
+    s.listener.l50_db = o.l50_db;
+    s.listener.slope_per_db = o.slope;
+    s.listener.keywords = o.keywords;
+    s.sentence_counts = o.sentences;
+    s.listeners = o.listeners;
+    s.seed = o.seed;
+    s.start_offset_sd_db = o.start_sd_db;
+    const auto result = analysis::simulate_srt(s);
+    fmt::print("{}", analysis::srt_simulation_table(result));
+    if (!o.out.empty()) {
+        analysis::write_srt_simulation(o.out, result);
+        fmt::print("written: {}/srt_simulation.csv, {}/srt_simulation.png\n", o.out, o.out);
+    }
+    return 0;
+}
+
+const bool registered_simulate_srt = register_command({
+    "simulate-srt",
+    "Bias and spread of adaptive SRT estimates by track length, against simulated listeners",
+    [](CLI::App& sub) -> std::function<int()> {
+        auto o = std::make_shared<SimulateSrtOptions>();
+        sub.add_option("--protocol", o->protocol, "Take the procedure and its rules from this protocol's [adaptive] section")
+            ->check(CLI::ExistingFile);
+        auto* procedure = sub.add_option("--procedure", o->procedure,
+                                         "Without --protocol: sentence (1-up/1-down, HINT steps) or word (Brand & "
+                                         "Kollmeier 2002) with the default rules")
+                              ->check(CLI::IsMember({"sentence", "word"}))
+                              ->capture_default_str();
+        sub.add_option("--l50-db", o->l50_db, "The listener's keyword L50 (dB SNR)")->capture_default_str();
+        sub.add_option("--slope", o->slope, "The listener's keyword slope at L50 (proportion per dB)")
+            ->capture_default_str();
+        sub.add_option("--keywords", o->keywords, "Keywords per sentence")->capture_default_str();
+        sub.add_option("--sentences", o->sentences, "Track lengths (sentences), comma-separated")
+            ->delimiter(',')
+            ->capture_default_str();
+        sub.add_option("--listeners", o->listeners, "Simulated listeners per track length")->capture_default_str();
+        sub.add_option("--start-sd", o->start_sd_db, "SD of the start level around the protocol's (dB)")
+            ->capture_default_str();
+        sub.add_option("--seed", o->seed, "Random seed")->capture_default_str();
+        sub.add_option("--out", o->out, "Folder for srt_simulation.csv and srt_simulation.png (default: print only)");
+        return [o, procedure] { return run_simulate_srt(*o, procedure->count() > 0); };
+    }});
+
+}  // namespace
+}  // namespace avsi::cli

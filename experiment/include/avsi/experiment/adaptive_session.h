@@ -1,0 +1,105 @@
+// A subject's adaptive SRT tracks during a session (protocol [adaptive];
+// the rules are analysis/adaptive.h): the SNR of each presentation, the
+// masking noise mixed into the stimulus audio at that SNR, the live keyword
+// score of each answer, and the track's step. No window or device here: the
+// runner calls it per trial, the tests call it directly.
+//
+// Mixing happens at run time, sample-exact, on the samples sent to the audio
+// device (not from pre-mixed files): word-scoring tracks move by any real
+// step (Brand & Kollmeier's ΔL), which a grid of pre-mixed levels would
+// round; mixing a 2–3 s sentence takes milliseconds. The level rule says
+// which signal moves: the noise (the speech stays at the stimulus level) or
+// the speech (the noise stays at fixed_level_dbfs). The SNR's speech level is
+// vocoder::speech_level_rms with the protocol's reference (active frames by
+// default), the noise's the RMS of the excerpt mixed. A mixture that would
+// clip is scaled down as a whole (the SNR is unchanged) and the gain logged.
+// The noise of each presentation is seeded by (experiment seed, subject,
+// position, attempt), so a repeated run mixes the same noise.
+//
+// Score check (confirm_scores = true, with session.response_mode =
+// "experimenter"): the runner shows the live score of each answer keyword by
+// keyword; the experimenter toggles a keyword (keys 1-9) and accepts (Enter)
+// before the score counts. The record keeps both (auto_correct, correct,
+// marks, corrected) and the runner logs a "score-corrected" event.
+//
+// Resume: the constructor replays the stored records of the subject through
+// fresh tracks; the next level is then what it was before the interruption.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "avsi/analysis/adaptive.h"
+#include "avsi/core/corpus.h"
+#include "avsi/core/protocol.h"
+#include "avsi/experiment/design.h"
+#include "avsi/experiment/store.h"
+
+namespace avsi::analysis {
+class KeywordScorer;
+}
+
+namespace avsi::experiment {
+
+// The audio of one presentation, mixed.
+struct MixedPresentation {
+    std::vector<float> samples;
+    int sample_rate = 0;
+    int attempt = 1;
+    double level_db = 0.0;       // the SNR
+    double speech_gain_db = 0.0; // applied to the stimulus audio, limiter included
+    double noise_gain_db = 0.0;  // the noise RMS in dBFS after the limiter
+    double limit_gain_db = 0.0;
+};
+
+class AdaptiveSession {
+public:
+    // Replays `stored` (the subject's records, in position and attempt order)
+    // through the tracks. Throws InputError naming the database when a stored
+    // level differs from the replayed one (the protocol's rules changed).
+    AdaptiveSession(const Protocol& protocol, const Corpus& corpus, std::vector<Store::AdaptiveRow> stored,
+                    const std::string& database);
+    ~AdaptiveSession();
+    AdaptiveSession(const AdaptiveSession&) = delete;
+    AdaptiveSession& operator=(const AdaptiveSession&) = delete;
+
+    const analysis::AdaptiveProtocol& settings() const { return m_settings; }
+
+    // The SNR the trial's next presentation gets: its track's level (test
+    // trials) or the fixed practice SNR.
+    double level_db(const PlannedTrial& trial) const;
+    // Presentations of the trial already stored (repeats), + 1.
+    int next_attempt(const PlannedTrial& trial) const;
+
+    // Mixes the masking noise into `speech` (mono) at level_db(trial).
+    MixedPresentation mix(const PlannedTrial& trial, const std::vector<float>& speech, int sample_rate);
+
+    // The live score of an answer: one mark per keyword of the trial's sentence.
+    std::vector<bool> score(const PlannedTrial& trial, const std::string& response) const;
+
+    // Would this answer make the track present the trial again (first-sentence rule)?
+    bool repeats(const PlannedTrial& trial, const std::vector<bool>& marks) const;
+
+    // Steps the trial's track with `marks` (the live score, or the
+    // experimenter's correction of it) and returns the record to commit.
+    AdaptiveRecord record(const PlannedTrial& trial, const MixedPresentation& mixed, const std::string& response,
+                          const std::vector<bool>& auto_marks, const std::vector<bool>& marks);
+
+    // The track of a condition (for tests and the end-of-session log).
+    const analysis::AdaptiveTrack& track(const std::string& condition) const;
+
+private:
+    const Sentence& sentence(const PlannedTrial& trial) const;
+
+    const Protocol& m_protocol;
+    const Corpus& m_corpus;
+    analysis::AdaptiveProtocol m_settings;
+    std::unique_ptr<analysis::KeywordScorer> m_scorer;
+    std::map<std::string, analysis::AdaptiveTrack> m_tracks;
+    std::map<int, int> m_attempts;  // position → presentations stored
+    std::map<int, std::vector<double>> m_noise_by_rate;  // a noise recording, per sample rate
+};
+
+}  // namespace avsi::experiment

@@ -1,0 +1,200 @@
+// The adaptive SRT analysis (analysis/adaptive_report.h) on a simulated
+// 12-subject study: SRTs, the visual benefit and the ANOVA on SRTs, each
+// checked against a computation written here from the CSV columns alone.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <numeric>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "avsi/analysis/adaptive_report.h"
+#include "avsi/core/csv.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "avsi/core/protocol.h"
+
+using namespace avsi;
+using namespace avsi::analysis;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kProtocol = fs::path(AVSI_TEST_DATA_DIR) / "adaptive" / "protocol.toml";
+
+fs::path temp_dir(const std::string& name) {
+    const fs::path dir = fs::temp_directory_path() / ("avsi_adaptive_report_" + name + "_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+}
+
+// 12 simulated subjects: audio-only L50 ~ N(−4, 1.5²), audiovisual 5 dB
+// better ± N(0, 1²), slope 0.15/dB, 3 keywords, one track of 10 sentences per
+// condition under the test protocol's rules. Writes adaptive_trials.csv.
+void write_study(const fs::path& csv) {
+    const Protocol protocol = load_protocol(kProtocol);
+    const TrackSettings settings = adaptive_protocol(protocol).track;
+    Rng rng(12);
+    std::string text = "subject,phase,condition,presentation,sentence_index,attempt,level_db,keywords,correct,next_level_db\n";
+    for (int subject = 1; subject <= 12; ++subject) {
+        const double ao = rng.normal(-4.0, 1.5);
+        const double av = ao - 5.0 + rng.normal(0.0, 1.0);
+        text += fmt::format("{},warmup,audio-only,1,1,1,10,3,3,10\n", subject);  // no track: skipped
+        for (const auto& [condition, l50] : {std::pair{"audio-only", ao}, std::pair{"audiovisual", av}}) {
+            AdaptiveTrack t(settings);
+            const SimulatedListener listener{l50, 0.15, 3};
+            while (t.sentences() < protocol.design.sentences_per_list) {
+                const TrackStep& s = t.record(3, simulate_response(listener, t.level_db(), rng));
+                text += fmt::format("{},test,{},{},{},{},{},{},{},{}\n", subject, condition, s.presentation, s.sentence,
+                                    s.attempt, s.level_db, s.keywords, s.correct, s.next_level_db);
+            }
+        }
+    }
+    write_text_file(csv, text);
+}
+
+}  // namespace
+
+TEST(AdaptiveReport, SimulatedTwelveSubjectStudyMatchesAnIndependentComputation) {
+    const fs::path dir = temp_dir("study");
+    write_study(dir / "adaptive_trials.csv");
+    AdaptiveAnalyzeSettings s;
+    s.input = dir / "adaptive_trials.csv";
+    s.protocol = kProtocol;
+    s.out_dir = dir / "report";
+    const SrtAnalysis a = analyze_adaptive_file(s);
+    ASSERT_EQ(a.tracks.size(), 24u);
+    ASSERT_TRUE(a.anova.has_value());
+
+    // Independent SRTs: the level of each sentence's last presentation from
+    // sentence 5 on, plus the last next_level_db, averaged.
+    const CsvTable trials = read_csv(s.input);
+    std::map<std::pair<std::string, std::string>, std::vector<double>> levels;
+    std::map<std::pair<std::string, std::string>, std::map<int, double>> last_of_sentence;
+    std::map<std::pair<std::string, std::string>, double> next_level;
+    for (const auto& r : trials.rows) {
+        if (r.fields[1] != "test") continue;
+        const auto key = std::make_pair(r.fields[0], r.fields[2]);
+        const int sentence = std::stoi(r.fields[4]);
+        if (sentence >= 5) last_of_sentence[key][sentence] = std::stod(r.fields[6]);
+        next_level[key] = std::stod(r.fields[9]);
+    }
+    std::map<std::pair<std::string, std::string>, double> srt;
+    for (auto& [key, by_sentence] : last_of_sentence) {
+        double sum = next_level[key];
+        for (const auto& [sentence, level] : by_sentence) sum += level;
+        srt[key] = sum / (by_sentence.size() + 1);
+    }
+    const CsvTable srt_csv = read_csv(s.out_dir / "srt.csv");
+    ASSERT_EQ(srt_csv.rows.size(), 24u);
+    for (const auto& r : srt_csv.rows) {
+        SCOPED_TRACE(r.fields[0] + " " + r.fields[1]);
+        EXPECT_NEAR(std::stod(r.fields[2]), srt.at({r.fields[0], r.fields[1]}), 1e-9);
+    }
+
+    // Visual benefit: paired differences, t(0.975, 11) = 2.200985 from tables.
+    std::vector<double> d;
+    for (int subject = 1; subject <= 12; ++subject)
+        d.push_back(srt.at({std::to_string(subject), "audio-only"}) - srt.at({std::to_string(subject), "audiovisual"}));
+    const double mean = std::accumulate(d.begin(), d.end(), 0.0) / 12.0;
+    double ss = 0.0;
+    for (double v : d) ss += (v - mean) * (v - mean);
+    const double se = std::sqrt(ss / 11.0) / std::sqrt(12.0);
+    ASSERT_EQ(a.benefits.size(), 1u);
+    const VisualBenefit& b = a.benefits[0];
+    EXPECT_EQ(b.reference, "audio-only");
+    EXPECT_EQ(b.n, 12u);
+    EXPECT_NEAR(b.mean_db, mean, 1e-9);
+    EXPECT_NEAR(b.ci_low_db, mean - 2.200985 * se, 1e-5);
+    EXPECT_NEAR(b.ci_high_db, mean + 2.200985 * se, 1e-5);
+    // The simulated benefit is 5 dB in L50; the estimate lands near it.
+    EXPECT_GT(b.mean_db, 3.0);
+    EXPECT_LT(b.mean_db, 7.0);
+    const CsvTable benefit_csv = read_csv(s.out_dir / "benefit.csv");
+    ASSERT_EQ(benefit_csv.rows.size(), 1u);
+    EXPECT_NEAR(std::stod(benefit_csv.rows[0].fields[3]), mean, 1e-9);
+
+    // ANOVA on SRTs with two conditions: F(1, 11) = t² of the paired t; and
+    // SS_conditions = n·Σ_j (mean_j − grand)² by hand.
+    const double t = mean / se;
+    const auto doc = nlohmann::json::parse(read_text_file(s.out_dir / "anova.json"));
+    const double F = doc.at("anova").at("F").get<double>();
+    EXPECT_NEAR(F, t * t, 1e-8 * t * t);
+    EXPECT_NEAR(doc.at("anova").at("df_conditions").get<double>(), 1.0, 0.0);
+    EXPECT_NEAR(doc.at("anova").at("df_error").get<double>(), 11.0, 0.0);
+    ASSERT_TRUE(b.p_value.has_value());
+    EXPECT_NEAR(doc.at("anova").at("p").get<double>(), *b.p_value, 1e-12 + 1e-9 * *b.p_value);
+    double m_ao = 0, m_av = 0;
+    for (int subject = 1; subject <= 12; ++subject) {
+        m_ao += srt.at({std::to_string(subject), "audio-only"}) / 12.0;
+        m_av += srt.at({std::to_string(subject), "audiovisual"}) / 12.0;
+    }
+    const double grand = (m_ao + m_av) / 2;
+    EXPECT_NEAR(a.anova->anova.ss_conditions, 12.0 * ((m_ao - grand) * (m_ao - grand) + (m_av - grand) * (m_av - grand)),
+                1e-8);
+
+    // The report files, with the numbers in them.
+    for (const char* f : {"index.html", "report.md", "srt.csv", "benefit.csv", "anova.json", "pairwise.csv",
+                          "psychometric.csv", "srt.png", "psychometric.png", "tracks/subject_1.png", "tracks/subject_12.png"})
+        EXPECT_TRUE(fs::is_regular_file(s.out_dir / f)) << f;
+    const std::string md = read_text_file(s.out_dir / "report.md");
+    EXPECT_NE(md.find(fmt::format("| audiovisual | 12 | {:.2f} |", mean)), std::string::npos) << md;
+    EXPECT_NE(md.find("F(1, 11) = "), std::string::npos) << md;
+    const std::string html = read_text_file(s.out_dir / "index.html");
+    EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
+    // Pooled psychometric fits: the audiovisual function lies left of the audio-only one.
+    ASSERT_EQ(a.fits.size(), 2u);
+    ASSERT_TRUE(a.fits[0].fit.converged && a.fits[1].fit.converged);
+    EXPECT_LT(a.fits[1].fit.l50_db, a.fits[0].fit.l50_db);
+    fs::remove_all(dir);
+}
+
+TEST(AdaptiveReport, AStoredLevelTheRulesDoNotGiveIsRefusedWithItsLine) {
+    const fs::path dir = temp_dir("tampered");
+    write_study(dir / "adaptive_trials.csv");
+    std::string text = read_text_file(dir / "adaptive_trials.csv");
+    // Line 4 is subject 1's second audio-only presentation; change its level.
+    std::vector<std::string> lines;
+    std::size_t start = 0;
+    while (start < text.size()) {
+        const std::size_t end = text.find('\n', start);
+        lines.push_back(text.substr(start, end - start));
+        start = end + 1;
+    }
+    auto fields = parse_csv(lines[3] + "\n", "x", {.has_header = false}).rows[0].fields;
+    fields[6] = "-17";
+    lines[3] = fmt::format("{}", fmt::join(fields, ","));
+    write_text_file(dir / "adaptive_trials.csv", fmt::format("{}\n", fmt::join(lines, "\n")));
+    AdaptiveAnalyzeSettings s;
+    s.input = dir / "adaptive_trials.csv";
+    s.protocol = kProtocol;
+    s.out_dir = dir / "report";
+    try {
+        analyze_adaptive_file(s);
+        FAIL() << "accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("adaptive_trials.csv:4:7: error: level_db: expected"), std::string::npos)
+            << e.what();
+    }
+    EXPECT_FALSE(fs::exists(s.out_dir / "index.html"));
+    fs::remove_all(dir);
+}
+
+TEST(AdaptiveReport, BadFieldsAreReportedWithFileLineAndColumn) {
+    const fs::path dir = temp_dir("bad");
+    write_text_file(dir / "t.csv", "subject,condition,presentation,level_db,keywords,correct\n1,audio-only,1,x,3,4\n");
+    try {
+        read_adaptive_trials(dir / "t.csv");
+        FAIL() << "accepted";
+    } catch (const InputError& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("t.csv:2:4: error: level_db: expected a level"), std::string::npos) << m;
+        EXPECT_NE(m.find("t.csv:2:6: error: correct: expected at most keywords (3), got 4"), std::string::npos)
+            << m;
+    }
+    fs::remove_all(dir);
+}
