@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/audio.h"
+#include "avsi/core/audio_stream.h"
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
 #include "avsi/vocoder/batch.h"
@@ -74,7 +75,7 @@ int run_vocode(const VocodeOptions& o, const CLI::App& sub) {
 
     // Validate against the (first) input's rate before any work.
     const fs::path first = o.batch ? list_wav_files(o.input).front() : fs::path(o.input);
-    const int rate = read_audio(first).sample_rate_hz;
+    const int rate = AudioFileReader(first).sample_rate_hz();
     validate_settings(s.vocoder, rate, "command line");
     if (o.report) fmt::print("{}{}", describe(s.vocoder, rate), describe(s.noise));
 

@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "avsi/core/audio_stream.h"
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
 #include "avsi/core/rng.h"
@@ -84,8 +85,73 @@ Audio process_audio(const Audio& input, const ProcessSettings& s, const LongTerm
     return audio;
 }
 
+namespace {
+
+// Whether `input` can be processed file to file in blocks: vocoding alone,
+// or a noise recording at the input's rate added before vocoding (or
+// without it). Speech-shaped noise is made by one FFT over the whole
+// length, noise at another rate is resampled whole, and noise added after
+// vocoding would need the vocoded signal twice: those run in memory.
+bool streamable(const ProcessSettings& s, const fs::path& input) {
+    // A multi-channel input mixed down to mono (the default), or a
+    // multi-channel noise recording, goes through mix_down's note in memory.
+    const AudioFileReader in(input);
+    if (in.channels() > 1 && s.channels == ChannelMode::Mono) return false;
+    if (s.noise.kind == NoiseKind::None) return s.vocode;
+    if (s.noise.kind != NoiseKind::File) return false;
+    if (s.vocode && s.noise.stage == NoiseStage::AfterVocoding) return false;
+    const AudioFileReader noise(s.noise.file);
+    return noise.channels() == 1 && noise.sample_rate_hz() == in.sample_rate_hz();
+}
+
+// File to file in blocks (streamable() holds): memory bounded whatever the
+// files' lengths.
+void process_file_streaming(const fs::path& input, const fs::path& output, const ProcessSettings& s,
+                            FileReport& report) {
+    AudioFileReader in(input);
+    AudioFileWriter out(output, in.sample_rate_hz(), in.channels());
+    std::optional<NoiseFile> noise;
+    std::optional<MixedSource> mixed;
+    AudioSource* source = &in;
+    if (s.noise.kind == NoiseKind::File) {
+        noise.emplace(s.noise.file);
+        MixSettings mix = s.noise.mix;
+        mix.seed = derive_seed(s.noise.mix.seed, input.filename().string());
+        mixed.emplace(in, *noise, mix);
+        report.mix_limit_gain_db = mixed->report().limit_gain_db;
+        source = &*mixed;
+    }
+    if (s.vocode) {
+        report.vocoder_limit_gain_db = vocode_stream(*source, out, s.vocoder).limit_gain_db;
+    } else {
+        std::vector<float> block(8192 * static_cast<std::size_t>(in.channels()));
+        source->seek(0);
+        while (const std::size_t n = source->read(block.data(), 8192)) out.write(block.data(), n);
+    }
+    out.commit();
+    report.duration_s = static_cast<double>(in.frames()) / in.sample_rate_hz();
+}
+
+// Names the input file in diagnostics that name none.
+[[noreturn]] void rethrow_naming(const InputError& e, const fs::path& input) {
+    std::vector<Diagnostic> diagnostics = e.diagnostics();
+    for (Diagnostic& d : diagnostics)
+        if (d.path.empty()) d.path = input.string();
+    throw InputError(std::move(diagnostics));
+}
+
+}  // namespace
+
 FileReport process_file(const fs::path& input, const fs::path& output, const ProcessSettings& s) {
     FileReport report{input, output};
+    try {
+        if (streamable(s, input)) {
+            process_file_streaming(input, output, s, report);
+            return report;
+        }
+    } catch (const InputError& e) {
+        rethrow_naming(e, input);
+    }
     try {
         const Audio audio = read_audio(input);
         std::optional<LongTermSpectrum> ltas;
@@ -98,11 +164,8 @@ FileReport process_file(const fs::path& input, const fs::path& output, const Pro
         const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, &noise, seed, &report, input.string());
         write_audio(output, out);
     } catch (const InputError& e) {
-        // Give diagnostics without a path the input file's name (the noise file names itself).
-        std::vector<Diagnostic> diagnostics = e.diagnostics();
-        for (Diagnostic& d : diagnostics)
-            if (d.path.empty()) d.path = input.string();
-        throw InputError(std::move(diagnostics));
+        // Give diagnostics without a path the input file's name.
+        rethrow_naming(e, input);
     }
     return report;
 }
@@ -132,21 +195,26 @@ std::vector<FileReport> process_folder(const fs::path& input_folder, const fs::p
         for (std::size_t i = next++; i < files.size(); i = next++) {
             const fs::path output = output_folder / files[i].filename();
             try {
-                const Audio audio = read_audio(files[i]);
-                const std::vector<double>* noise = nullptr;
-                if (s.noise.kind == NoiseKind::File) {
-                    std::lock_guard lock(noise_mutex);
-                    auto it = noise_by_rate.find(audio.sample_rate_hz);
-                    if (it == noise_by_rate.end())
-                        it = noise_by_rate.emplace(audio.sample_rate_hz, load_noise(s.noise.file, audio.sample_rate_hz))
-                                 .first;
-                    noise = &it->second;
-                }
                 FileReport report{files[i], output};
-                const std::uint64_t seed = derive_seed(s.noise.mix.seed, files[i].filename().string());
-                const Audio out =
-                    process_audio(audio, s, ltas ? &*ltas : nullptr, noise, seed, &report, files[i].string());
-                write_audio(output, out);
+                if (streamable(s, files[i])) {
+                    process_file_streaming(files[i], output, s, report);
+                } else {
+                    const Audio audio = read_audio(files[i]);
+                    const std::vector<double>* noise = nullptr;
+                    if (s.noise.kind == NoiseKind::File) {
+                        std::lock_guard lock(noise_mutex);
+                        auto it = noise_by_rate.find(audio.sample_rate_hz);
+                        if (it == noise_by_rate.end())
+                            it = noise_by_rate
+                                     .emplace(audio.sample_rate_hz, load_noise(s.noise.file, audio.sample_rate_hz))
+                                     .first;
+                        noise = &it->second;
+                    }
+                    const std::uint64_t seed = derive_seed(s.noise.mix.seed, files[i].filename().string());
+                    const Audio out =
+                        process_audio(audio, s, ltas ? &*ltas : nullptr, noise, seed, &report, files[i].string());
+                    write_audio(output, out);
+                }
                 reports[i] = report;
             } catch (const InputError& e) {
                 std::lock_guard lock(error_mutex);

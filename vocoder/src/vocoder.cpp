@@ -15,6 +15,7 @@
 #include <cmath>
 #include <numbers>
 #include <numeric>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -22,6 +23,7 @@
 #include "avsi/core/rng.h"
 #include "avsi/vocoder/filters.h"
 #include "avsi/vocoder/hilbert.h"
+#include "fused_pipeline.h"
 
 namespace avsi::vocoder {
 
@@ -256,10 +258,13 @@ struct Pipeline {
     SosBank bands;
     SosBank envelope_lowpass;
     SosBank::State analysis_state, envelope_state, prefilter_state, refilter_state;
-    std::vector<Rng> noise;            // one stream per band
-    std::vector<std::uint64_t> noise_draw;  // the current 64-bit draw per band
-    std::vector<double> sine_step;     // radians per sample per band
+    // One noise stream per band (Rng(seed).derive("channel<c>/band<b>")),
+    // run four side by side: xoshiro256** states [chunk][word][4] (padding
+    // lanes all zero), and the current 64-bit draw per lane.
+    std::vector<std::uint64_t> noise_state;
+    std::vector<std::uint64_t> noise_draw;
     std::vector<double> analysis_sum_sq;
+    bool fused;  // steps 1–4 in one loop (fused_pipeline.h)
 
     Pipeline(const VocoderSettings& s, double rate_hz, const std::vector<Sos>& band_filters, int channel)
         : settings(s), rate(rate_hz), lanes(band_filters.size()), bands(band_filters),
@@ -267,10 +272,15 @@ struct Pipeline {
                                                                        s.envelope_cutoff_hz, rate_hz))),
           analysis_state(bands.initial_state()), envelope_state(envelope_lowpass.initial_state()),
           prefilter_state(bands.initial_state()), refilter_state(bands.initial_state()),
-          analysis_sum_sq(bands.stride(), 0.0) {
-        for (std::size_t b = 0; b < lanes; ++b)
-            noise.push_back(Rng(s.seed).derive(fmt::format("channel{}/band{}", channel, b)));
-        noise_draw.assign(lanes, 0);
+          noise_state(bands.stride() * 4, 0), noise_draw(bands.stride(), 0), analysis_sum_sq(bands.stride(), 0.0),
+          fused(!s.zero_phase && s.envelope != EnvelopeMethod::Hilbert && s.carrier != CarrierType::LowNoise &&
+                detail::fused_supported(bands, envelope_lowpass)) {
+        constexpr std::size_t chunk = SosBank::chunk_lanes;
+        for (std::size_t b = 0; b < lanes; ++b) {
+            const Rng stream = Rng(s.seed).derive(fmt::format("channel{}/band{}", channel, b));
+            for (std::size_t word = 0; word < 4; ++word)
+                noise_state[(b / chunk * 4 + word) * chunk + b % chunk] = stream.state()[word];
+        }
     }
 
     // Runs a bank over `frames` rows: forward with carried state when the
@@ -295,13 +305,7 @@ struct Pipeline {
                 // Two uniform values in [-1, 1) with 32-bit resolution per
                 // 64-bit draw; the stream position is absolute (`first`), so
                 // an odd block start uses the second half of a draw.
-                for (std::size_t b = 0; b < lanes; ++b)
-                    for (std::size_t n = 0; n < frames; ++n) {
-                        const std::size_t t = first + n;
-                        if (t % 2 == 0) noise_draw[b] = noise[b].next_u64();
-                        const auto bits = static_cast<std::uint32_t>(t % 2 == 0 ? noise_draw[b] : noise_draw[b] >> 32);
-                        carrier[n * stride + b] = static_cast<double>(bits) * 0x1.0p-31 - 1.0;
-                    }
+                detail::noise_carriers(noise_state.data(), noise_draw.data(), lanes, stride, first, frames, carrier);
                 if (settings.carrier == CarrierType::LowNoise) {
                     // Whole signal only (see vocode_channel): Hilbert envelopes need it.
                     std::vector<double> whole(carrier, carrier + frames * stride);
@@ -330,15 +334,34 @@ struct Pipeline {
         }
     }
 
-    // Steps 1–4 for `frames` rows starting at absolute frame `first`:
+    // Steps 1–4 for `frames` rows starting at absolute frame `first` (x[0]):
     // `work` gets the input broadcast to every lane on entry and the
     // filtered modulated carriers on exit; `carrier` is scratch.
+    // `rows` says what becomes of the band outputs (FusedBlock's fields
+    // from out_sum_sq on; x, carrier, work, frames and analysis_sum_sq are
+    // filled in here): the same with the fused loop or without.
     void run(const double* x, std::size_t first, std::size_t frames, std::vector<double>& work,
-             std::vector<double>& carrier, const std::vector<double>& centres_hz) {
+             std::vector<double>& carrier, const std::vector<double>& centres_hz, detail::FusedBlock rows) {
         const std::size_t stride = bands.stride();
         double* w = work.data();
+        rows.x = x;
+        rows.carrier = carrier.data();
+        rows.work = w;
+        rows.frames = frames;
+        rows.analysis_sum_sq = analysis_sum_sq.data();
+        if (fused) {
+            make_carrier(carrier.data(), first, frames, centres_hz);
+            detail::FusedBanks banks{&bands, &envelope_lowpass, &analysis_state, &envelope_state,
+                                     settings.prefilter_carrier ? &prefilter_state : nullptr,
+                                     settings.refilter_carrier ? &refilter_state : nullptr,
+                                     settings.envelope == EnvelopeMethod::FullWaveRectify};
+            detail::run_fused(banks, rows);
+            return;
+        }
+        if (rows.in_sum_sq)
+            for (std::size_t n = 0; n < frames; ++n) *rows.in_sum_sq += x[n] * x[n];
         // Padding lanes get the input too; their filters output zero.
-        for (std::size_t n = 0; n < frames; ++n) std::fill_n(w + n * stride, stride, x[first + n]);
+        for (std::size_t n = 0; n < frames; ++n) std::fill_n(w + n * stride, stride, x[n]);
         // 1. Analysis.
         filter(bands, analysis_state, w, frames);
         add_squares(w, frames, stride, analysis_sum_sq.data());
@@ -363,8 +386,161 @@ struct Pipeline {
         // 4. Modulation (envelope floored at zero), then back through the band.
         for (std::size_t i = 0; i < frames * stride; ++i) w[i] = std::max(w[i], 0.0) * c[i];
         if (settings.refilter_carrier) filter(bands, refilter_state, w, frames);
+        // The rows, as the fused loop leaves them.
+        if (rows.sum) {
+            for (std::size_t n = 0; n < frames; ++n) {
+                double s = 0.0;
+                for (std::size_t b = 0; b < stride; ++b) s += rows.gains[b] * static_cast<float>(w[n * stride + b]);
+                rows.sum[n] = s;
+            }
+            return;
+        }
+        if (rows.out_sum_sq) add_squares(w, frames, stride, rows.out_sum_sq);
+        if (rows.rows)
+            for (std::size_t n = 0; n < frames; ++n)
+                for (std::size_t b = 0; b < rows.lanes; ++b)
+                    rows.rows[n * rows.lanes + b] = static_cast<float>(w[n * stride + b]);
     }
 };
+
+// One channel through steps 1–5 in passes over its input, so that a long
+// signal needs memory for a block, not for its length (vocode_stream):
+//   pass 1 (measure): steps 1–4; sums of squares of each band before and
+//     after, and of the input; the band gains follow;
+//   pass 2 (replay): the level-matched band sum, its sum of squares and peak;
+//     the overall gain and the anti-clipping scale follow;
+//   pass 3 (replay again): the output.
+// The band outputs of the first `stored` frames are kept from pass 1 in
+// single precision (as the sum reads them); later frames are computed again
+// by a copy of the pipeline taken at frame `stored`, which gives the same
+// values (the pipeline is deterministic and block-length independent). With
+// everything stored, the pipeline runs once, as it always did.
+class ChannelEngine {
+public:
+    ChannelEngine(const VocoderSettings& s, double rate, const std::vector<Sos>& band_filters,
+                  const std::vector<double>& centres, int channel, std::size_t stored_frames)
+        : m_settings(s), m_centres(centres), m_pipeline(s, rate, band_filters, channel),
+          m_lanes(band_filters.size()), m_stride(m_pipeline.bands.stride()), m_stored(stored_frames),
+          m_store(new float[stored_frames * m_lanes]), m_out_sum_sq(m_stride, 0.0) {}
+
+    std::size_t lanes() const { return m_lanes; }
+    std::size_t stride() const { return m_stride; }
+
+    // Pass 1 over frames [first, first + count) (x[0] is frame `first`);
+    // `work` and `carrier` are scratch of count × stride.
+    void measure(const double* x, std::size_t first, std::size_t count, std::vector<double>& work,
+                 std::vector<double>& carrier) {
+        // Split at the end of the store: the replay pipeline starts there.
+        if (first < m_stored && first + count > m_stored) {
+            const std::size_t head = m_stored - first;
+            measure(x, first, head, work, carrier);
+            measure(x + head, m_stored, count - head, work, carrier);
+            return;
+        }
+        if (first == m_stored) m_replay_start.emplace(m_pipeline);
+        detail::FusedBlock rows;
+        rows.out_sum_sq = m_out_sum_sq.data();
+        rows.in_sum_sq = &m_in_sq;
+        if (first < m_stored) rows.rows = m_store.get() + first * m_lanes;
+        rows.lanes = m_lanes;
+        m_pipeline.run(x, first, count, work, carrier, m_centres, rows);
+    }
+
+    // After pass 1 over all `frames`: the band gains and what was measured.
+    void finish_measure(std::size_t frames, std::vector<BandInfo>& bands) {
+        m_gains.assign(m_stride, 0.0);  // padding lanes: 0
+        const double count = static_cast<double>(frames);
+        for (std::size_t b = 0; b < m_lanes; ++b) {
+            m_gains[b] = 1.0;
+            bands[b].analysis_rms = std::sqrt(m_pipeline.analysis_sum_sq[b] / count);
+            const double rms = std::sqrt(m_out_sum_sq[b] / count);
+            if (m_settings.match_band_rms && rms > 0.0) m_gains[b] = bands[b].analysis_rms / rms;
+            bands[b].output_rms = rms * m_gains[b];
+        }
+        if (frames == m_stored) m_replay_start.reset();
+    }
+
+    // Starts a replay (pass 2 or 3) from frame 0.
+    void begin_replay() {
+        if (m_replay_start) m_replay.emplace(*m_replay_start);
+    }
+
+    // The level-matched band sum of frames [first, first + count) into `sum`
+    // (x[0] is frame `first`; read only past the store), in order from 0.
+    // With `band_signals`, also each band's level-matched output.
+    void replay(const double* x, std::size_t first, std::size_t count, double* sum, std::vector<double>& work,
+                std::vector<double>& carrier, std::vector<std::vector<double>>* band_signals = nullptr) {
+        if (first < m_stored && first + count > m_stored) {
+            const std::size_t head = m_stored - first;
+            replay(x, first, head, sum, work, carrier, band_signals);
+            replay(x + head, m_stored, count - head, sum + head, work, carrier, band_signals);
+            return;
+        }
+        if (first < m_stored) {
+            // The sum as the pipeline's rows give it: over the stride's
+            // lanes, whose padding lanes hold +0 with gain 0 and so add
+            // +0.0 (which turns a -0 sum into +0).
+            const float* rows = m_store.get() + first * m_lanes;
+            const bool padded = m_stride > m_lanes;
+            for (std::size_t n = 0; n < count; ++n) {
+                double s = 0.0;
+                for (std::size_t b = 0; b < m_lanes; ++b) s += m_gains[b] * rows[n * m_lanes + b];
+                if (padded) s += 0.0;
+                sum[n] = s;
+            }
+            if (band_signals)
+                for (std::size_t b = 0; b < m_lanes; ++b)
+                    for (std::size_t n = 0; n < count; ++n)
+                        (*band_signals)[b][first + n] = m_gains[b] * rows[n * m_lanes + b];
+            return;
+        }
+        AVSI_ASSERT(m_replay && !band_signals);
+        detail::FusedBlock rows;
+        rows.gains = m_gains.data();
+        rows.sum = sum;
+        m_replay->run(x, first, count, work, carrier, m_centres, rows);
+    }
+
+    double in_sq() const { return m_in_sq; }
+
+private:
+    const VocoderSettings& m_settings;
+    const std::vector<double>& m_centres;
+    Pipeline m_pipeline;
+    std::size_t m_lanes, m_stride, m_stored;
+    std::unique_ptr<float[]> m_store;  // [frame][band], the first m_stored frames
+    std::vector<double> m_out_sum_sq;
+    double m_in_sq = 0.0;
+    std::vector<double> m_gains;
+    std::optional<Pipeline> m_replay_start, m_replay;
+};
+
+// Zero-phase filtering, Hilbert envelopes and low-noise carriers need the
+// whole signal at once.
+bool whole_signal_only(const VocoderSettings& s) {
+    return s.zero_phase || s.envelope == EnvelopeMethod::Hilbert || s.carrier == CarrierType::LowNoise;
+}
+
+struct BandSetup {
+    std::vector<Sos> filters;
+    std::vector<double> centres;
+    std::vector<BandInfo> bands;
+};
+
+BandSetup band_setup(const VocoderSettings& s, double rate) {
+    const std::vector<double> edges = band_edges_hz(s);
+    BandSetup setup;
+    for (std::size_t b = 0; b + 1 < edges.size(); ++b) {
+        setup.filters.push_back(butterworth_bandpass(s.filter_order, edges[b], edges[b + 1], rate));
+        BandInfo info;
+        info.low_hz = edges[b];
+        info.high_hz = edges[b + 1];
+        info.centre_hz = std::sqrt(edges[b] * edges[b + 1]);
+        setup.centres.push_back(info.centre_hz);
+        setup.bands.push_back(info);
+    }
+    return setup;
+}
 
 }  // namespace
 
@@ -373,80 +549,172 @@ namespace detail {
 ChannelResult vocode_channel_in_blocks(std::span<const double> x, double rate, const VocoderSettings& s,
                                        int channel, bool keep_band_signals, std::size_t block_frames) {
     validate_settings(s, rate);
-    const std::vector<double> edges = band_edges_hz(s);
-    const std::size_t lanes = static_cast<std::size_t>(s.bands);
     const std::size_t frames = x.size();
-
+    BandSetup setup = band_setup(s, rate);
     ChannelResult result;
-    std::vector<Sos> band_filters;
-    std::vector<double> centres;
-    for (std::size_t b = 0; b < lanes; ++b) {
-        band_filters.push_back(butterworth_bandpass(s.filter_order, edges[b], edges[b + 1], rate));
-        BandInfo info;
-        info.low_hz = edges[b];
-        info.high_hz = edges[b + 1];
-        info.centre_hz = std::sqrt(edges[b] * edges[b + 1]);
-        centres.push_back(info.centre_hz);
-        result.bands.push_back(info);
-    }
+    result.bands = setup.bands;
     result.samples.assign(frames, 0.0);
     if (frames == 0) return result;
-
-    // Zero-phase filtering, Hilbert envelopes and low-noise carriers need the
-    // whole signal at once; otherwise the pipeline streams through small
-    // blocks that stay in cache (bit-identical output).
-    const bool whole_only =
-        s.zero_phase || s.envelope == EnvelopeMethod::Hilbert || s.carrier == CarrierType::LowNoise;
-    const std::size_t block = whole_only ? frames : std::max<std::size_t>(1, std::min(block_frames, frames));
-
-    Pipeline pipeline(s, rate, band_filters, channel);
-    const std::size_t stride = pipeline.bands.stride();
-    std::vector<double> work(block * stride), carrier(block * stride);
-    // Steps 1–4 per band (frames × stride), before level matching.
-    // Stored in single precision (the output is single precision anyway) and
-    // left uninitialised: every element is written below.
-    const std::unique_ptr<float[]> band_out(new float[frames * stride]);
-    std::vector<double> out_sum_sq(stride, 0.0);
+    const std::size_t block =
+        whole_signal_only(s) ? frames : std::max<std::size_t>(1, std::min(block_frames, frames));
+    ChannelEngine engine(s, rate, setup.filters, setup.centres, channel, frames);
+    std::vector<double> work(block * engine.stride()), carrier(block * engine.stride());
+    for (std::size_t first = 0; first < frames; first += block)
+        engine.measure(x.data() + first, first, std::min(block, frames - first), work, carrier);
+    engine.finish_measure(frames, result.bands);
+    std::vector<std::vector<double>> band_signals;
+    if (keep_band_signals) band_signals.assign(engine.lanes(), std::vector<double>(frames));
+    engine.begin_replay();
+    double out_sq = 0.0;
     for (std::size_t first = 0; first < frames; first += block) {
         const std::size_t count = std::min(block, frames - first);
-        pipeline.run(x.data(), first, count, work, carrier, centres);
-        add_squares(work.data(), count, stride, out_sum_sq.data());
-        float* dst = band_out.get() + first * stride;
-        for (std::size_t i = 0; i < count * stride; ++i) dst[i] = static_cast<float>(work[i]);
+        engine.replay(x.data() + first, first, count, result.samples.data() + first, work, carrier,
+                      keep_band_signals ? &band_signals : nullptr);
     }
-
-    // 5. Level matching and the sum.
-    std::vector<double> gains(lanes, 1.0);
-    const double count = static_cast<double>(frames);
-    for (std::size_t b = 0; b < lanes; ++b) {
-        result.bands[b].analysis_rms = std::sqrt(pipeline.analysis_sum_sq[b] / count);
-        const double rms = std::sqrt(out_sum_sq[b] / count);
-        if (s.match_band_rms && rms > 0.0) gains[b] = result.bands[b].analysis_rms / rms;
-        result.bands[b].output_rms = rms * gains[b];
-    }
-    gains.resize(stride, 0.0);
-    double in_sq = 0.0, out_sq = 0.0;
-    for (std::size_t n = 0; n < frames; ++n) {
-        const float* row = &band_out[n * stride];
-        double sum = 0.0;
-        for (std::size_t b = 0; b < stride; ++b) sum += gains[b] * row[b];
-        result.samples[n] = sum;
-        in_sq += x[n] * x[n];
-        out_sq += sum * sum;
-    }
-    if (keep_band_signals) {
-        for (std::size_t b = 0; b < lanes; ++b) {
-            std::vector<double> band(frames);
-            for (std::size_t n = 0; n < frames; ++n) band[n] = gains[b] * band_out[n * stride + b];
-            result.band_signals.push_back(std::move(band));
-        }
-    }
+    for (double v : result.samples) out_sq += v * v;
+    result.band_signals = std::move(band_signals);
     if (s.match_output_rms && out_sq > 0.0) {
+        const double in_sq = engine.in_sq();
         const double gain = std::sqrt(in_sq / out_sq);
         for (double& v : result.samples) v *= gain;
         result.output_gain_db = in_sq > 0.0 ? to_db(gain) : -INFINITY;
     }
     return result;
+}
+
+VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const VocoderSettings& s,
+                            const StreamLimits& limits) {
+    const int channels = input.channels();
+    const double rate = input.sample_rate_hz();
+    if (channels < 1 || rate <= 0)
+        throw InputError(Diagnostic{"", 0, 0, "audio",
+                                    fmt::format("expected at least one channel and a positive sample "
+                                                "rate, got {} channels at {} Hz",
+                                                channels, input.sample_rate_hz())});
+    validate_settings(s, rate);
+    const std::size_t frames = input.frames();
+    const std::size_t nc = static_cast<std::size_t>(channels);
+    BandSetup setup = band_setup(s, rate);
+    VocoderReport report;
+    report.bands = setup.bands;
+    if (frames == 0) return report;
+
+    // Block length; what is stored from pass 1 (everything when it fits in
+    // the budget, or when the settings need the whole signal at once).
+    const bool whole = whole_signal_only(s);
+    const std::size_t block = whole ? frames : std::max<std::size_t>(1, std::min(limits.block_frames, frames));
+    const std::size_t per_frame = setup.filters.size() * nc * sizeof(float);
+    const std::size_t stored = whole ? frames : std::min(frames, limits.store_bytes / per_frame);
+
+    std::vector<std::unique_ptr<ChannelEngine>> engines;
+    // Every channel gets channel 0's noise carrier: a dual-mono input stays
+    // dual-mono (independent carriers would make it dichotic).
+    for (int c = 0; c < channels; ++c)
+        engines.push_back(std::make_unique<ChannelEngine>(s, rate, setup.filters, setup.centres, 0, stored));
+    const std::size_t stride = engines.front()->stride();
+    std::vector<float> interleaved(block * nc);
+    std::vector<double> x(block), work(block * stride), carrier(block * stride), sum(block);
+    // Reads frames [first, first + count) of channel c into x.
+    auto deinterleave = [&](std::size_t count, std::size_t c) {
+        for (std::size_t n = 0; n < count; ++n) x[n] = interleaved[n * nc + c];
+    };
+    auto read_block = [&](std::size_t count) {
+        std::size_t got = 0;
+        while (got < count) {
+            const std::size_t n = input.read(interleaved.data() + got * nc, count - got);
+            if (n == 0)
+                throw InputError(Diagnostic{"", 0, 0, "audio",
+                                            fmt::format("expected {} frames, the input ended after fewer", frames)});
+            got += n;
+        }
+    };
+
+    // Pass 1: measure.
+    input.seek(0);
+    for (std::size_t first = 0; first < frames; first += block) {
+        const std::size_t count = std::min(block, frames - first);
+        read_block(count);
+        for (std::size_t c = 0; c < nc; ++c) {
+            deinterleave(count, c);
+            engines[c]->measure(x.data(), first, count, work, carrier);
+        }
+    }
+    std::vector<std::vector<BandInfo>> bands(nc, setup.bands);
+    for (std::size_t c = 0; c < nc; ++c) engines[c]->finish_measure(frames, bands[c]);
+    report.bands = bands[0];
+
+    // Replays (passes 2 and 3): the input is read only past the store.
+    auto replay = [&](auto&& consume) {
+        for (auto& engine : engines) engine->begin_replay();
+        if (stored < frames) input.seek(stored);
+        for (std::size_t first = 0; first < frames; first += block) {
+            const std::size_t count = std::min(block, frames - first);
+            const std::size_t from_input = first + count > stored ? first + count - std::max(first, stored) : 0;
+            if (from_input > 0) {
+                // Read the frames past the store into their place in the block.
+                const std::size_t offset = count - from_input;
+                std::size_t got = 0;
+                while (got < from_input) {
+                    const std::size_t n = input.read(interleaved.data() + (offset + got) * nc, from_input - got);
+                    if (n == 0)
+                        throw InputError(Diagnostic{"", 0, 0, "audio",
+                                                    fmt::format("expected {} frames, the input ended after fewer",
+                                                                frames)});
+                    got += n;
+                }
+            }
+            for (std::size_t c = 0; c < nc; ++c) {
+                if (from_input > 0) deinterleave(count, c);
+                engines[c]->replay(x.data(), first, count, sum.data(), work, carrier);
+                consume(c, first, count);
+            }
+        }
+    };
+
+    // Pass 2: the sum's energy and peak per channel, then the gains.
+    std::vector<double> out_sq(nc, 0.0), max_abs(nc, 0.0);
+    replay([&](std::size_t c, std::size_t, std::size_t count) {
+        for (std::size_t n = 0; n < count; ++n) {
+            out_sq[c] += sum[n] * sum[n];
+            max_abs[c] = std::max(max_abs[c], std::abs(sum[n]));
+        }
+    });
+    std::vector<double> gain(nc, 1.0);
+    std::vector<bool> apply_gain(nc, false);
+    double peak = 0.0;
+    for (std::size_t c = 0; c < nc; ++c) {
+        if (s.match_output_rms && out_sq[c] > 0.0) {
+            const double in_sq = engines[c]->in_sq();
+            gain[c] = std::sqrt(in_sq / out_sq[c]);
+            apply_gain[c] = true;
+            if (c == 0) report.output_gain_db = in_sq > 0.0 ? to_db(gain[c]) : -INFINITY;
+        }
+        // Rounding is monotonic, so the peak of the scaled samples is the
+        // scaled peak.
+        peak = std::max(peak, apply_gain[c] ? max_abs[c] * gain[c] : max_abs[c]);
+    }
+    // No clipping: scale the whole output down when its peak exceeds full scale.
+    report.peak_before_limit = peak;
+    double scale = 1.0;
+    constexpr double kMaxPeak = 0.999;
+    if (peak > 1.0) {
+        scale = kMaxPeak / peak;
+        report.limit_gain_db = to_db(scale);
+        log_warning("vocoder: output peak {:.3f} exceeds full scale; scaled the whole output by {:.2f} dB "
+                    "to avoid clipping",
+                    peak, report.limit_gain_db);
+    }
+
+    // Pass 3: the output.
+    std::vector<float> out(block * nc);
+    replay([&](std::size_t c, std::size_t, std::size_t count) {
+        for (std::size_t n = 0; n < count; ++n) {
+            const double v = apply_gain[c] ? sum[n] * gain[c] : sum[n];
+            out[n * nc + c] = static_cast<float>(v * scale);
+        }
+        if (c + 1 == nc) output.write(out.data(), count);
+    });
+    return report;
 }
 
 }  // namespace detail
@@ -456,45 +724,22 @@ ChannelResult vocode_channel(std::span<const double> x, double rate, const Vocod
     return detail::vocode_channel_in_blocks(x, rate, s, channel, keep_band_signals, 512);
 }
 
+VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const VocoderSettings& settings) {
+    return detail::vocode_stream(input, output, settings, detail::StreamLimits{});
+}
+
 VocoderResult vocode(const Audio& input, const VocoderSettings& settings) {
-    if (input.channels < 1 || input.sample_rate_hz <= 0)
-        throw InputError(Diagnostic{"", 0, 0, "audio",
-                                    fmt::format("expected at least one channel and a positive sample "
-                                                "rate, got {} channels at {} Hz",
-                                                input.channels, input.sample_rate_hz)});
-    validate_settings(settings, input.sample_rate_hz);
+    AudioBufferSource source(input);
     VocoderResult result;
     result.audio.sample_rate_hz = input.sample_rate_hz;
     result.audio.channels = input.channels;
-    const std::size_t frames = input.frames();
-    std::vector<double> out(frames * input.channels, 0.0);
-    for (int c = 0; c < input.channels; ++c) {
-        const std::vector<float> samples = input.channel(c);
-        const std::vector<double> x(samples.begin(), samples.end());
-        // Every channel gets channel 0's noise carrier: a dual-mono input stays
-        // dual-mono (independent carriers would make it dichotic).
-        ChannelResult channel = vocode_channel(x, input.sample_rate_hz, settings, 0);
-        for (std::size_t n = 0; n < frames; ++n) out[n * input.channels + c] = channel.samples[n];
-        if (c == 0) {
-            result.bands = std::move(channel.bands);
-            result.output_gain_db = channel.output_gain_db;
-        }
-    }
-    // No clipping: scale the whole output down when its peak exceeds full scale.
-    double peak = 0.0;
-    for (double v : out) peak = std::max(peak, std::abs(v));
-    result.peak_before_limit = peak;
-    double scale = 1.0;
-    constexpr double kMaxPeak = 0.999;
-    if (peak > 1.0) {
-        scale = kMaxPeak / peak;
-        result.limit_gain_db = to_db(scale);
-        log_warning("vocoder: output peak {:.3f} exceeds full scale; scaled the whole output by {:.2f} dB "
-                    "to avoid clipping",
-                    peak, result.limit_gain_db);
-    }
-    result.audio.samples.resize(out.size());
-    for (std::size_t i = 0; i < out.size(); ++i) result.audio.samples[i] = static_cast<float>(out[i] * scale);
+    result.audio.samples.reserve(input.samples.size());
+    AudioBufferSink sink(result.audio);
+    VocoderReport report = detail::vocode_stream(source, sink, settings, detail::StreamLimits{});
+    result.bands = std::move(report.bands);
+    result.output_gain_db = report.output_gain_db;
+    result.peak_before_limit = report.peak_before_limit;
+    result.limit_gain_db = report.limit_gain_db;
     return result;
 }
 

@@ -29,6 +29,10 @@ public:
     double normal(double mean, double sd) { return mean + sd * normal(); }
 
     std::uint64_t seed() const { return m_seed; }
+    // The xoshiro256** state, for code that runs several streams side by
+    // side in vector registers (the vocoder's carriers) and must draw the
+    // same numbers as next_u64().
+    const std::array<std::uint64_t, 4>& state() const { return m_state; }
 
 private:
     std::uint64_t m_seed;

@@ -79,6 +79,16 @@ public:
     enum class Kind { Generic, BandPass, LowPass2 };
     Kind kind() const { return m_kind; }
 
+    // The layout run by the kernels, for kernels elsewhere that run a bank
+    // inside a longer per-sample loop (the vocoder's fused pipeline):
+    // coefficients [chunk][section][b0 b1 b2 a1 a2][4], the factored gains
+    // [chunk][4]; State::z is [chunk][section][z1 z2][4].
+    static constexpr std::size_t chunk_lanes = 4;
+    const double* coefficients(std::size_t chunk) const {
+        return m_coefficients.data() + chunk * m_sections * 5 * chunk_lanes;
+    }
+    const double* gain(std::size_t chunk) const { return m_gain.data() + chunk * chunk_lanes; }
+
 private:
     void run(double* data, std::size_t frames, bool backward, double* z) const;
 

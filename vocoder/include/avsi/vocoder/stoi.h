@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "avsi/core/audio.h"
+#include "avsi/core/audio_stream.h"
 #include "avsi/vocoder/channels.h"
 
 namespace avsi::vocoder {
@@ -30,6 +31,11 @@ double stoi(std::span<const double> clean, std::span<const double> degraded, dou
 // The same for two Audio buffers (mixed to mono; rates must agree).
 double stoi(const Audio& clean, const Audio& degraded, const StoiSettings& settings = {});
 
+// The same for two sources (mixed to mono; rates and lengths must agree),
+// in two passes over each (the loudest clean frame; then the rest, scored
+// segment by segment as the frames arrive): memory bounded by a frame and a
+// segment, whatever the length.
+double stoi(AudioSource& clean, AudioSource& degraded, const StoiSettings& settings = {});
 // `avsi stoi`: reads the two files and scores them: one value (the channels
 // mixed down to mono, with a note naming the file) or, with ChannelMode::Keep,
 // one per channel (the clean file's channel c against the degraded file's).

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "avsi/core/audio.h"
+#include "avsi/core/audio_stream.h"
 #include "avsi/core/error.h"
 
 namespace avsi::vocoder {
@@ -108,6 +109,24 @@ struct VocoderResult {
 // warning and reported in limit_gain_db.
 VocoderResult vocode(const Audio& input, const VocoderSettings& settings);
 
+// What vocode_stream measured: VocoderResult without the audio.
+struct VocoderReport {
+    std::vector<BandInfo> bands;  // for the first channel
+    double output_gain_db = 0.0;
+    double peak_before_limit = 0.0;
+    double limit_gain_db = 0.0;
+};
+
+// vocode() from a source to a sink, block by block, the same output sample
+// for sample. Level matching and the anti-clipping scale need the whole
+// signal's levels before the first sample is written, so the input is read
+// in up to three passes (measure; level of the sum; write): the band outputs
+// of the first pass are kept up to a memory budget (64 MiB: 4.2 minutes of
+// 3-band mono at 22.05 kHz) and computed again past it. Memory is bounded by the block length, the band count and the budget,
+// whatever the length — except with zero_phase, Hilbert envelopes or
+// low-noise carriers, which need the whole signal at once (in memory).
+VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const VocoderSettings& settings);
+
 // One channel's output and what was measured on the way.
 struct ChannelResult {
     std::vector<double> samples;   // summed bands after the overall gain (no anti-clipping scale)
@@ -129,6 +148,17 @@ namespace detail {
 ChannelResult vocode_channel_in_blocks(std::span<const double> samples, double sample_rate_hz,
                                        const VocoderSettings& settings, int channel, bool keep_band_signals,
                                        std::size_t block_frames);
+
+// The block length and the memory kept from the first pass (band outputs,
+// 4 bytes per band, channel and frame; past it they are computed again).
+struct StreamLimits {
+    std::size_t block_frames = 4096;
+    std::size_t store_bytes = std::size_t{64} << 20;
+};
+// vocode_stream with the limits given (for tests: any limits must give the
+// same output).
+VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const VocoderSettings& settings,
+                            const StreamLimits& limits);
 }  // namespace detail
 
 // A methods-section description of the processing for this rate: band

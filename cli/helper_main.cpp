@@ -1,19 +1,29 @@
-// avsi: one executable with subcommands (see `avsi --help`).
+// The main of every helper executable (libexec/avsi-<group>): the commands
+// of its group, registered by their cmd_<name>.cpp files, parsed with CLI11
+// under avsi's top level (app.h) and run; exceptions become exit codes. The
+// front end (front_end.cpp) runs a helper in its own place with the user's
+// arguments, so the helper sees `avsi <command> …` as typed. Started as
+// `avsi-<group> --avsi-registry FILE`, a helper writes its commands' names
+// and summaries for the front end's registry (see cli/CMakeLists.txt).
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string_view>
 
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
+#include "app.h"
 #include "command.h"
 
 namespace avsi::cli {
@@ -116,6 +126,34 @@ void print_exception_chain(const std::exception& e, int depth = 0) {
     }
 }
 
+// `text` as a C++ string literal.
+std::string literal(std::string_view text) {
+    std::string out = "\"";
+    for (const char c : text) {
+        if (c == '"' || c == '\\') out += '\\';
+        if (c == '\n') {
+            out += "\\n";
+            continue;
+        }
+        out += c;
+    }
+    return out + "\"";
+}
+
+// Writes one row per command of this helper, AVSI_CLI_ROW("name", "summary"),
+// for the front end's table of commands (compiled into it at build time).
+int write_registry(const char* path) {
+    std::ofstream out(path);
+    for (const Command& command : commands())
+        out << "AVSI_CLI_ROW(" << literal(command.name) << ", " << literal(command.summary) << ")\n";
+    out.close();
+    if (!out) {
+        fmt::print(stderr, "cannot write the command registry to {}\n", path);
+        return ExitFailure;
+    }
+    return ExitSuccess;
+}
+
 }  // namespace
 }  // namespace avsi::cli
 
@@ -123,12 +161,11 @@ int main(int argc, char** argv) {
     using namespace avsi;
     using namespace avsi::cli;
 
-    CLI::App app{"avsi — perceptual intelligibility experiments with synthetic audiovisual speech.\n"
-                 "Run `avsi <command> --help` for a command's options and their defaults."};
-    app.require_subcommand(1);
-    app.set_version_flag("--version", "avsi 0.1.0");
+    if (argc == 3 && std::strcmp(argv[1], "--avsi-registry") == 0) return write_registry(argv[2]);
+
+    CLI::App app;
     bool verbose = false;
-    app.add_flag("-v,--verbose", verbose, "Print debug messages");
+    configure_top_level(app, verbose);
 
     auto& registry = commands();
     std::sort(registry.begin(), registry.end(),

@@ -1,0 +1,161 @@
+#!/usr/bin/env bash
+# Whole avsi processes as a user runs them (issue 21), side by side in one
+# run with what a user would otherwise pick, on files this script makes:
+#   start-up      avsi --version
+#   synth         avsi synth of a short sentence (from its phones, and from text through espeak-ng)
+#   vocode        avsi vocode of 9 minutes of 22.05 kHz speech  vs  the numpy/scipy vocoder
+#                 (bench/reference_vocoder.py, same settings) and sox reading + writing the same file
+#   stoi          avsi stoi of those 9 minutes against their vocoded version
+#   render        avsi render of a sentence to MP4  vs  ffmpeg encoding the same frames (PNG, libx264)
+#   score         avsi score of a 25-subject study (simulated answers to the default protocol's lists)
+# Each median of RUNS runs (hyperfine, default 7, at least 5), the mean user
+# and system CPU, and the peak resident memory of one run (/usr/bin/time).
+# Prints a Markdown table (also written to OUT/table.md, with hyperfine's
+# JSON beside it).
+#
+#   bench/bench_whole_process.sh [BUILD_DIR]       (default build)
+#   RUNS=9 OUT=out/bench-whole AVSI_BEFORE=/path/to/older/avsi bench/bench_whole_process.sh build
+#
+# AVSI_BEFORE: another avsi executable timed on the same tasks (e.g. one
+# built from an older commit) for a before/after column.
+#
+# Needs (Debian, installed by scripts/install-deps): hyperfine, sox, ffmpeg,
+# espeak-ng, python3-numpy, python3-scipy. The machine's load is printed
+# before and after; on a shared machine compare CPU time rather than wall time.
+set -euo pipefail
+
+build_dir="${1:-build}"
+runs="${RUNS:-7}"
+out="${OUT:-out/bench-whole}"
+before="${AVSI_BEFORE:-}"
+if [[ -n "$before" ]]; then
+  [[ -x "$before" ]] || { echo "bench_whole_process: AVSI_BEFORE=$before is not an executable" >&2; exit 1; }
+  before="$(cd "$(dirname "$before")" && pwd)/$(basename "$before")"  # before the cd below
+fi
+repo="$(cd "$(dirname "$0")/.." && pwd)"
+avsi="$(cd "$build_dir" && pwd)/cli/avsi"
+python=/usr/bin/python3  # Debian's, where python3-numpy and python3-scipy install
+for tool in hyperfine sox ffmpeg espeak-ng /usr/bin/time "$python"; do
+  command -v "$tool" >/dev/null || { echo "bench_whole_process: $tool is missing (see the header)" >&2; exit 1; }
+done
+"$python" -c "import numpy, scipy" 2>/dev/null || {
+  echo "bench_whole_process: $python lacks numpy/scipy (apt-get install python3-numpy python3-scipy)" >&2; exit 1; }
+[[ -x "$avsi" ]] || { echo "bench_whole_process: $avsi not built" >&2; exit 1; }
+((runs >= 5)) || { echo "bench_whole_process: RUNS must be at least 5" >&2; exit 1; }
+mkdir -p "$out"
+out="$(cd "$out" && pwd)"
+work="$out/work"
+mkdir -p "$work"
+cd "$work"
+
+echo "load before: $(uptime)"
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
+
+# --- Inputs -----------------------------------------------------------------
+sentence="The boy fell from the window."
+if [[ ! -f speech9.wav ]]; then
+  # 9 minutes of espeak-ng speech (22.05 kHz mono): the corpus sentences read
+  # one after another, repeated, cut at 540 s.
+  cut -d, -f2 "$repo/protocols/corpus/sentences.csv" | tail -n +2 > sentences.txt
+  espeak-ng -v en-us -w part.wav -f sentences.txt
+  sox part.wav part.wav part.wav part.wav speech9.wav trim 0 540
+  rm -f part.wav
+fi
+"$avsi" phones --text "$sentence" --wav sentence.wav --out sentence.tsv 2>/dev/null
+"$avsi" synth --phones sentence.tsv --out sentence.csv 2>/dev/null
+if [[ ! -f lists.csv ]]; then
+  "$avsi" design "$repo/protocols/beskow2004-en.toml" --subjects 25 --out lists.csv >/dev/null 2>&1
+fi
+if [[ ! -f responses.csv ]]; then
+  # Every test trial of the 25 subjects answered with each word of the
+  # sentence kept with probability 0.7 (seeded), as scripts/dry-run-responses does.
+  "$python" - "$repo/protocols/corpus/sentences.csv" lists.csv responses.csv <<'EOF'
+import csv, random, re, sys
+corpus = {r["id"]: r["text"] for r in csv.DictReader(open(sys.argv[1], newline=""))}
+rng = random.Random(1)
+with open(sys.argv[3], "w", newline="") as f:
+    w = csv.writer(f)
+    w.writerow(["subject", "session", "trial", "phase", "condition", "list", "sentence", "response"])
+    for row in csv.DictReader(open(sys.argv[2], newline="")):
+        words = re.findall(r"[A-Za-z']+", corpus[row["sentence"]])
+        answer = " ".join(x for x in words if rng.random() < 0.7)
+        w.writerow([row["subject"], 1, row["position"], row["phase"], row["condition"], row["list"], row["sentence"], answer])
+EOF
+fi
+# The frames of the sentence as PNGs, for ffmpeg to encode.
+rm -rf frames && "$avsi" render --traj sentence.csv --out frames/ 2>/dev/null
+fps=$(awk -F, 'NR==2{t0=$1} NR==3{printf "%.0f", 1/($1-t0)}' sentence.csv)
+pattern="frames/frame_%05d.png"
+[[ -f frames/frame_00000.png ]] || { echo "bench_whole_process: expected frames/frame_00000.png from avsi render" >&2; exit 1; }
+"$avsi" vocode speech9.wav vocoded9.wav 2>/dev/null
+
+# --- Timing -----------------------------------------------------------------
+# name|command (hyperfine -N: no shell; quotes group words)
+tasks=(
+  "startup: avsi --version|$avsi --version"
+  "synth, phones of a sentence|$avsi synth --phones sentence.tsv --out s1.csv"
+  "synth, text of a sentence (espeak-ng)|$avsi synth --text '$sentence' --out s2.csv"
+  "vocode 9 min|$avsi vocode speech9.wav v.wav"
+  "vocode 9 min: numpy/scipy|$python $repo/bench/reference_vocoder.py speech9.wav r.wav"
+  "read + write 9 min: sox|sox speech9.wav x.wav"
+  "stoi 9 min|$avsi stoi speech9.wav vocoded9.wav"
+  "render a sentence (MP4)|$avsi render --traj sentence.csv --audio sentence.wav --out m.mp4"
+  "encode its frames: ffmpeg|ffmpeg -loglevel error -y -framerate $fps -i $pattern -c:v libx264 -crf 18 -pix_fmt yuv420p f.mp4"
+  "score 25 subjects|$avsi score --protocol $repo/protocols/beskow2004-en.toml --responses responses.csv --out scores"
+)
+if [[ -n "$before" ]]; then
+  tasks+=(
+    "before: startup|$before --version"
+    "before: synth, phones|$before synth --phones sentence.tsv --out b1.csv"
+    "before: synth, text|$before synth --text '$sentence' --out b2.csv"
+    "before: vocode 9 min|$before vocode speech9.wav bv.wav"
+    "before: stoi 9 min|$before stoi speech9.wav vocoded9.wav"
+    "before: render a sentence|$before render --traj sentence.csv --audio sentence.wav --out bm.mp4"
+    "before: score 25 subjects|$before score --protocol $repo/protocols/beskow2004-en.toml --responses responses.csv --out bscores"
+  )
+fi
+
+table="$out/table.md"
+{
+  echo "| task | median wall (ms) | CPU user + sys (ms) | peak RSS (MiB) |"
+  echo "| --- | ---: | ---: | ---: |"
+} > "$table"
+declare -A median cpu
+for task in "${tasks[@]}"; do
+  name="${task%%|*}"
+  command="${task#*|}"
+  json="$out/$(echo "$name" | tr -c 'A-Za-z0-9' '_').json"
+  if ! hyperfine -N --warmup 1 --runs "$runs" --export-json "$json" "$command" >/dev/null 2>&1; then
+    # An older executable may not read today's data files: its row says so.
+    [[ "$name" == before:* ]] || { echo "bench_whole_process: failed: $command" >&2; exit 1; }
+    echo "| $name | failed (\`$command\` exits non-zero) | | |" | tee -a "$table"
+    continue
+  fi
+  # Peak RSS of one run (KiB), through a shell so the quotes group as above.
+  rss=$(eval "/usr/bin/time -f %M $command" 2>&1 >/dev/null | tail -1)
+  read -r med cpu < <("$python" -c "import json,sys; r=json.load(open(sys.argv[1]))['results'][0]; print(r['median']*1e3, (r['user']+r['system'])*1e3)" "$json")
+  median["$name"]=$med
+  cpu["$name"]=$cpu
+  printf '| %s | %.1f | %.1f | %.1f |\n' "$name" "$med" "$cpu" "$(echo "$rss / 1024" | bc -l)" | tee -a "$table"
+done
+ratio() { "$python" -c "print(f'{$1 / $2:.2f}')"; }
+# "a / b: wall x (CPU y)", medians of wall time, means of CPU time.
+ratios() {
+  [[ -n "${median[$1]:-}" && -n "${median[$2]:-}" ]] || { echo "n/a"; return; }
+  echo "$(ratio "${median[$1]}" "${median[$2]}")x wall ($(ratio "${cpu[$1]}" "${cpu[$2]}")x CPU)"
+}
+{
+  echo
+  echo "vocode 9 min, numpy/scipy / avsi: $(ratios 'vocode 9 min: numpy/scipy' 'vocode 9 min');" \
+       "avsi at $(ratio 540000 "${median['vocode 9 min']}")x real time wall, $(ratio 540000 "${cpu['vocode 9 min']}")x on CPU time"
+  echo "sox read + write 9 min / avsi vocode: $(ratios 'read + write 9 min: sox' 'vocode 9 min')"
+  echo "ffmpeg encoding the frames / avsi render (render + encode + mux): $(ratios 'encode its frames: ffmpeg' 'render a sentence (MP4)')"
+  if [[ -n "$before" ]]; then
+    for t in "startup:startup: avsi --version" "synth, phones:synth, phones of a sentence" "synth, text:synth, text of a sentence (espeak-ng)" \
+             "vocode 9 min:vocode 9 min" "stoi 9 min:stoi 9 min" "render a sentence:render a sentence (MP4)" "score 25 subjects:score 25 subjects"; do
+      echo "before / now, ${t%%:*}: $(ratios "before: ${t%%:*}" "${t#*:}")"
+    done
+  fi
+} | tee -a "$table"
+echo "load after: $(uptime)"
+echo "table: $table"

@@ -1,0 +1,281 @@
+// The fused steps 1–4 and the vectorised noise carriers; see fused_pipeline.h.
+// The per-lane arithmetic is written exactly as in filters.cpp's run_chunk
+// (BandPass and LowPass2 kernels) and vocoder.cpp's steps, in the same order.
+// Compiled without floating-point contraction (vocoder/CMakeLists.txt), so
+// every clone below rounds alike.
+#include "fused_pipeline.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "avsi/core/error.h"
+
+namespace avsi::vocoder::detail {
+
+namespace {
+
+constexpr std::size_t kChunk = SosBank::chunk_lanes;
+constexpr std::size_t kBandSections = 4;      // Butterworth band-pass, order 4
+constexpr std::size_t kEnvelopeSections = 2;  // Butterworth low-pass, order 4
+
+typedef double Lanes __attribute__((vector_size(kChunk * sizeof(double))));
+typedef std::uint64_t Words __attribute__((vector_size(kChunk * sizeof(std::uint64_t))));
+
+[[gnu::always_inline]] inline void load(Lanes& v, const double* p) { std::memcpy(&v, p, sizeof v); }
+[[gnu::always_inline]] inline void store(double* p, const Lanes& v) { std::memcpy(p, &v, sizeof v); }
+[[gnu::always_inline]] inline void load(Words& v, const std::uint64_t* p) { std::memcpy(&v, p, sizeof v); }
+[[gnu::always_inline]] inline void store(std::uint64_t* p, const Words& v) { std::memcpy(p, &v, sizeof v); }
+
+// (Vectors by reference, never by value: that would depend on the ABI.)
+
+// v = std::max(v, 0.0) per lane: v unless v < 0 (so -0 and NaN stay).
+[[gnu::always_inline]] inline void max0(Lanes& v) {
+    const Lanes zero = {0.0, 0.0, 0.0, 0.0};
+    v = v < zero ? zero : v;
+}
+
+// v = std::abs(v) per lane: the sign bit cleared.
+[[gnu::always_inline]] inline void abs(Lanes& v) {
+    Words bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    bits &= ~(Words{1, 1, 1, 1} << 63);
+    std::memcpy(&v, &bits, sizeof v);
+}
+
+// A bank's coefficients and state for one chunk, in registers.
+template <std::size_t Sections>
+struct Cascade {
+    Lanes a1[Sections], a2[Sections], z1[Sections], z2[Sections], gain;
+    double* z = nullptr;
+
+    // (Loaded and stored through a temporary: the members' addresses are
+    // never taken, so the compiler keeps them in registers.)
+    void open(const SosBank& bank, SosBank::State& state, std::size_t chunk) {
+        const double* c = bank.coefficients(chunk);
+        z = state.z.data() + chunk * Sections * 2 * kChunk;
+        Lanes t;
+        for (std::size_t s = 0; s < Sections; ++s) {
+            load(t, c + (s * 5 + 3) * kChunk);
+            a1[s] = t;
+            load(t, c + (s * 5 + 4) * kChunk);
+            a2[s] = t;
+            load(t, z + (2 * s) * kChunk);
+            z1[s] = t;
+            load(t, z + (2 * s + 1) * kChunk);
+            z2[s] = t;
+        }
+        load(t, bank.gain(chunk));
+        gain = t;
+    }
+    void close() {
+        for (std::size_t s = 0; s < Sections; ++s) {
+            Lanes t = z1[s];
+            store(z + (2 * s) * kChunk, t);
+            t = z2[s];
+            store(z + (2 * s + 1) * kChunk, t);
+        }
+    }
+    // SosBank::Kind::BandPass: numerator b0·(1, 0, -1), b0 in the gain.
+    [[gnu::always_inline]] void band_pass(Lanes& v) {
+        for (std::size_t s = 0; s < Sections; ++s) {
+            const Lanes y = v + z1[s];
+            z1[s] = z2[s] - a1[s] * y;
+            z2[s] = -v - a2[s] * y;
+            v = y;
+        }
+        v *= gain;
+    }
+    // SosBank::Kind::LowPass2: numerator b0·(1, 2, 1), b0 in the gain.
+    [[gnu::always_inline]] void low_pass(Lanes& v) {
+        for (std::size_t s = 0; s < Sections; ++s) {
+            const Lanes y = v + z1[s];
+            z1[s] = ((v + v) + z2[s]) - a1[s] * y;
+            z2[s] = v - a2[s] * y;
+            v = y;
+        }
+        v *= gain;
+    }
+};
+
+// Two loops over the block, each with the state of at most eight sections
+// in registers: steps 1–2 (analysis, rectification, envelope; the envelope
+// into `work`), then steps 3–4 (carrier, modulation, re-filter) and the rows.
+template <bool FullWave, bool Prefilter, bool Refilter, bool Replay>
+[[gnu::always_inline]] inline void run_chunk(const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
+    const std::size_t stride = banks.bands->stride();
+    const std::size_t lane0 = chunk * kChunk;
+    const std::size_t frames = block.frames;
+    const double* x = block.x;
+    const double* carrier = block.carrier + lane0;
+    double* work = block.work + lane0;
+    {
+        Cascade<kBandSections> analysis;
+        Cascade<kEnvelopeSections> envelope;
+        analysis.open(*banks.bands, *banks.analysis, chunk);
+        envelope.open(*banks.envelope, *banks.envelope_state, chunk);
+        Lanes analysis_sq;
+        load(analysis_sq, block.analysis_sum_sq + lane0);
+        double in_sq = block.in_sum_sq ? *block.in_sum_sq : 0.0;
+        const bool input_energy = block.in_sum_sq && chunk == 0;
+        for (std::size_t n = 0; n < frames; ++n) {
+            const double xn = x[n];
+            if (input_energy) in_sq += xn * xn;
+            // 1. Analysis, and its energy.
+            Lanes v = {xn, xn, xn, xn};
+            analysis.band_pass(v);
+            analysis_sq += v * v;
+            // 2. Envelope.
+            if constexpr (FullWave)
+                abs(v);
+            else
+                max0(v);
+            envelope.low_pass(v);
+            store(work + n * stride, v);
+        }
+        if (input_energy) *block.in_sum_sq = in_sq;
+        store(block.analysis_sum_sq + lane0, analysis_sq);
+        analysis.close();
+        envelope.close();
+    }
+    Cascade<kBandSections> prefilter, refilter;
+    if constexpr (Prefilter) prefilter.open(*banks.bands, *banks.prefilter, chunk);
+    if constexpr (Refilter) refilter.open(*banks.bands, *banks.refilter, chunk);
+    Lanes out_sq = {0, 0, 0, 0};
+    const bool out_energy = !Replay && block.out_sum_sq;
+    if (out_energy) load(out_sq, block.out_sum_sq + lane0);
+    double g[kChunk] = {};
+    if constexpr (Replay)
+        for (std::size_t j = 0; j < kChunk; ++j) g[j] = block.gains[lane0 + j];
+    float* rows = block.rows ? block.rows + lane0 : nullptr;
+    const std::size_t row_lanes = block.lanes;
+    const std::size_t valid = block.lanes > lane0 ? std::min(kChunk, block.lanes - lane0) : 0;
+    for (std::size_t n = 0; n < frames; ++n) {
+        // 3. Carrier.
+        Lanes c, v;
+        load(c, carrier + n * stride);
+        if constexpr (Prefilter) prefilter.band_pass(c);
+        // 4. Modulation, then back through the band.
+        load(v, work + n * stride);
+        max0(v);
+        v *= c;
+        if constexpr (Refilter) refilter.band_pass(v);
+        if constexpr (Replay) {
+            double s = chunk == 0 ? 0.0 : block.sum[n];
+            for (std::size_t j = 0; j < kChunk; ++j) s += g[j] * static_cast<float>(v[j]);
+            block.sum[n] = s;
+        } else {
+            if (out_energy) out_sq += v * v;
+            if (rows)
+                for (std::size_t j = 0; j < valid; ++j) rows[n * row_lanes + j] = static_cast<float>(v[j]);
+        }
+    }
+    if (out_energy) store(block.out_sum_sq + lane0, out_sq);
+    if constexpr (Prefilter) prefilter.close();
+    if constexpr (Refilter) refilter.close();
+}
+
+template <bool FullWave, bool Prefilter, bool Refilter>
+[[gnu::always_inline]] inline void run_chunk_squares(const FusedBanks& banks, const FusedBlock& block,
+                                                     std::size_t chunk) {
+    if (block.sum)
+        run_chunk<FullWave, Prefilter, Refilter, true>(banks, block, chunk);
+    else
+        run_chunk<FullWave, Prefilter, Refilter, false>(banks, block, chunk);
+}
+
+template <bool FullWave>
+[[gnu::always_inline]] inline void run_chunk_carrier(const FusedBanks& banks, const FusedBlock& block,
+                                                     std::size_t chunk) {
+    const bool pre = banks.prefilter != nullptr, re = banks.refilter != nullptr;
+    if (pre && re) return run_chunk_squares<FullWave, true, true>(banks, block, chunk);
+    if (pre) return run_chunk_squares<FullWave, true, false>(banks, block, chunk);
+    if (re) return run_chunk_squares<FullWave, false, true>(banks, block, chunk);
+    return run_chunk_squares<FullWave, false, false>(banks, block, chunk);
+}
+
+// AVX-512 (32 vector registers: the ten sections' state and coefficients
+// stay in registers), AVX2, and the baseline, picked at load time.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void run_chunk_dispatch(
+    const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
+    if (banks.full_wave)
+        run_chunk_carrier<true>(banks, block, chunk);
+    else
+        run_chunk_carrier<false>(banks, block, chunk);
+}
+
+// x = rotl(x, k) per lane.
+[[gnu::always_inline]] inline void rotl(Words& x, int k) { x = (x << k) | (x >> (64 - k)); }
+
+// `valid`: the chunk's lanes that are bands (the rest get 0).
+__attribute__((target_clones("avx2", "default"))) void noise_chunk(std::uint64_t* state, std::uint64_t* draw,
+                                                                     std::size_t valid, std::size_t stride,
+                                                                     std::size_t first, std::size_t frames,
+                                                                     double* carrier) {
+    Words s0, s1, s2, s3, d;
+    load(s0, state);
+    load(s1, state + kChunk);
+    load(s2, state + 2 * kChunk);
+    load(s3, state + 3 * kChunk);
+    load(d, draw);
+    const Words exponent = {0x4330000000000000, 0x4330000000000000, 0x4330000000000000, 0x4330000000000000};
+    const Words low = {0xffffffff, 0xffffffff, 0xffffffff, 0xffffffff};
+    const Lanes two52 = {0x1p52, 0x1p52, 0x1p52, 0x1p52};
+    const Lanes scale = {0x1p-31, 0x1p-31, 0x1p-31, 0x1p-31};
+    const Lanes one = {1.0, 1.0, 1.0, 1.0};
+    Words keep;
+    for (std::size_t l = 0; l < kChunk; ++l) keep[l] = l < valid ? ~std::uint64_t{0} : 0;
+    for (std::size_t n = 0; n < frames; ++n) {
+        const std::size_t t = first + n;
+        if (t % 2 == 0) {
+            // xoshiro256** (Rng::next_u64), four streams at once; ·5 and ·9 as shifts and adds.
+            Words r = (s1 << 2) + s1;
+            rotl(r, 7);
+            d = (r << 3) + r;
+            const Words shifted = s1 << 17;
+            s2 ^= s0;
+            s3 ^= s1;
+            s1 ^= s2;
+            s0 ^= s3;
+            s2 ^= shifted;
+            rotl(s3, 45);
+        }
+        const Words bits = t % 2 == 0 ? (d & low) : (d >> 32);
+        // The 32-bit value as a double, exactly: 2^52 + bits − 2^52.
+        const Words biased = bits | exponent;
+        Lanes value;
+        std::memcpy(&value, &biased, sizeof value);
+        value = (value - two52) * scale - one;
+        Words result;
+        std::memcpy(&result, &value, sizeof result);
+        result &= keep;
+        std::memcpy(&value, &result, sizeof value);
+        store(carrier + n * stride, value);
+    }
+    store(state, s0);
+    store(state + kChunk, s1);
+    store(state + 2 * kChunk, s2);
+    store(state + 3 * kChunk, s3);
+    store(draw, d);
+}
+
+}  // namespace
+
+bool fused_supported(const SosBank& bands, const SosBank& envelope) {
+    return bands.kind() == SosBank::Kind::BandPass && bands.sections() == kBandSections &&
+           envelope.kind() == SosBank::Kind::LowPass2 && envelope.sections() == kEnvelopeSections &&
+           envelope.stride() == bands.stride();
+}
+
+void run_fused(const FusedBanks& banks, const FusedBlock& block) {
+    AVSI_ASSERT(fused_supported(*banks.bands, *banks.envelope));
+    for (std::size_t chunk = 0; chunk < banks.bands->stride() / kChunk; ++chunk) run_chunk_dispatch(banks, block, chunk);
+}
+
+void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t stride,
+                    std::size_t first, std::size_t frames, double* carrier) {
+    for (std::size_t chunk = 0; chunk < stride / kChunk; ++chunk)
+        noise_chunk(state + chunk * 4 * kChunk, draw + chunk * kChunk, std::min(kChunk, lanes - chunk * kChunk),
+                    stride, first, frames, carrier + chunk * kChunk);
+}
+
+}  // namespace avsi::vocoder::detail

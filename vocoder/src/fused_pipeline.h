@@ -1,0 +1,64 @@
+// Steps 1–4 of the channel vocoder (vocoder.cpp) in one loop over the
+// samples of a block, for the common settings: Butterworth band-pass bands
+// (SosBank::Kind::BandPass) of `order` 4, a Butterworth envelope low-pass of
+// order 4 (two LowPass2 sections), half- or full-wave rectification, causal
+// filtering, and carriers given per sample. The same IEEE operations per lane
+// as running the banks one after the other (SosBank::process), in the same
+// order, so the output is identical bit for bit; in one loop the filter
+// state stays in registers and the three filters' recursions overlap. Also
+// the carriers' noise: xoshiro256** streams (avsi::Rng) run four side by side.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "avsi/vocoder/filters.h"
+
+namespace avsi::vocoder::detail {
+
+// One block through the fused steps 1–4, and what is done with each band
+// output row r (stride lanes) on the way out: in a measuring pass its
+// squares and the input's are summed and it is kept in single precision;
+// in a replay pass the level-matched sum Σ_b gains[b]·float(r_b), summed over
+// the lanes in order from 0.0, is written instead.
+struct FusedBlock {
+    const double* x = nullptr;        // frames inputs; each goes to every lane
+    const double* carrier = nullptr;  // frames × stride carriers
+    double* work = nullptr;           // frames × stride scratch
+    std::size_t frames = 0;
+    double* analysis_sum_sq = nullptr;  // stride running sums of the analysis output squared
+    // Measuring (each may be null):
+    double* out_sum_sq = nullptr;  // stride running sums of r squared
+    double* in_sum_sq = nullptr;   // running sum of x squared
+    float* rows = nullptr;         // frames × lanes: float(r) of the bands (no padding lanes)
+    std::size_t lanes = 0;         // bands, for `rows`
+    // Replaying (both or neither):
+    const double* gains = nullptr;  // stride (0 for padding lanes)
+    double* sum = nullptr;          // frames sums
+};
+// The banks and their states; prefilter/refilter states null when off.
+struct FusedBanks {
+    const SosBank* bands = nullptr;
+    const SosBank* envelope = nullptr;
+    SosBank::State* analysis = nullptr;
+    SosBank::State* envelope_state = nullptr;
+    SosBank::State* prefilter = nullptr;
+    SosBank::State* refilter = nullptr;
+    bool full_wave = false;
+};
+
+// True when the fused loop handles these banks (kinds and section counts).
+bool fused_supported(const SosBank& bands, const SosBank& envelope);
+
+// Runs the block (fused_supported must hold).
+void run_fused(const FusedBanks& banks, const FusedBlock& block);
+
+// Noise carriers for lanes [0, lanes) of `stride`: at absolute frame t,
+// lane l gets (bits · 2^-31 − 1) with bits the low (t even) or high (t odd)
+// 32 bits of stream l's draw for t − t mod 2, which is drawn at even t.
+// `state` holds xoshiro256** states [chunk][word][4], `draw` the last draw
+// per lane (stride); padding lanes get 0.
+void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t stride,
+                    std::size_t first, std::size_t frames, double* carrier);
+
+}  // namespace avsi::vocoder::detail
