@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/csv.h"
+#include "avsi/core/checks.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
@@ -520,6 +521,7 @@ PhoneSequence phones_from_intervals(const std::vector<Interval>& intervals, cons
         if (!(iv.start_s >= 0.0) || !(iv.end_s >= iv.start_s) || !std::isfinite(iv.end_s))
             throw InputError(source_path, iv.line, 0, field,
                              fmt::format("expected 0 <= start <= end, got {} .. {}", iv.start_s, iv.end_s));
+        require_time_s(iv.end_s, at(source_path, iv.line, 0, field + " end"));
         if (iv.start_s < previous_end - 1e-6)
             throw InputError(source_path, iv.line, 0, field,
                              fmt::format("expected a start at or after the previous label's end ({}), got {}",
@@ -536,7 +538,7 @@ PhoneSequence phones_from_intervals(const std::vector<Interval>& intervals, cons
                                  fmt::format("unknown phone label \"{}\": expected an ARPAbet phone of the "
                                              "project set (AA1, P, sil) or an IPA label listed in "
                                              "protocols/phone_map.tsv",
-                                             label));
+                                             excerpt(label)));
             }
         }
         if (iv.end_s <= iv.start_s) {
@@ -576,7 +578,11 @@ PhoneSequence read_phones(const std::filesystem::path& path, const LabelReadOpti
                                            "'.TextGrid', '.lab' and '.tsv'",
                                            path.extension().string()));
     }
-    return phones_from_intervals(intervals, path.string());
+    PhoneSequence phones = phones_from_intervals(intervals, path.string());
+    if (phones.empty())
+        throw InputError(path, intervals.empty() ? std::string("expected at least one phone, got none (an empty file?)")
+                                                 : "expected at least one phone, got only zero-length labels");
+    return phones;
 }
 
 void write_phones_tsv(const std::filesystem::path& path, const PhoneSequence& phones) {

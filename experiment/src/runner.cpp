@@ -26,9 +26,11 @@
 #include <nlohmann/json.hpp>
 
 #include "avsi/core/audio.h"
+#include "avsi/core/checks.h"
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/core/log.h"
 #include "avsi/core/protocol.h"
 #include "avsi/experiment/design.h"
@@ -122,12 +124,7 @@ StimulusManifest read_stimulus_manifest(const fs::path& dir) {
     if (!fs::is_regular_file(path))
         throw InputError(path, "no stimulus manifest here; build the stimulus folder with `avsi build-stimuli "
                                "protocol.toml --out DIR`");
-    nlohmann::json j;
-    try {
-        j = nlohmann::json::parse(read_text_file(path));
-    } catch (const nlohmann::json::exception& e) {
-        throw InputError(path, fmt::format("not valid JSON: {}", e.what()));
-    }
+    const nlohmann::json j = read_json_file(path);
     if (!j.is_object() || j.value("format", "") != "avsi-stimuli-manifest" || !j.contains("stimuli") ||
         !j["stimuli"].is_array())
         throw InputError(path, 0, 0, "format", "expected an avsi stimulus manifest (format \"avsi-stimuli-manifest\")");
@@ -458,6 +455,20 @@ RunResult run_session(const RunSettings& settings) {
                                    folder->manifest().sha256, std::set<std::string>(stimuli.begin(), stimuli.end()).size());
     }
     const std::vector<int> answered = store.answered_positions(settings.subject);
+    if (answered.size() >= plan.size()) {
+        // Every trial answered: a session left open was killed after its last
+        // commit. Close it as completed rather than opening an empty session.
+        for (const auto& open : store.open_sessions(settings.subject)) {
+            store.end_session(open.session, "completed");
+            store.add_event(open.session, settings.subject, "completed",
+                            fmt::format("session {} ended without closing after the last trial was answered; "
+                                        "closed as completed by the next run",
+                                        open.session));
+        }
+        throw InputError(settings.database, fmt::format("subject {} has answered all {} planned trials; nothing to "
+                                                        "run (give another --subject)",
+                                                        settings.subject, plan.size()));
+    }
     RunResult result;
     result.answered_before = static_cast<int>(answered.size());
     result.total = static_cast<int>(plan.size());

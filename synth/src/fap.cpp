@@ -31,6 +31,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "avsi/core/checks.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
@@ -250,8 +251,8 @@ FapStream read_fap(const std::filesystem::path& path) {
                          fmt::format("expected `2.1 name fps frames`, got \"{}\"", fmt::join(header, " ")));
     out.name = header[1];
     const auto fps = parse_double(header[2]);
-    if (!fps || *fps <= 0.0)
-        throw InputError(file, header_line, 0, "fps", fmt::format("expected a positive number, got \"{}\"", header[2]));
+    if (!fps || *fps <= 0.0 || *fps > 1000.0)
+        throw InputError(file, header_line, 0, "fps", fmt::format("expected a frame rate in (0, 1000], got \"{}\"", header[2]));
     out.fps = *fps;
     const auto declared = parse_int(header[3]);
     if (!declared || *declared < 0)
@@ -302,6 +303,9 @@ FapStream read_fap(const std::filesystem::path& path) {
                 if (!x)
                     throw InputError(file, value_line, 0, fmt::format("frame {} FAP {}", k, i + 1),
                                      fmt::format("expected a number, got \"{}\"", values[v]));
+                // 10⁵ FAPU is ~100 times a face's key distances (1024 FAPU each).
+                require_in_range(*x, -1e5, 1e5, at(file, value_line, 0, fmt::format("frame {} FAP {}", k, i + 1)),
+                                 "a FAP value in FAPU");
                 if (width == 1) frame.values[i] = *x;
             }
         }

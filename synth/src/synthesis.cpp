@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/audio.h"
+#include "avsi/core/checks.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
@@ -188,7 +189,8 @@ void run_synthesis(const SynthesisSettings& s) {
         phones = std::move(speech.phones);
         if (!s.wav_path.empty()) write_audio(s.wav_path, speech.audio);
     }
-    const Trajectory trajectory = model->synthesize(phones, s.fps);
+    // A phone the model lacks is a problem of the model file.
+    const Trajectory trajectory = with_file_context(s.model_path, [&] { return model->synthesize(phones, s.fps); });
     if (format == "fap")
         write_fap(s.out_path, trajectory_to_fap(trajectory, FapUnits{}, FapMapping{}, s.out_path.stem().string()));
     else
