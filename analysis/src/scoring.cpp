@@ -370,6 +370,7 @@ std::vector<Response> read_responses(const std::filesystem::path& path) {
         out.push_back(std::move(r));
     }
     problems.throw_if_any();
+    if (out.empty()) throw InputError(path, "expected at least one response, got none");
     return out;
 }
 

@@ -55,10 +55,22 @@ void DiagnosticList::throw_if_any() const {
 }
 
 std::string excerpt(std::string_view text, std::size_t max_bytes) {
-    if (text.size() <= max_bytes) return std::string(text);
-    std::size_t cut = max_bytes;
-    while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
-    return std::string(text.substr(0, cut)) + "… (" + std::to_string(text.size()) + " bytes)";
+    std::size_t cut = std::min(max_bytes, text.size());
+    while (cut > 0 && cut < text.size() && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
+    std::string out;
+    for (const char c : text.substr(0, cut)) {
+        const auto u = static_cast<unsigned char>(c);
+        if (u < 0x20 || u == 0x7F) {  // control characters (NUL, line breaks) shown escaped
+            static const char* hex = "0123456789abcdef";
+            out += "\\x";
+            out += hex[u >> 4];
+            out += hex[u & 15];
+        } else {
+            out += c;
+        }
+    }
+    if (cut < text.size()) out += "… (" + std::to_string(text.size()) + " bytes)";
+    return out;
 }
 
 std::size_t edit_distance(const std::string& a, const std::string& b) {

@@ -177,7 +177,7 @@ std::vector<Token> tokenize_textgrid(const std::string& text, const std::string&
                 throw InputError(path, line, 0, "",
                                  fmt::format("expected a number, a \"string\" or a TextGrid keyword, got "
                                              "\"{}\"{}",
-                                             word, close.empty() ? "" : fmt::format(" (did you mean '{}'?)", close)));
+                                             excerpt(word), close.empty() ? "" : fmt::format(" (did you mean '{}'?)", close)));
             }
             key = word;
             i = j;
