@@ -138,12 +138,21 @@ StimulusManifest read_stimulus_manifest(const fs::path& dir) {
         try {
             ManifestEntry e;
             e.path = item.at("path").get<std::string>();
-            e.frames = item.at("frames").get<int>();
-            e.fps = item.at("fps").get<double>();
+            const auto& frames = item.at("frames");
+            // A stimulus lasts at most max_time_s at 1000 fps.
+            if (!frames.is_number_integer() || frames.get<double>() < 1 || frames.get<double>() > max_time_s * 1000)
+                problems.add(path.string(), 0, 0, field + ".frames",
+                             fmt::format("expected an integer in [1, {}], got {}", max_time_s * 1000, frames.dump()));
+            else
+                e.frames = frames.get<int>();
+            e.fps = require_in_range(item.at("fps").get<double>(), 1e-3, 1000.0, at(path.string(), 0, 0, field + ".fps"),
+                                     "a frame rate");
             e.sha256 = item.at("sha256").get<std::string>();
             m.stimuli[e.path] = e;
         } catch (const nlohmann::json::exception& e) {
-            problems.add(path.string(), 0, 0, field, fmt::format("expected path, frames, fps and sha256: {}", e.what()));
+            problems.add(path.string(), 0, 0, field, fmt::format("expected path, frames, fps and sha256: {}", json_error_text(e)));
+        } catch (const InputError& e) {
+            problems.add(e.first());
         }
     }
     problems.throw_if_any();
@@ -417,6 +426,10 @@ RunResult run_session(const RunSettings& settings) {
     auto opener = make_stimulus_opener(settings, protocol.render.fps);
 
     Store store(settings.database);
+    // One runner per subject: a second one stops here, before any window or
+    // write (the first one's sessions stay as they are).
+    const std::string broken_lock = store.lock_subject(settings.subject);
+    if (!broken_lock.empty()) log_warning("{}: subject {}: {}", settings.database.string(), settings.subject, broken_lock);
     if (const auto name = store.meta("experiment"); name && *name != protocol.name)
         throw InputError(settings.database, fmt::format("this database belongs to experiment \"{}\", the protocol "
                                                         "is \"{}\"; give another --db",
