@@ -253,7 +253,7 @@ TEST(StoreFailures, AReadOnlyLocationIsNamedWhenOpening) {
 TEST(StoreFailures, AFullDiskNamesTheDatabaseAndKeepsWhatWasCommitted) {
     const auto dir = temp_dir("store_full") / "disk";
     const int code = in_child([&] {
-        if (!private_tmpfs(dir, "size=256k")) return 77;
+        if (!private_tmpfs(dir, "size=512k")) return 77;
         const auto db = dir / "full.sqlite";
         // A filler to free once the disk is full, so the check below can
         // read (SQLite's shared-memory file needs room too).
