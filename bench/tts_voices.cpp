@@ -3,8 +3,9 @@
 // voice, the speaking rate, the duration, the objective intelligibility of
 // the protocol's vocoded version against the clean one (STOI, ESTOI: the same
 // library calls as `avsi vocode` and `avsi stoi`), and how far each stop's
-// and fricative's acoustic onset after a vowel lies from its label
-// (core/onsets.h). Prints a Markdown table; --csv writes per-sentence rows.
+// and fricative's acoustic onset after a vowel lies from the synthesiser's
+// own label (core/onsets.h; the front end then aligns those labels to the
+// onsets, so this column is the synthesiser's property). Prints a Markdown table; --csv writes per-sentence rows.
 //
 //   build/bench/tts_voices [--protocol P] [--corpus C] [--voices a,b] [--csv out.csv]
 //
@@ -185,6 +186,7 @@ int run(int argc, char** argv) {
     for (const auto& spec : voices) {
         TtsSettings tts;
         set_tts_voice(tts, spec);
+        tts.align_onsets = false;  // the synthesiser's own segment times (the audio is the same)
         const TtsVoiceInfo info = describe_tts_voice(tts);
         const std::vector<Row> rows = measure(corpus, tts, base);
         std::vector<double> syl_rate, wpm, speech, stoi, estoi, offsets;

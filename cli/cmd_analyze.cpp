@@ -17,6 +17,7 @@ struct AnalyzeOptions {
     std::string input, out = "report", keywords, title = "Keyword intelligibility by condition", protocol;
     std::vector<std::string> conditions;
     double confidence = 0.95;
+    std::string dv = "percent";
 };
 
 const bool registered_analyze = register_command({
@@ -36,6 +37,10 @@ const bool registered_analyze = register_command({
             ->capture_default_str()
             ->check(CLI::Range(0.5, 0.999));
         sub.add_option("--title", o->title, "Report title")->capture_default_str();
+        sub.add_option("--dv", o->dv,
+                       "Column of the dependent variable: percent (checked to lie in [0, 100]) or any numeric "
+                       "column of a long-format subject,condition,<dv> table (a score, an SRT in dB)")
+            ->capture_default_str();
         auto* conditions =
             sub.add_option("--conditions", o->conditions,
                            "Conditions to analyse, in the order of every table, plot and contrast, comma-separated "
@@ -52,6 +57,7 @@ const bool registered_analyze = register_command({
             s.keywords_csv = o->keywords;
             s.confidence = o->confidence;
             s.title = o->title;
+            s.dv = o->dv;
             s.conditions = o->conditions;
             if (!o->protocol.empty()) {
                 for (const auto& c : load_protocol(o->protocol).conditions) s.conditions.push_back(c.name);

@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "avsi/analysis/alternates.h"
 #include "avsi/core/corpus.h"
 #include "avsi/core/corpus_tools.h"
 #include "avsi/core/error.h"
@@ -25,12 +26,15 @@ struct ImportOptions {
     std::string input;
     std::string out;
     std::string report;
+    bool no_alternates = false;
     ImportSettings settings;
 };
 
-int run_import(const ImportOptions& o) {
-    const auto lines = read_sentence_list(o.input);
-    ImportOutcome outcome = import_sentences(lines, o.settings);
+int run_import(ImportOptions o) {
+    const auto lines = read_sentence_lines(o.input);
+    // Alternates come from the scoring module's tables; core's import takes them as a function.
+    if (!o.no_alternates) o.settings.alternates = analysis::AlternateFinder::load_default()->proposer();
+    ImportOutcome outcome = import_listed_sentences(lines, o.settings);
     outcome.corpus.path = o.out;
     write_corpus(o.out, outcome.corpus);
     if (o.report.empty()) fmt::print("{}", outcome.report);
@@ -43,9 +47,12 @@ int run_import(const ImportOptions& o) {
 void add_import(CLI::App& corpus, std::function<int()>& chosen) {
     auto o = std::make_shared<ImportOptions>();
     CLI::App* sub = corpus.add_subcommand(
-        "import", "Propose keywords (content words; nouns, verbs and adjectives first, rarer first) for an "
-                  "unmarked sentence list and write a corpus CSV; reports the choice per sentence");
-    sub->add_option("sentences", o->input, "Sentence list: one sentence a line, '#' comments")
+        "import", "Propose keywords (content words; nouns, verbs and adjectives first, rarer first by word "
+                  "frequency) and alternates to review for a sentence list and write a corpus CSV; reports the "
+                  "choice per sentence");
+    sub->add_option("sentences", o->input,
+                    "Sentence list: one sentence a line (numbering such as '1.' or '(1)' and bullets removed), "
+                    "'List N' headings set the list, '#' comments")
         ->required()
         ->check(CLI::ExistingFile);
     sub->add_option("--out", o->out, "Corpus CSV to write (id,text,keywords)")->required();
@@ -61,6 +68,8 @@ void add_import(CLI::App& corpus, std::function<int()>& chosen) {
         ->capture_default_str();
     sub->add_option("--voice", o->settings.voice, "espeak-ng voice for counting syllables")->capture_default_str();
     sub->add_option("--id-prefix", o->settings.id_prefix, "Prefix of the sentence ids")->capture_default_str();
+    sub->add_flag("--no-alternates", o->no_alternates,
+                  "Propose no alternates (default: inflections and spelling variants in the `review` column)");
     sub->callback([o, &chosen] { chosen = [o] { return run_import(*o); }; });
 }
 

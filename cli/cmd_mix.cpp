@@ -25,11 +25,13 @@ struct MixOptions {
     std::uint64_t seed = 1;
     bool batch = false, report = false;
     unsigned threads = 0;
+    std::string channels = "mono";
 };
 
 int run_mix(const MixOptions& o) {
     ProcessSettings s;
     s.vocode = false;
+    s.channels = parse_channel_mode(o.channels);
     s.noise.kind = o.noise == "speech-shaped" ? NoiseKind::SpeechShaped : NoiseKind::File;
     if (s.noise.kind == NoiseKind::File) {
         if (!fs::exists(o.noise))
@@ -70,6 +72,10 @@ const bool registered_mix = register_command({
         sub.add_flag("--batch", o->batch, "Process every .wav in the input folder into the output folder, on all cores");
         sub.add_flag("--report", o->report, "Print the noise settings for a methods section");
         sub.add_option("--threads", o->threads, "Threads for --batch (0: all cores)")->capture_default_str();
+        sub.add_option("--channels", o->channels,
+                       "Several channels: mono (mixed down first, a note says so) or keep (the same noise added to "
+                       "every channel)")
+            ->capture_default_str();
         return [o] { return run_mix(*o); };
     }});
 

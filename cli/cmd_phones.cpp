@@ -1,6 +1,6 @@
 // `avsi phones`: text (through espeak-ng or Festival) or a recording's
-// alignment (TextGrid, HTK .lab, TSV) to a timed phone sequence in the
-// project phone set.
+// alignment (TextGrid, HTK .lab, TIMIT .phn, TSV) to a timed phone sequence
+// in the project phone set.
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -23,6 +23,10 @@ struct PhonesOptions {
     std::string textgrid;
     std::string lab;
     std::string tsv;
+    std::string phn;
+    std::string phone_set = "auto";
+    std::string lab_units = "auto";
+    double sample_rate_hz = 16000.0;
     std::string tier = "phones";
     std::string wav;
     std::string out;
@@ -58,15 +62,22 @@ int run_phones(PhonesOptions o) {
     if (!o.voice.empty() && o.tts_given)
         throw UsageError("give --tts or the older --voice (an espeak-ng voice), not both");
     set_tts_voice(o.tts, o.voice.empty() ? o.tts_spec : "espeak:" + o.voice, "--tts");
-    const int inputs = int(!o.text.empty()) + int(!o.textgrid.empty()) + int(!o.lab.empty()) + int(!o.tsv.empty());
+    const int inputs = int(!o.text.empty()) + int(!o.textgrid.empty()) + int(!o.lab.empty()) + int(!o.tsv.empty()) +
+                       int(!o.phn.empty());
     if (inputs != 1)
-        throw UsageError("give exactly one input: --text, --textgrid, --lab or --tsv");
+        throw UsageError("give exactly one input: --text, --textgrid, --lab, --phn or --tsv");
     if (!o.wav.empty() && o.text.empty()) throw UsageError("--wav writes synthesised speech; it needs --text");
-    const std::string out_ext = lower_extension(o.out);
+    const std::string out_ext = o.out == "-" ? ".tsv" : lower_extension(o.out);
     if (out_ext != ".tsv" && out_ext != ".textgrid")
         throw UsageError(fmt::format("--out {}: unsupported extension '{}'; supported extensions are '.tsv' "
-                                     "and '.TextGrid'",
+                                     "and '.TextGrid' (or - for TSV on standard output)",
                                      o.out, std::filesystem::path(o.out).extension().string()));
+    const auto phone_set = parse_label_phone_set(o.phone_set);
+    if (!phone_set)
+        throw UsageError(fmt::format("--phone-set: expected auto, arpabet, festival, timit or mocha, got \"{}\"",
+                                     o.phone_set));
+    if (o.lab_units != "auto" && o.lab_units != "100ns" && o.lab_units != "seconds")
+        throw UsageError(fmt::format("--lab-units: expected auto, 100ns or seconds, got \"{}\"", o.lab_units));
 
     PhoneSequence phones;
     if (!o.text.empty()) {
@@ -77,13 +88,29 @@ int run_phones(PhonesOptions o) {
             log_info("wrote {} ({:.3f} s, {} Hz)", o.wav, result.audio.duration_s(), result.audio.sample_rate_hz);
         }
     } else {
-        const std::string input = !o.textgrid.empty() ? o.textgrid : !o.lab.empty() ? o.lab : o.tsv;
-        const std::string want = !o.textgrid.empty() ? ".textgrid" : !o.lab.empty() ? ".lab" : ".tsv";
+        const std::string input = !o.textgrid.empty() ? o.textgrid
+                                  : !o.lab.empty()    ? o.lab
+                                  : !o.phn.empty()    ? o.phn
+                                                      : o.tsv;
+        const std::string want = !o.textgrid.empty() ? ".textgrid"
+                                 : !o.lab.empty()    ? ".lab"
+                                 : !o.phn.empty()    ? ".phn"
+                                                     : ".tsv";
         if (lower_extension(input) != want)
             throw UsageError(fmt::format("{} does not end in '{}'", input, want == ".textgrid" ? ".TextGrid" : want));
         LabelReadOptions read_options;
         read_options.tier = o.tier;
+        read_options.phone_set = *phone_set;
+        read_options.sample_rate_hz = o.sample_rate_hz;
+        read_options.lab_unit = o.lab_units == "100ns"     ? LabTimeUnit::HundredNanoseconds
+                                : o.lab_units == "seconds" ? LabTimeUnit::Seconds
+                                                           : LabTimeUnit::Auto;
         phones = read_phones(input, read_options);
+    }
+    if (o.out == "-") {
+        std::fputs(phones_tsv(phones).c_str(), stdout);  // for `avsi phones … --out - | avsi stream`
+        std::fflush(stdout);
+        return ExitSuccess;
     }
     if (out_ext == ".tsv") write_phones_tsv(o.out, phones);
     else write_phones_textgrid(o.out, phones);
@@ -99,7 +126,21 @@ const bool registered_phones = register_command({
         sub.add_option("--text", o->text, "Text to synthesise (see --tts)")->capture_default_str();
         sub.add_option("--textgrid", o->textgrid, "Praat TextGrid to read phones from (long or short text format)")
             ->capture_default_str();
-        sub.add_option("--lab", o->lab, "HTK label file to read phones from (times in 100 ns units)")
+        sub.add_option("--lab", o->lab,
+                       "HTK label file to read phones from (times in 100 ns units; also HTS full-context labels, "
+                       "phone- or state-aligned, and MOCHA .lab files in seconds)")
+            ->capture_default_str();
+        sub.add_option("--phn", o->phn, "TIMIT .phn file to read phones from (sample indices, see --sample-rate)")
+            ->capture_default_str();
+        sub.add_option("--sample-rate", o->sample_rate_hz, "Sample rate of the .phn sample indices (Hz)")
+            ->capture_default_str()
+            ->check(CLI::Range(1.0, 1e6));
+        sub.add_option("--phone-set", o->phone_set,
+                       "Phone set of the labels: auto (project ARPAbet, IPA, Festival, TIMIT; MOCHA when only it "
+                       "fits), arpabet, festival, timit or mocha")
+            ->capture_default_str();
+        sub.add_option("--lab-units", o->lab_units,
+                       ".lab times: auto (integers 100 ns, decimals seconds), 100ns or seconds")
             ->capture_default_str();
         sub.add_option("--tsv", o->tsv, "TSV label file to read phones from (start_s end_s phone)")
             ->capture_default_str();
@@ -119,7 +160,9 @@ const bool registered_phones = register_command({
             ->capture_default_str();
         sub.add_option("--wav", o->wav, "Write the synthesised speech here (WAV, with --text)")
             ->capture_default_str();
-        sub.add_option("--out", o->out, "Output phones: .tsv (start_s end_s phone) or .TextGrid (required)")
+        sub.add_option("--out", o->out,
+                       "Output phones: .tsv (start_s end_s phone) or .TextGrid; - writes the TSV to standard output "
+                       "(required)")
             ->capture_default_str();
         return [o, tts] {
             o->tts_given = tts->count() > 0;

@@ -4,7 +4,6 @@
 
 #include <fmt/format.h>
 
-#include "avsi/core/audio.h"
 #include "avsi/vocoder/stoi.h"
 #include "command.h"
 
@@ -14,6 +13,7 @@ namespace {
 struct StoiOptions {
     std::string clean, degraded;
     bool extended = false;
+    std::string channels = "mono";
 };
 
 const bool registered_stoi = register_command({
@@ -24,9 +24,14 @@ const bool registered_stoi = register_command({
         sub.add_option("clean", o->clean, "Clean reference WAV")->required()->check(CLI::ExistingFile);
         sub.add_option("degraded", o->degraded, "Degraded WAV (same rate and length)")->required()->check(CLI::ExistingFile);
         sub.add_flag("--extended", o->extended, "Extended STOI (Jensen & Taal 2016) instead of STOI");
+        sub.add_option("--channels", o->channels,
+                       "Several channels: mono (mixed down to one, a note says so) or keep (one value per channel, "
+                       "a line each)")
+            ->capture_default_str();
         return [o] {
-            const double d = vocoder::stoi(read_audio(o->clean), read_audio(o->degraded), {.extended = o->extended});
-            fmt::print("{:.6f}\n", d);
+            const auto mode = vocoder::parse_channel_mode(o->channels);
+            for (double d : vocoder::stoi_files(o->clean, o->degraded, {.extended = o->extended}, mode))
+                fmt::print("{:.6f}\n", d);
             return 0;
         };
     }});

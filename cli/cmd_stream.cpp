@@ -1,7 +1,9 @@
 // `avsi stream`: low-latency streaming synthesis with an ANN model (Beskow
 // §4.5, synth/ann.h): reads timed phones from stdin as they arrive, one per
 // line "start_s end_s phone" (e.g. "0.120 0.185 AA1"; a recogniser may send a
-// phone in pieces), and writes each frame as CSV "time_s,<10 parameters>" to
+// phone in pieces; a first line "start_s end_s phone", the header of the TSV
+// that `avsi phones` writes, is skipped, so `avsi phones … --out - | avsi
+// stream` works), and writes each frame as CSV "time_s,<10 parameters>" to
 // stdout as soon as its look-ahead is known, flushing every line. At end of
 // input the remaining frames follow. With --latency-log, each frame's
 // emission is timed: latency_s = emission wall time − (origin + time_s), the
@@ -67,10 +69,18 @@ int run_stream(const StreamOptions& o) {
     const auto& inventory = PhoneInventory::builtin();
     std::string line;
     int line_no = 0;
+    bool first = true;
     while (std::getline(std::cin, line)) {
         ++line_no;
         if (line.find_first_not_of(" \t\r") == std::string::npos || line[line.find_first_not_of(" \t")] == '#')
             continue;
+        if (first) {
+            first = false;
+            std::istringstream words(line);
+            std::string a, b, c, d;
+            if ((words >> a >> b >> c) && !(words >> d) && a == "start_s" && b == "end_s" && c == "phone")
+                continue;  // the header of `avsi phones` TSV
+        }
         std::istringstream in(line);
         double start = 0, end = 0;
         std::string label, extra;

@@ -26,13 +26,18 @@ const bool registered_synth = register_command({
         sub.add_option("--voice", o->voice, "espeak-ng voice for --text")->capture_default_str();
         sub.add_option("--wav", o->wav_path, "Write the synthesised speech here (with --text)")
             ->capture_default_str();
-        sub.add_option("--fps", o->fps, "Frame rate of the trajectory")->capture_default_str();
+        auto* fps = sub.add_option("--fps", o->fps, "Frame rate of the trajectory")->capture_default_str();
         sub.add_option("--out", o->out_path, "Output trajectory (.csv or .fap)")->required()->capture_default_str();
         sub.add_option("--format", o->format, "Output format: csv, fap, or auto (by --out extension)")
             ->capture_default_str();
+        sub.add_option("--target", o->fap_target,
+                       "FAP output for: mpeg4 (68 mask entries, Xface and MPEG-4 players) or greta (25 fps, "
+                       "Greta's 69-entry masks; Greta plays every file at 25 fps)")
+            ->capture_default_str();
         sub.add_option("--plot", o->plot_path, "Write an SVG plot of one parameter here")->capture_default_str();
         sub.add_option("--param", o->plot_param, "Parameter to plot (snake_case name)")->capture_default_str();
-        return [o] {
+        return [o, fps] {
+            o->fps_given = fps->count() > 0;
             synth::run_synthesis(*o);
             return 0;
         };

@@ -31,10 +31,12 @@ struct VocodeOptions {
     double snr_db = 0.0;
     bool report = false;
     unsigned threads = 0;
+    std::string channels = "mono";
 };
 
 int run_vocode(const VocodeOptions& o, const CLI::App& sub) {
     ProcessSettings s;
+    s.channels = parse_channel_mode(o.channels);
     s.vocoder = o.v;
     s.vocoder.spacing = parse_band_spacing(o.spacing, "--spacing");
     s.vocoder.envelope = parse_envelope_method(o.envelope, "--envelope");
@@ -127,6 +129,10 @@ const bool registered_vocode = register_command({
                        "WAV files or folders whose long-term spectrum shapes speech-shaped noise (default: the inputs)");
         sub.add_flag("--report", o->report, "Print every setting a methods section needs (band edges, filters, ...)");
         sub.add_option("--threads", o->threads, "Threads for --batch (0: all cores)")->capture_default_str();
+        sub.add_option("--channels", o->channels,
+                       "Several channels: mono (mixed down first, a note says so) or keep (each vocoded with the "
+                       "same noise carrier, so a dual-mono input stays dual-mono)")
+            ->capture_default_str();
         return [o, &sub] { return run_vocode(*o, sub); };
     }});
 

@@ -186,6 +186,14 @@ std::vector<std::string> Inflections::lemmas(const std::string& w, const OpenWor
     return out;
 }
 
+std::vector<std::string> Inflections::irregular_forms_of(const std::string& lemma) const {
+    std::vector<std::string> out;
+    for (const auto& [form, lemmas] : m_irregular)
+        if (std::find(lemmas.begin(), lemmas.end(), lemma) != lemmas.end()) out.push_back(form);
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
 bool Inflections::same_lemma(const std::string& a, const std::string& b, const OpenWords* open) const {
     if (a == b) return true;
     const auto la = lemmas(a, open), lb = lemmas(b, open);

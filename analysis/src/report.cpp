@@ -133,6 +133,7 @@ json result_json(const AnalysisResult& r, const ReportSettings& settings) {
         {"generated_by", "avsi 0.1.0 analyze"},
         {"source", settings.source.string()},
         {"rule_set", settings.rule_set},
+        {"dependent_variable", settings.dv},
         {"confidence", settings.confidence},
         {"design", {{"subjects", a.n}, {"conditions", r.data.conditions}, {"dropped_subjects", dropped}}},
         {"anova",
@@ -475,6 +476,18 @@ void write_report(const AnalysisResult& result, const ReportSettings& settings) 
         plot.ci_high.push_back(d.ci_high);
     }
     plot.title = settings.title;
+    if (settings.dv != "percent") {
+        // Any other dependent variable: its name on the axis, the range of the intervals.
+        plot.y_label = settings.dv;
+        double lo = 0.0, hi = 0.0;
+        for (std::size_t j = 0; j < plot.means.size(); ++j) {
+            lo = std::min({lo, plot.ci_low[j], plot.means[j]});
+            hi = std::max({hi, plot.ci_high[j], plot.means[j]});
+        }
+        const double pad = 0.05 * std::max(hi - lo, 1e-9);
+        plot.y_min = lo < 0.0 ? lo - pad : 0.0;
+        plot.y_max = hi > 0.0 ? hi + pad : 0.0;
+    }
     plot.caption = fmt::format("n = {} subjects; error bars: {:.0f} % within-subject CI (Cousineau-Morey). {}",
                                result.anova.n, 100.0 * settings.confidence, apa_anova(result.anova));
     {
@@ -567,7 +580,7 @@ std::optional<AnalysisResult> analyze_file(const AnalyzeSettings& s) {
                          "<db> --out DIR` to get responses.csv, then `avsi score --corpus sentences.csv --responses "
                          "DIR/responses.csv --out DIR`, then `avsi analyze DIR/scores.csv --out report/`");
     in.close();
-    const Scores scores = select_conditions(read_scores(s.input), s.conditions, s.conditions_source);
+    const Scores scores = select_conditions(read_scores(s.input, s.dv), s.conditions, s.conditions_source);
     ReportSettings rs;
     rs.out_dir = s.out_dir;
     rs.source = s.input;
@@ -575,6 +588,7 @@ std::optional<AnalysisResult> analyze_file(const AnalyzeSettings& s) {
     rs.confidence = s.confidence;
     rs.title = s.title;
     rs.rule_set = scores.rule_set;
+    rs.dv = s.dv;
 
     std::vector<std::string> conditions;
     std::map<std::string, std::size_t> scored_cells;  // subject → conditions with a percent

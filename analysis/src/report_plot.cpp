@@ -17,23 +17,31 @@ namespace {
 void draw(cairo_t* cr, const PlotData& d, double width, double height) {
     const double left = 80, right = 30, top = 50, bottom = 110;
     const double pw = width - left - right, ph = height - top - bottom;
-    const double y_min = 0.0, y_max = 100.0;
+    const double y_min = d.y_min, y_max = d.y_max > d.y_min ? d.y_max : d.y_min + 1.0;
     auto y_of = [&](double v) { return top + ph * (1.0 - (std::clamp(v, y_min, y_max) - y_min) / (y_max - y_min)); };
 
     cairo_set_source_rgb(cr, 1, 1, 1);
     cairo_paint(cr);
     cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
 
-    // Grid and y axis labels every 10 %.
+    // Grid and y axis labels: 10 steps of a round size (10 % for percent).
     cairo_set_font_size(cr, 12);
-    for (int v = 0; v <= 100; v += 10) {
+    const double raw_step = (y_max - y_min) / 10.0;
+    const double magnitude = std::pow(10.0, std::floor(std::log10(raw_step)));
+    double tick = 10.0 * magnitude;
+    for (double m : {1.0, 2.0, 5.0, 10.0})
+        if (raw_step <= m * magnitude) {
+            tick = m * magnitude;
+            break;
+        }
+    for (double v = std::ceil(y_min / tick - 1e-9) * tick; v <= y_max + 1e-9 * tick; v += tick) {
         const double y = y_of(v);
         cairo_set_source_rgb(cr, 0.88, 0.88, 0.88);
         cairo_set_line_width(cr, 1);
         cairo_move_to(cr, left, y);
         cairo_line_to(cr, left + pw, y);
         cairo_stroke(cr);
-        const std::string label = std::to_string(v);
+        const std::string label = fmt::format("{:g}", std::abs(v) < 1e-12 * tick ? 0.0 : v);
         cairo_text_extents_t ext;
         cairo_text_extents(cr, label.c_str(), &ext);
         cairo_set_source_rgb(cr, 0.2, 0.2, 0.2);
@@ -55,7 +63,8 @@ void draw(cairo_t* cr, const PlotData& d, double width, double height) {
         const double x = left + step * (double(j) + 0.5);
         const double bar_w = std::min(60.0, step * 0.6);
         cairo_set_source_rgb(cr, 0.35, 0.55, 0.8);
-        cairo_rectangle(cr, x - bar_w / 2, y_of(d.means[j]), bar_w, y_of(0) - y_of(d.means[j]));
+        const double base = std::clamp(0.0, y_min, y_max);  // bars grow from 0 (or the axis end)
+        cairo_rectangle(cr, x - bar_w / 2, y_of(d.means[j]), bar_w, y_of(base) - y_of(d.means[j]));
         cairo_fill(cr);
         cairo_set_source_rgb(cr, 0, 0, 0);
         cairo_set_line_width(cr, 1.5);

@@ -11,9 +11,10 @@ namespace avsi::analysis::detail {
 
 struct PlotData {
     std::vector<std::string> conditions;
-    std::vector<double> means, ci_low, ci_high;  // percent
+    std::vector<double> means, ci_low, ci_high;  // in the dependent variable's unit
     std::string title;
     std::string y_label = "Keywords correct (%)";
+    double y_min = 0.0, y_max = 100.0;           // the axis (percent: 0–100)
     std::string caption;  // under the axis, e.g. "error bars: 95 % within-subject CI (Cousineau-Morey)"
 };
 

@@ -2,6 +2,7 @@
 #include "avsi/analysis/scores.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <set>
 
@@ -21,17 +22,19 @@ bool is_missing(const std::string& s) { return s.empty() || s == "NA" || s == "n
 
 }  // namespace
 
-Scores read_scores(const std::filesystem::path& path) {
+Scores read_scores(const std::filesystem::path& path, const std::string& dv) {
     const CsvTable table = read_csv(path);
     const std::string p = path.string();
     const std::size_t c_subject = table.require_column("subject");
     const std::size_t c_condition = table.require_column("condition");
-    const std::size_t c_percent = table.require_column("percent");
+    const std::size_t c_percent = table.require_column(dv);
+    const bool percent_dv = dv == "percent";
     const auto c_keywords = table.column("keywords");
     const auto c_correct = table.column("correct");
     const auto c_rule_set = table.column("rule_set");
 
     Scores scores;
+    scores.dv = dv;
     DiagnosticList problems;
     std::set<std::pair<std::string, std::string>> seen;
     for (const auto& row : table.rows) {
@@ -46,9 +49,12 @@ Scores read_scores(const std::filesystem::path& path) {
         const std::string percent = trim(row.fields[c_percent]);
         if (!is_missing(percent)) {
             const auto v = parse_double(percent);
-            if (!v || *v < 0.0 || *v > 100.0)
+            if (percent_dv && (!v || *v < 0.0 || *v > 100.0))
                 problems.add(p, row.line, int(c_percent) + 1, "percent",
                              fmt::format("expected a number in [0, 100] or NA, got \"{}\"", percent));
+            else if (!v || !std::isfinite(*v))
+                problems.add(p, row.line, int(c_percent) + 1, dv,
+                             fmt::format("expected a number or NA, got \"{}\"", percent));
             else
                 cell.percent = *v;
         }
@@ -110,6 +116,7 @@ Scores select_conditions(const Scores& scores, const std::vector<std::string>& c
     problems.throw_if_any();
     Scores selected;
     selected.rule_set = scores.rule_set;
+    selected.dv = scores.dv;
     for (const auto& name : conditions)
         for (const auto& c : scores.cells)
             if (c.condition == name) selected.cells.push_back(c);

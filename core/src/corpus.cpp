@@ -64,6 +64,7 @@ Corpus read_corpus(const std::filesystem::path& path) {
     const auto c_list = table.column("list");
     const auto c_audio = table.column("audio");
     const auto c_labels = table.column("labels");
+    const auto c_review = table.column("review");
     const std::filesystem::path base = path.parent_path();
 
     Corpus corpus;
@@ -101,6 +102,7 @@ Corpus read_corpus(const std::filesystem::path& path) {
         if (c_list) s.list = trim(row.fields[*c_list]);
         if (c_audio && !trim(row.fields[*c_audio]).empty()) s.audio = base / trim(row.fields[*c_audio]);
         if (c_labels && !trim(row.fields[*c_labels]).empty()) s.labels = base / trim(row.fields[*c_labels]);
+        if (c_review) s.review = trim(row.fields[*c_review]);
         if (s.audio.empty() != s.labels.empty())
             problems.add(p, row.line, 0, s.audio.empty() ? "audio" : "labels",
                          "expected both a recording and its phone labels, or neither");
@@ -112,10 +114,11 @@ Corpus read_corpus(const std::filesystem::path& path) {
 }
 
 void write_corpus(const std::filesystem::path& path, const Corpus& corpus) {
-    bool any_list = false, any_media = false;
+    bool any_list = false, any_media = false, any_review = false;
     for (const auto& s : corpus.sentences) {
         any_list |= !s.list.empty();
         any_media |= !s.audio.empty();
+        any_review |= !s.review.empty();
     }
     std::vector<std::string> header{"id", "text", "keywords"};
     if (any_list) header.push_back("list");
@@ -123,6 +126,7 @@ void write_corpus(const std::filesystem::path& path, const Corpus& corpus) {
         header.push_back("audio");
         header.push_back("labels");
     }
+    if (any_review) header.push_back("review");
     std::string out = csv_line(header);
     const auto base = path.parent_path();
     for (const auto& s : corpus.sentences) {
@@ -138,6 +142,7 @@ void write_corpus(const std::filesystem::path& path, const Corpus& corpus) {
             fields.push_back(s.audio.empty() ? "" : s.audio.lexically_relative(base).string());
             fields.push_back(s.labels.empty() ? "" : s.labels.lexically_relative(base).string());
         }
+        if (any_review) fields.push_back(s.review);
         out += csv_line(fields);
     }
     write_text_file(path, out);

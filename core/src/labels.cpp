@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <map>
 #include <set>
 
 #include <fmt/format.h>
@@ -447,30 +448,97 @@ void write_textgrid(const std::filesystem::path& path, const TextGrid& grid) {
     write_text_file(path, out);
 }
 
-std::vector<Interval> read_htk_lab(const std::filesystem::path& path) {
+std::vector<Interval> read_htk_lab(const std::filesystem::path& path, LabTimeUnit unit, LabTimeUnit* used_unit) {
     const std::string text = read_unicode_text(path);
     const std::string p = path.string();
+    struct Row {
+        int line;
+        std::vector<std::string> fields;
+    };
+    std::vector<Row> rows;
+    bool decimal = false;
+    for_each_line(text, [&](int number, const std::string& line) {
+        auto fields = split_fields(line);
+        if (fields.empty()) return;
+        if (fields.size() < 3) {
+            if (fields.size() == 1 && hts_centre_phone(fields[0]))
+                throw InputError(p, number, 1, "",
+                                 "expected \"start end label\", got an HTS full-context label without times (a "
+                                 "front end's training label; align it first, e.g. with HSMMAlign, for timed labels)");
+            throw InputError(p, number, 0, "",
+                             fmt::format("expected \"start end label\" (times in 100 ns units), got \"{}\"", trim(line)));
+        }
+        for (std::size_t f = 0; f < 2; ++f)
+            if (fields[f].find_first_of(".eE") != std::string::npos && parse_double(fields[f])) decimal = true;
+        rows.push_back({number, std::move(fields)});
+    });
+    if (unit == LabTimeUnit::Auto) unit = decimal ? LabTimeUnit::Seconds : LabTimeUnit::HundredNanoseconds;
+    if (used_unit) *used_unit = unit;
+    const bool seconds = unit == LabTimeUnit::Seconds;
+    const char* unit_text = seconds ? "a time in seconds" : "a time in 100 ns units";
+    std::vector<Interval> intervals;
+    for (const Row& row : rows) {
+        const auto& fields = row.fields;
+        double start_s = 0.0, end_s = 0.0;
+        if (seconds) {
+            const auto start = parse_double(fields[0]);
+            const auto end = parse_double(fields[1]);
+            if (!start || !std::isfinite(*start) || *start < 0)
+                throw InputError(p, row.line, 1, "start",
+                                 fmt::format("expected {} (a number >= 0), got \"{}\"", unit_text, fields[0]));
+            if (!end || !std::isfinite(*end) || *end < *start)
+                throw InputError(p, row.line, 0, "end",
+                                 fmt::format("expected {} (>= start {}), got \"{}\"", unit_text, *start, fields[1]));
+            start_s = *start;
+            end_s = *end;
+        } else {
+            const auto start = parse_int(fields[0]);
+            const auto end = parse_int(fields[1]);
+            if (!start || *start < 0)
+                throw InputError(p, row.line, 1, "start",
+                                 fmt::format("expected {} (an integer >= 0), got \"{}\"", unit_text, fields[0]));
+            if (!end || *end < *start)
+                throw InputError(p, row.line, 0, "end",
+                                 fmt::format("expected {} (an integer >= start {}), got \"{}\"", unit_text, *start,
+                                             fields[1]));
+            start_s = static_cast<double>(*start) * 1e-7;
+            end_s = static_cast<double>(*end) * 1e-7;
+        }
+        // Trailing fields: HTK scores; HSMMAlign writes the phone's label after its first state's.
+        const bool state_line = fields[2].size() > 3 && fields[2].back() == ']';
+        for (std::size_t f = 3; f < fields.size(); ++f)
+            if (!parse_double(fields[f]) && !(state_line && f == 3))
+                throw InputError(p, row.line, 0, "score",
+                                 fmt::format("expected a numeric score after the label, got \"{}\"", fields[f]));
+        intervals.push_back({start_s, end_s, fields[2], row.line});
+    }
+    return intervals;
+}
+
+std::vector<Interval> read_timit_phn(const std::filesystem::path& path, double sample_rate_hz) {
+    const std::string text = read_unicode_text(path);
+    const std::string p = path.string();
+    if (!(sample_rate_hz > 0.0) || !std::isfinite(sample_rate_hz))
+        throw InputError(p, 0, 0, "sample rate", fmt::format("expected a sample rate > 0 Hz, got {}", sample_rate_hz));
     std::vector<Interval> intervals;
     for_each_line(text, [&](int number, const std::string& line) {
         const auto fields = split_fields(line);
         if (fields.empty()) return;
-        if (fields.size() < 3)
+        if (fields.size() != 3)
             throw InputError(p, number, 0, "",
-                             fmt::format("expected \"start end label\" (times in 100 ns units), got \"{}\"", trim(line)));
+                             fmt::format("expected \"start end phone\" (sample indices at {} Hz), got \"{}\"",
+                                         sample_rate_hz, trim(line)));
         const auto start = parse_int(fields[0]);
         const auto end = parse_int(fields[1]);
         if (!start || *start < 0)
             throw InputError(p, number, 1, "start",
-                             fmt::format("expected a time in 100 ns units (an integer >= 0), got \"{}\"", fields[0]));
+                             fmt::format("expected a sample index (an integer >= 0), got \"{}\"", fields[0]));
         if (!end || *end < *start)
             throw InputError(p, number, 0, "end",
-                             fmt::format("expected a time in 100 ns units (an integer >= start {}), got \"{}\"",
-                                         *start, fields[1]));
-        for (std::size_t f = 3; f < fields.size(); ++f)
-            if (!parse_double(fields[f]))
-                throw InputError(p, number, 0, "score",
-                                 fmt::format("expected a numeric score after the label, got \"{}\"", fields[f]));
-        intervals.push_back({static_cast<double>(*start) * 1e-7, static_cast<double>(*end) * 1e-7, fields[2], number});
+                             fmt::format("expected a sample index (an integer >= start {}), got \"{}\"", *start,
+                                         fields[1]));
+        intervals.push_back({static_cast<double>(*start) / sample_rate_hz, static_cast<double>(*end) / sample_rate_hz,
+                             fields[2], number});
     });
     return intervals;
 }
@@ -504,8 +572,288 @@ std::vector<Interval> read_label_tsv(const std::filesystem::path& path) {
     return intervals;
 }
 
-PhoneSequence phones_from_intervals(const std::vector<Interval>& intervals, const std::string& source_path) {
+std::optional<LabelPhoneSet> parse_label_phone_set(std::string_view name) {
+    if (name == "auto") return LabelPhoneSet::Auto;
+    if (name == "arpabet") return LabelPhoneSet::Arpabet;
+    if (name == "festival") return LabelPhoneSet::Festival;
+    if (name == "timit") return LabelPhoneSet::Timit;
+    if (name == "mocha") return LabelPhoneSet::Mocha;
+    return std::nullopt;
+}
+
+std::optional<HtsPhone> hts_centre_phone(std::string_view label) {
+    // p1^p2-p3+p4=p5@… : the centre phone p3 lies between the first '-' after
+    // '^' and the next '+', which is followed by '='.
+    const std::size_t caret = label.find('^');
+    if (caret == std::string_view::npos) return std::nullopt;
+    const std::size_t minus = label.find('-', caret + 1);
+    if (minus == std::string_view::npos) return std::nullopt;
+    const std::size_t plus = label.find('+', minus + 1);
+    if (plus == std::string_view::npos) return std::nullopt;
+    const std::size_t equals = label.find('=', plus + 1);
+    if (equals == std::string_view::npos || plus == minus + 1) return std::nullopt;
+    HtsPhone out;
+    out.phone = std::string(label.substr(minus + 1, plus - minus - 1));
+    // The five phones come before the first '@' or '/' (p5@…/A:…).
+    if (out.phone.find_first_of("^=@/:") != std::string::npos ||
+        equals > std::min(label.find('@'), label.find('/')))
+        return std::nullopt;
+    // "/B:b1-b2-b3…": b1 says whether the current syllable is stressed.
+    const std::size_t b = label.find("/B:");
+    if (b != std::string_view::npos) {
+        const std::size_t stop = label.find_first_of("-@&#$!;|/", b + 3);
+        const std::string_view b1 = label.substr(b + 3, stop == std::string_view::npos ? std::string_view::npos
+                                                                                         : stop - b - 3);
+        if (b1 == "1") out.stressed = true;
+        else if (b1 == "0") out.stressed = false;
+    }
+    return out;
+}
+
+std::vector<Interval> merge_hts_labels(const std::vector<Interval>& intervals, const std::string& source_path) {
+    std::vector<Interval> out;
+    int last_state = 0;          // state of the last merged line (0: none)
+    std::string last_label;      // its label without the state suffix
+    for (const Interval& in : intervals) {
+        Interval iv = in;
+        int state = 0;
+        // A state suffix "[n]", n = 2…9 (HTS numbers the emitting states from 2).
+        if (iv.text.size() > 3 && iv.text.back() == ']') {
+            const std::size_t open = iv.text.rfind('[');
+            const auto n = open == std::string::npos ? std::nullopt
+                                                     : parse_int(iv.text.substr(open + 1, iv.text.size() - open - 2));
+            if (!n || *n < 2 || *n > 9)
+                throw InputError(source_path, iv.line, 0, "state",
+                                 fmt::format("expected a state suffix [2] … [9] at the end of an HTS state-aligned "
+                                             "label, got \"{}\"",
+                                             iv.text.substr(open == std::string::npos ? 0 : open)));
+            state = static_cast<int>(*n);
+            iv.text.erase(open);
+        }
+        if (state > 0 && state > last_state && !out.empty() && iv.text == last_label &&
+            std::abs(iv.start_s - out.back().end_s) < 1e-6) {
+            out.back().end_s = iv.end_s;  // the next state of the same phone
+            last_state = state;
+            continue;
+        }
+        if (state > 2 && !(state > last_state && iv.text == last_label))
+            throw InputError(source_path, iv.line, 0, "state",
+                             fmt::format("expected state [2] to start a phone (or state [{}] of \"{}\"), got state "
+                                         "[{}]",
+                                         last_state + 1, hts_centre_phone(last_label) ? hts_centre_phone(last_label)->phone
+                                                                                       : last_label,
+                                         state));
+        last_state = state;
+        last_label = iv.text;
+        out.push_back(std::move(iv));
+    }
+    for (Interval& iv : out) {
+        if (iv.text.find('^') == std::string::npos) continue;
+        const auto centre = hts_centre_phone(iv.text);
+        if (!centre)
+            throw InputError(source_path, iv.line, 0, "label",
+                             fmt::format("expected an HTS full-context label \"p1^p2-p3+p4=p5…\" (the centre phone "
+                                         "p3 between '-' and '+'), got \"{}\"",
+                                         iv.text.substr(0, 60)));
+        iv.text = centre->phone;
+        // The syllable's stress as a digit on a vowel, as ARPAbet writes it ("ae1").
+        if (centre->stressed) {
+            const PhoneInventory& inventory = PhoneInventory::builtin();
+            bool vowel = false;
+            try {
+                const auto phones = inventory.from_festival(centre->phone, false, "");
+                vowel = !phones.empty() && inventory.is_vowel(phones.front().symbol);
+            } catch (const InputError&) {
+                try {
+                    vowel = inventory.is_vowel(inventory.parse_label(centre->phone, "").symbol);
+                } catch (const InputError&) {
+                }
+            }
+            if (vowel && !std::isdigit(static_cast<unsigned char>(iv.text.back())))
+                iv.text += *centre->stressed ? '1' : '0';
+        }
+    }
+    return out;
+}
+
+namespace {
+
+struct UnitGuess {
+    std::string name;
+    std::string advice;
+    double seconds_per_unit;
+};
+
+// Units label times are commonly written in.
+const std::vector<UnitGuess>& common_units() {
+    static const std::vector<UnitGuess> units = {
+        {"100 ns units", "an HTK .lab", 1e-7},
+        {"sample indices at 16000 Hz", "a TIMIT .phn", 1.0 / 16000.0},
+        {"sample indices at 8000 Hz", "a .phn with --sample-rate 8000", 1.0 / 8000.0},
+        {"sample indices at 22050 Hz", "a .phn with --sample-rate 22050", 1.0 / 22050.0},
+        {"sample indices at 44100 Hz", "a .phn with --sample-rate 44100", 1.0 / 44100.0},
+        {"sample indices at 48000 Hz", "a .phn with --sample-rate 48000", 1.0 / 48000.0},
+        {"milliseconds", "convert them to seconds for a .tsv", 1e-3},
+        {"seconds", "a .tsv or a MOCHA .lab", 1.0},
+    };
+    return units;
+}
+
+}  // namespace
+
+void check_label_times(const std::vector<Interval>& intervals, const std::string& source_path,
+                       const std::string& unit, double seconds_per_unit) {
+    constexpr double min_phone_s = 0.005, min_utterance_s = 0.05;
+    std::vector<double> durations;
+    const Interval* first_short = nullptr;
+    for (const Interval& iv : intervals) {
+        const double d = iv.end_s - iv.start_s;
+        if (!(d > 0.0)) continue;  // zero-length marks are not phones
+        durations.push_back(d);
+        if (d < min_phone_s && !first_short) first_short = &iv;
+    }
+    const double utterance_s = intervals.empty() ? 0.0 : intervals.back().end_s - intervals.front().start_s;
+    if (durations.empty()) return;  // nothing timed: phones_from_intervals reports it
+    if (!first_short && utterance_s >= min_utterance_s) return;
+    // The unit that makes the median phone a typical 30–300 ms (closest to 80 ms).
+    std::vector<double> sorted = durations;
+    std::sort(sorted.begin(), sorted.end());
+    const double median_units = sorted[sorted.size() / 2] / seconds_per_unit;
+    // Every unit that makes the median phone a typical 30–300 ms, the common ones first.
+    std::string hint;
+    int shown = 0;
+    for (const UnitGuess& u : common_units()) {
+        const double median_s = median_units * u.seconds_per_unit;
+        if (median_s < 0.03 || median_s > 0.3 || std::abs(u.seconds_per_unit / seconds_per_unit - 1.0) < 1e-9) continue;
+        if (shown++ == 3) break;
+        hint += fmt::format("{} {} (median phone {:.1f} ms: {})", shown == 1 ? "; the times look like" : " or",
+                            u.name, median_s * 1e3, u.advice);
+    }
+    if (first_short)
+        throw InputError(source_path, first_short->line, 0, fmt::format("label \"{}\"", first_short->text),
+                         fmt::format("expected a phone of at least 5 ms, got {:.3g} ms with the times read as {}{}",
+                                     (first_short->end_s - first_short->start_s) * 1e3, unit, hint));
+    throw InputError(source_path, intervals.back().line, 0, "end",
+                     fmt::format("expected an utterance of at least 50 ms, got {:.3g} ms with the times read as {}{}",
+                                 utterance_s * 1e3, unit, hint));
+}
+
+namespace {
+
+// The project phones of one label in one phone set; nullopt if the set does
+// not know it (Auto: the ARPAbet, IPA, Festival and TIMIT tables in turn).
+std::optional<std::vector<Phone>> map_label(const PhoneInventory& inventory, const std::string& label,
+                                            LabelPhoneSet set) {
+    auto attempt = [&](auto&& fn) -> std::optional<std::vector<Phone>> {
+        try {
+            return fn();
+        } catch (const InputError&) {
+            return std::nullopt;
+        }
+    };
+    auto arpabet = [&] { return attempt([&] { return std::vector<Phone>{inventory.parse_label(label, "")}; }); };
+    auto ipa = [&] { return attempt([&] { return inventory.from_ipa(label, ""); }); };
+    // Festival's phones, a vowel perhaps with a stress digit ("ae1", from HTS labels).
+    auto festival = [&] {
+        return attempt([&] {
+            const char last = label.empty() ? ' ' : label.back();
+            if (label.size() > 1 && last >= '0' && last <= '2') {
+                const std::string base = label.substr(0, label.size() - 1);
+                auto phones = inventory.from_festival(base, last != '0', "");
+                if (phones.empty() || !inventory.is_vowel(phones.front().symbol))
+                    throw InputError("", 0, 0, "phone", "only vowels carry a stress digit");
+                return phones;
+            }
+            return inventory.from_festival(label, false, "");
+        });
+    };
+    auto timit = [&] { return attempt([&] { return inventory.from_timit(label, ""); }); };
+    auto mocha = [&] { return attempt([&] { return inventory.from_mocha(label, ""); }); };
+    switch (set) {
+        case LabelPhoneSet::Arpabet:
+            if (auto p = arpabet()) return p;
+            return ipa();
+        case LabelPhoneSet::Festival: return festival();
+        case LabelPhoneSet::Timit: return timit();
+        case LabelPhoneSet::Mocha: return mocha();
+        case LabelPhoneSet::Auto:
+            if (auto p = arpabet()) return p;
+            if (auto p = ipa()) return p;
+            if (auto p = festival()) return p;
+            return timit();
+    }
+    return std::nullopt;
+}
+
+const char* phone_set_text(LabelPhoneSet set) {
+    switch (set) {
+        case LabelPhoneSet::Auto: return "an ARPAbet phone of the project set (AA1, P, sil), an IPA, Festival or TIMIT label";
+        case LabelPhoneSet::Arpabet: return "an ARPAbet phone of the project set (AA1, P, sil) or an IPA label";
+        case LabelPhoneSet::Festival: return "a phone of Festival's radio set (pau, ax, el)";
+        case LabelPhoneSet::Timit: return "one of TIMIT's 61 symbols (h#, ix, bcl)";
+        case LabelPhoneSet::Mocha: return "a symbol of MOCHA's set (sil, breath, @@, ii)";
+    }
+    return "";
+}
+
+// TIMIT: does the release `next` end the closure `closure` (bcl b, dcl d, …;
+// also dcl jh and tcl ch, the closures of the affricates)?
+bool closure_released_by(const std::string& closure, const std::string& next) {
+    static const std::map<std::string, std::vector<std::string>> releases = {
+        {"bcl", {"b"}}, {"dcl", {"d", "jh"}}, {"gcl", {"g"}}, {"pcl", {"p"}}, {"tcl", {"t", "ch"}}, {"kcl", {"k"}}};
+    const auto it = releases.find(closure);
+    return it != releases.end() && std::find(it->second.begin(), it->second.end(), next) != it->second.end();
+}
+
+}  // namespace
+
+PhoneSequence phones_from_intervals(const std::vector<Interval>& input, const std::string& source_path,
+                                    LabelPhoneSet phone_set) {
     const PhoneInventory& inventory = PhoneInventory::builtin();
+    // A TIMIT closure followed at once by its release is one stop (or affricate).
+    std::vector<Interval> intervals;
+    for (std::size_t k = 0; k < input.size(); ++k) {
+        const Interval& iv = input[k];
+        const bool timit = phone_set == LabelPhoneSet::Timit || phone_set == LabelPhoneSet::Auto;
+        if (timit && k + 1 < input.size() && closure_released_by(trim(iv.text), trim(input[k + 1].text)) &&
+            std::abs(input[k + 1].start_s - iv.end_s) < 1e-6) {
+            Interval merged = input[k + 1];
+            merged.start_s = iv.start_s;
+            merged.line = iv.line;
+            intervals.push_back(std::move(merged));
+            ++k;
+            continue;
+        }
+        intervals.push_back(iv);
+    }
+    // Map every label; in Auto, a file some of whose labels only MOCHA knows is MOCHA's.
+    std::vector<std::optional<std::vector<Phone>>> mapped(intervals.size());
+    std::size_t first_unknown = intervals.size();
+    for (std::size_t k = 0; k < intervals.size(); ++k) {
+        mapped[k] = map_label(inventory, trim(intervals[k].text), phone_set);
+        if (!mapped[k] && first_unknown == intervals.size()) first_unknown = k;
+    }
+    if (phone_set == LabelPhoneSet::Auto && first_unknown < intervals.size()) {
+        std::vector<std::optional<std::vector<Phone>>> mocha(intervals.size());
+        bool all = true;
+        for (std::size_t k = 0; k < intervals.size() && all; ++k) {
+            mocha[k] = map_label(inventory, trim(intervals[k].text), LabelPhoneSet::Mocha);
+            all = mocha[k].has_value();
+        }
+        if (all) {
+            log_info("{}: reading the labels in MOCHA-TIMIT's phone set (\"{}\" is MOCHA's)", source_path,
+                     trim(intervals[first_unknown].text));
+            mapped = std::move(mocha);
+            first_unknown = intervals.size();
+        }
+    }
+    if (first_unknown < intervals.size()) {
+        const Interval& iv = intervals[first_unknown];
+        throw InputError(source_path, iv.line, 0, fmt::format("interval {}", first_unknown + 1),
+                         fmt::format("unknown phone label \"{}\": expected {} listed in protocols/phone_map.tsv",
+                                     excerpt(trim(iv.text)), phone_set_text(phone_set)));
+    }
+
     PhoneSequence phones;
     auto push = [&phones](Phone phone) {
         if (!phones.empty() && phone.symbol == "sil" && phones.back().symbol == "sil") {
@@ -527,31 +875,25 @@ PhoneSequence phones_from_intervals(const std::vector<Interval>& intervals, cons
                              fmt::format("expected a start at or after the previous label's end ({}), got {}",
                                          previous_end, iv.start_s));
         const std::string label = trim(iv.text);
-        std::vector<Phone> mapped;
-        try {
-            mapped.push_back(inventory.parse_label(label, source_path));
-        } catch (const InputError&) {
-            try {
-                mapped = inventory.from_ipa(label, source_path);
-            } catch (const InputError&) {
-                throw InputError(source_path, iv.line, 0, field,
-                                 fmt::format("unknown phone label \"{}\": expected an ARPAbet phone of the "
-                                             "project set (AA1, P, sil) or an IPA label listed in "
-                                             "protocols/phone_map.tsv",
-                                             excerpt(label)));
-            }
-        }
         if (iv.end_s <= iv.start_s) {
             log_debug("{}: skipping the zero-length label \"{}\" at {} s", source_path, label, iv.start_s);
             continue;
         }
         if (iv.start_s > previous_end + 1e-6) push({"sil", previous_end, iv.start_s, false});
+        const std::vector<Phone>& ps = *mapped[k];
+        if (ps.empty()) {
+            // No phone of its own (TIMIT q): its time joins the phone before it.
+            if (phones.empty()) push({"sil", iv.start_s, iv.end_s, false});
+            else phones.back().end_s = iv.end_s;
+            previous_end = iv.end_s;
+            continue;
+        }
         const double start = std::max(iv.start_s, phones.empty() ? 0.0 : phones.back().end_s);
-        const double step = (iv.end_s - start) / static_cast<double>(std::max<std::size_t>(1, mapped.size()));
-        for (std::size_t m = 0; m < mapped.size(); ++m) {
-            Phone phone = mapped[m];
+        const double step = (iv.end_s - start) / static_cast<double>(ps.size());
+        for (std::size_t m = 0; m < ps.size(); ++m) {
+            Phone phone = ps[m];
             phone.start_s = start + step * static_cast<double>(m);
-            phone.end_s = m + 1 == mapped.size() ? iv.end_s : start + step * static_cast<double>(m + 1);
+            phone.end_s = m + 1 == ps.size() ? iv.end_s : start + step * static_cast<double>(m + 1);
             push(std::move(phone));
         }
         previous_end = iv.end_s;
@@ -562,6 +904,9 @@ PhoneSequence phones_from_intervals(const std::vector<Interval>& intervals, cons
 PhoneSequence read_phones(const std::filesystem::path& path, const LabelReadOptions& options) {
     const std::string ext = ascii_lower(path.extension().string());
     std::vector<Interval> intervals;
+    std::string unit = "seconds";
+    double seconds_per_unit = 1.0;
+    LabelPhoneSet set = options.phone_set;
     if (ext == ".textgrid") {
         const TextGrid grid = read_textgrid(path);
         const Tier& tier = grid.tier(options.tier, path.string());
@@ -570,28 +915,44 @@ PhoneSequence read_phones(const std::filesystem::path& path, const LabelReadOpti
                              fmt::format("expected '{}' to be an interval tier, got a point tier", options.tier));
         intervals = tier.items;
     } else if (ext == ".lab") {
-        intervals = read_htk_lab(path);
+        LabTimeUnit used = LabTimeUnit::Auto;
+        intervals = read_htk_lab(path, options.lab_unit, &used);
+        if (used == LabTimeUnit::HundredNanoseconds) {
+            unit = "100 ns units (HTK)";
+            seconds_per_unit = 1e-7;
+        }
+        intervals = merge_hts_labels(intervals, path.string());
+    } else if (ext == ".phn") {
+        intervals = read_timit_phn(path, options.sample_rate_hz);
+        unit = fmt::format("sample indices at {} Hz", options.sample_rate_hz);
+        seconds_per_unit = 1.0 / options.sample_rate_hz;
+        if (set == LabelPhoneSet::Auto) set = LabelPhoneSet::Timit;
     } else if (ext == ".tsv") {
         intervals = read_label_tsv(path);
     } else {
         throw InputError(path, fmt::format("unsupported label file extension '{}'; supported extensions are "
-                                           "'.TextGrid', '.lab' and '.tsv'",
+                                           "'.TextGrid', '.lab', '.phn' and '.tsv'",
                                            path.extension().string()));
     }
-    PhoneSequence phones = phones_from_intervals(intervals, path.string());
+    check_label_times(intervals, path.string(), unit, seconds_per_unit);
+    PhoneSequence phones = phones_from_intervals(intervals, path.string(), set);
     if (phones.empty())
         throw InputError(path, intervals.empty() ? std::string("expected at least one phone, got none (an empty file?)")
                                                  : "expected at least one phone, got only zero-length labels");
     return phones;
 }
 
-void write_phones_tsv(const std::filesystem::path& path, const PhoneSequence& phones) {
+std::string phones_tsv(const PhoneSequence& phones) {
     const PhoneInventory& inventory = PhoneInventory::builtin();
     std::string out = "start_s\tend_s\tphone\n";
     for (const Phone& phone : phones)
         out += fmt::format("{:.6f}\t{:.6f}\t{}\n", phone.start_s, phone.end_s,
                            phone_label(phone, inventory.is_vowel(phone.symbol)));
-    write_text_file(path, out);
+    return out;
+}
+
+void write_phones_tsv(const std::filesystem::path& path, const PhoneSequence& phones) {
+    write_text_file(path, phones_tsv(phones));
 }
 
 void write_phones_textgrid(const std::filesystem::path& path, const PhoneSequence& phones) {

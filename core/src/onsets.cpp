@@ -57,4 +57,17 @@ std::vector<ObstruentOnset> obstruent_onsets(const Audio& audio, const PhoneSequ
     return out;
 }
 
+std::size_t align_obstruent_onsets(const Audio& audio, PhoneSequence& phones, const OnsetAlignment& alignment) {
+    AVSI_ASSERT(alignment.max_shift_s >= 0.0);
+    std::size_t moved = 0;
+    for (const ObstruentOnset& o : obstruent_onsets(audio, phones)) {
+        if (o.drop_db < alignment.min_drop_db || std::abs(o.offset_s()) > alignment.max_shift_s) continue;
+        if (o.acoustic_s == o.label_s) continue;
+        phones[o.phone - 1].end_s = o.acoustic_s;
+        phones[o.phone].start_s = o.acoustic_s;
+        ++moved;
+    }
+    return moved;
+}
+
 }  // namespace avsi

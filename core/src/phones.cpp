@@ -253,9 +253,11 @@ PhoneInventory PhoneInventory::load(const std::filesystem::path& phones_tsv,
         else if (source == "espeak-en") table = &inv.m_espeak_en;
         else if (source == "ipa") table = &inv.m_ipa;
         else if (source == "festival") table = &inv.m_festival;
+        else if (source == "timit") table = &inv.m_timit;
+        else if (source == "mocha") table = &inv.m_mocha;
         else {
             problems.add(mpath, row.line, 0, "source",
-                         fmt::format("expected espeak, espeak-en, ipa or festival, got \"{}\"", source));
+                         fmt::format("expected espeak, espeak-en, ipa, festival, timit or mocha, got \"{}\"", source));
             continue;
         }
         auto targets = split_spaces(phones_text);
@@ -402,6 +404,34 @@ std::vector<Phone> PhoneInventory::from_festival(std::string_view name, bool str
                                      close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
     }
     return make_phones(*this, it->second, stressed);
+}
+
+namespace {
+
+// One symbol of a label phone set (timit, mocha) from its table.
+std::vector<Phone> from_label_set(const PhoneInventory& inventory,
+                                  const std::map<std::string, std::vector<std::string>, std::less<>>& table,
+                                  std::string_view symbol, std::string_view set_name, std::string_view where) {
+    const auto it = table.find(symbol);
+    if (it == table.end()) {
+        std::vector<std::string> names;
+        for (const auto& [k, v] : table) names.push_back(k);
+        const std::string close = closest_match(std::string(symbol), names);
+        throw InputError(std::string(where), 0, 0, "phone",
+                         fmt::format("unknown {} phone \"{}\": not in protocols/phone_map.tsv{}", set_name, symbol,
+                                     close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
+    }
+    return make_phones(inventory, it->second, false);
+}
+
+}  // namespace
+
+std::vector<Phone> PhoneInventory::from_timit(std::string_view symbol, std::string_view where) const {
+    return from_label_set(*this, m_timit, symbol, "TIMIT", where);
+}
+
+std::vector<Phone> PhoneInventory::from_mocha(std::string_view symbol, std::string_view where) const {
+    return from_label_set(*this, m_mocha, symbol, "MOCHA", where);
 }
 
 bool PhoneInventory::knows_ipa(std::string_view ipa) const {

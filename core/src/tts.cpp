@@ -4,7 +4,8 @@
 // stress. Both are mapped into the project phone set through
 // protocols/phone_map.tsv and padded to the same edge silences. Each utterance
 // is synthesised in a forked child from a freshly initialised engine, so the
-// output never depends on what was spoken before (docs/tts.md).
+// output never depends on what was spoken before (docs/tts.md). Then the
+// obstruent onsets are aligned to the audio (onsets.h).
 #include "avsi/core/tts.h"
 
 #include <espeak-ng/speak_lib.h>
@@ -28,6 +29,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
+#include "avsi/core/onsets.h"
 #include "festival_tts.h"
 #include "wire.h"
 
@@ -557,8 +559,10 @@ TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings
                                       std::pair{"trail_silence_s", settings.trail_silence_s}})
         if (!(value >= 0.0 && value <= 60.0))
             throw InputError("tts", 0, 0, name, fmt::format("expected seconds in [0, 60], got {}", value));
-    return settings.engine == TtsEngine::Festival ? synthesize_festival(text, settings)
-                                                  : synthesize_espeak(text, settings);
+    TtsResult result = settings.engine == TtsEngine::Festival ? synthesize_festival(text, settings)
+                                                              : synthesize_espeak(text, settings);
+    if (settings.align_onsets) align_obstruent_onsets(result.audio, result.phones);
+    return result;
 }
 
 }  // namespace avsi

@@ -21,6 +21,7 @@
 #include "avsi/core/labels.h"
 #include "avsi/core/rng.h"
 #include "avsi/core/text.h"
+#include "avsi/learn/haskins_mat.h"
 
 namespace avsi::learn {
 
@@ -40,7 +41,8 @@ std::vector<std::string> param_names() {
 
 TrackKind default_kind(const fs::path& track) {
     const std::string ext = ascii_lower(track.extension().string());
-    return (ext == ".ema" || ext == ".est" || ext == ".track") ? TrackKind::Sensors : TrackKind::Parameters;
+    return (ext == ".ema" || ext == ".est" || ext == ".track" || ext == ".mat") ? TrackKind::Sensors
+                                                                                : TrackKind::Parameters;
 }
 
 }  // namespace
@@ -166,17 +168,29 @@ std::optional<TrackKind> parse_kind(const std::string& text, const fs::path& tra
 
 void read_mapping(const json& j, SensorMappingSettings& s, DiagnosticList& problems, const std::string& path) {
     static const std::vector<std::string> keys = {
-        "upper_incisor", "lower_incisor", "upper_lip", "lower_lip", "reference_sensors", "x_suffix",
+        "preset", "upper_incisor", "lower_incisor", "upper_lip", "lower_lip", "reference_sensors", "x_suffix",
         "y_suffix", "mm_per_unit", "rest_percentile", "jaw_opening_full_mm", "jaw_thrust_full_mm",
-        "lip_vertical_full_mm", "lip_protrusion_full_mm", "fps"};
+        "lip_vertical_full_mm", "lip_protrusion_full_mm", "fps", "lateral_suffix", "lateral_positive_left",
+        "mouth_corner_left", "mouth_corner_right", "jaw_shift_full_mm", "corner_stretch_full_mm"};
     if (!j.is_object()) {
         problems.add(path, 0, 0, "sensor_mapping", "expected an object");
         return;
     }
+    // A preset first; the other keys change it.
+    if (j.contains("preset")) {
+        const json& v = j["preset"];
+        const auto preset = v.is_string() ? sensor_mapping_preset(v.get<std::string>()) : std::nullopt;
+        if (!preset)
+            problems.add(path, 0, 0, "sensor_mapping.preset",
+                         fmt::format("expected \"mocha\" or \"haskins\", got {}", v.dump()));
+        else
+            s = *preset;
+    }
     for (const auto& [key, value] : j.items()) {
         const std::string field = "sensor_mapping." + key;
         try {
-            if (key == "upper_incisor") s.upper_incisor = value.get<std::string>();
+            if (key == "preset") continue;
+            else if (key == "upper_incisor") s.upper_incisor = value.get<std::string>();
             else if (key == "lower_incisor") s.lower_incisor = value.get<std::string>();
             else if (key == "upper_lip") s.upper_lip = value.get<std::string>();
             else if (key == "lower_lip") s.lower_lip = value.get<std::string>();
@@ -190,6 +204,12 @@ void read_mapping(const json& j, SensorMappingSettings& s, DiagnosticList& probl
             else if (key == "lip_vertical_full_mm") s.lip_vertical_full_mm = value.get<double>();
             else if (key == "lip_protrusion_full_mm") s.lip_protrusion_full_mm = value.get<double>();
             else if (key == "fps") s.fps = value.get<double>();
+            else if (key == "lateral_suffix") s.lateral_suffix = value.get<std::string>();
+            else if (key == "lateral_positive_left") s.lateral_positive_left = value.get<bool>();
+            else if (key == "mouth_corner_left") s.mouth_corner_left = value.get<std::string>();
+            else if (key == "mouth_corner_right") s.mouth_corner_right = value.get<std::string>();
+            else if (key == "jaw_shift_full_mm") s.jaw_shift_full_mm = value.get<double>();
+            else if (key == "corner_stretch_full_mm") s.corner_stretch_full_mm = value.get<double>();
             else {
                 const std::string hint = closest_match(key, keys);
                 problems.add(path, 0, 0, field,
@@ -200,7 +220,7 @@ void read_mapping(const json& j, SensorMappingSettings& s, DiagnosticList& probl
         }
     }
     for (double v : {s.mm_per_unit, s.jaw_opening_full_mm, s.jaw_thrust_full_mm, s.lip_vertical_full_mm,
-                     s.lip_protrusion_full_mm, s.fps})
+                     s.lip_protrusion_full_mm, s.fps, s.jaw_shift_full_mm, s.corner_stretch_full_mm})
         if (!(v > 0.0 && v <= 1e6)) {
             problems.add(path, 0, 0, "sensor_mapping",
                          fmt::format("expected every scale, unit and fps in (0, 1e6], got {}", v));
@@ -241,7 +261,9 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
         CorpusEntry e;
         e.id = id;
         e.track = corpus.dir / track;
-        e.labels = corpus.dir / labels;
+        // A Haskins .mat holds its own phones: its labels default to the file itself.
+        const bool mat = ascii_lower(fs::path(track).extension().string()) == ".mat";
+        e.labels = labels.empty() && mat ? e.track : corpus.dir / labels;
         if (!audio.empty()) e.audio = corpus.dir / audio;
         for (const auto& [field, p, required] :
              {std::tuple{"track", e.track, true}, std::tuple{"labels", e.labels, true},
@@ -251,7 +273,7 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
                 problems.add(mpath, line, 0, where + "." + field, fmt::format("file not found: {}", p.string()));
         }
         if (track.empty()) problems.add(mpath, line, 0, where + ".track", "expected a file name");
-        if (labels.empty()) problems.add(mpath, line, 0, where + ".labels", "expected a file name");
+        if (labels.empty() && !mat) problems.add(mpath, line, 0, where + ".labels", "expected a file name");
         if (auto k = parse_kind(kind, e.track, problems, mpath, line, where + ".kind")) e.kind = *k;
         e.fixed_split = parse_split(split, problems, mpath, line, where + ".split");
         corpus.entries.push_back(std::move(e));
@@ -294,7 +316,10 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
             if (!(corpus.test_fraction > 0.0 && corpus.test_fraction < 1.0))
                 problems.add(mpath, 0, 0, "split.test_fraction", fmt::format("expected a number in (0, 1), got {}", corpus.test_fraction));
         }
-        if (j.contains("sensor_mapping")) read_mapping(j["sensor_mapping"], corpus.sensor_mapping, problems, mpath);
+        if (j.contains("sensor_mapping")) {
+            read_mapping(j["sensor_mapping"], corpus.sensor_mapping, problems, mpath);
+            corpus.sensor_mapping_given = true;
+        }
         if (!j.contains("utterances") || !j["utterances"].is_array()) {
             problems.add(mpath, 0, 0, "utterances", "expected an array of utterances");
         } else {
@@ -353,11 +378,26 @@ CorpusSplit split_corpus(const ArticulatoryCorpus& corpus, const SplitSettings& 
 CorpusUtterance load_corpus_utterance(const ArticulatoryCorpus& corpus, const CorpusEntry& entry) {
     CorpusUtterance u;
     u.id = entry.id;
-    u.phones = read_phones(entry.labels);
-    if (entry.kind == TrackKind::Parameters)
-        u.track = read_param_track_csv(entry.track);
-    else
-        u.track = map_sensors_to_params(read_sensor_file(entry.track), corpus.sensor_mapping, entry.track.string());
+    const bool mat = ascii_lower(entry.track.extension().string()) == ".mat";
+    if (mat && entry.kind == TrackKind::Sensors) {
+        // A Haskins recording: sensors, and (when it is its own label file) phones.
+        const HaskinsRecording rec = read_haskins_mat(entry.track);
+        if (entry.labels == entry.track) {
+            check_label_times(rec.phones, entry.track.string(), "seconds", 1.0);
+            u.phones = phones_from_intervals(rec.phones, entry.track.string(), LabelPhoneSet::Arpabet);
+        } else {
+            u.phones = read_phones(entry.labels);
+        }
+        const SensorMappingSettings mapping =
+            corpus.sensor_mapping_given ? corpus.sensor_mapping : *sensor_mapping_preset("haskins");
+        u.track = map_sensors_to_params(rec.track, mapping, entry.track.string());
+    } else {
+        u.phones = read_phones(entry.labels);
+        if (entry.kind == TrackKind::Parameters)
+            u.track = read_param_track_csv(entry.track);
+        else
+            u.track = map_sensors_to_params(read_sensor_file(entry.track), corpus.sensor_mapping, entry.track.string());
+    }
     if (u.phones.empty()) throw InputError(entry.labels, "no phones in the label file");
     // The labels must describe this track: ending at most k_label_overrun_s
     // after its last frame (aligners round the final silence).

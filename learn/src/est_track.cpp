@@ -19,6 +19,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/core/text.h"
+#include "avsi/learn/haskins_mat.h"
 
 namespace avsi::learn {
 
@@ -318,7 +319,9 @@ EstTrack read_sensor_csv(const std::filesystem::path& path) {
 }
 
 EstTrack read_sensor_file(const std::filesystem::path& path) {
-    if (ascii_lower(path.extension().string()) == ".csv") return read_sensor_csv(path);
+    const std::string ext = ascii_lower(path.extension().string());
+    if (ext == ".csv") return read_sensor_csv(path);
+    if (ext == ".mat") return read_haskins_mat(path).track;
     return read_est_track(path);
 }
 

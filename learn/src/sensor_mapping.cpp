@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
+#include "avsi/core/log.h"
 #include "avsi/learn/articulatory_corpus.h"
 
 namespace avsi::learn {
@@ -63,7 +64,60 @@ double mean_finite(const std::vector<double>& v) {
     return n ? sum / static_cast<double>(n) : missing_value;
 }
 
+// The lateral column of a sensor, or npos without lateral data.
+std::size_t lateral_column(const EstTrack& t, const std::string& sensor, const SensorMappingSettings& s,
+                           const std::string& source) {
+    if (s.lateral_suffix.empty()) return EstTrack::npos;
+    const std::string name = sensor + s.lateral_suffix;
+    const std::size_t c = t.channel(name);
+    if (c == EstTrack::npos) {
+        const std::string hint = closest_match(name, t.channels);
+        throw InputError(source, 0, 0, name,
+                         fmt::format("lateral sensor channel not found{}",
+                                     hint.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", hint)));
+    }
+    return c;
+}
+
 }  // namespace
+
+std::optional<SensorMappingSettings> sensor_mapping_preset(std::string_view name) {
+    SensorMappingSettings s;
+    if (name == "mocha") {
+        // MOCHA-TIMIT's EMA: 2-D midsagittal, 1/100 mm, bridge of the nose and
+        // upper incisor fixed to the skull.
+        s.mm_per_unit = 0.01;
+        return s;
+    }
+    if (name == "haskins") {
+        // The Haskins IEEE rate database: 3-D, mm, already head-corrected
+        // (no upper-incisor or reference sensors); JAW is the lower incisor.
+        s.upper_incisor.clear();
+        s.lower_incisor = "JAW";
+        s.upper_lip = "UL";
+        s.lower_lip = "LL";
+        s.reference_sensors.clear();
+        s.x_suffix = "_x";
+        s.y_suffix = "_z";
+        s.lateral_suffix = "_y";
+        s.mouth_corner_left = "ML";
+        s.mm_per_unit = 1.0;
+        return s;
+    }
+    return std::nullopt;
+}
+
+std::array<bool, param_count> drivable_parameters(const SensorMappingSettings& s) {
+    std::array<bool, param_count> out{};
+    for (Param p : {Param::JawRotation, Param::JawThrust, Param::UpperLipRaise, Param::LowerLipDepression,
+                    Param::UpperLipRetraction, Param::LowerLipRetraction, Param::LipRounding})
+        out[index(p)] = true;
+    const bool lateral = !s.lateral_suffix.empty();
+    out[index(Param::JawShift)] = lateral;
+    out[index(Param::MouthCornerStretchLeft)] = lateral && !s.mouth_corner_left.empty();
+    out[index(Param::MouthCornerStretchRight)] = lateral && !s.mouth_corner_right.empty();
+    return out;
+}
 
 void remove_head_motion(EstTrack& t, const SensorMappingSettings& s, const std::string& source) {
     if (s.reference_sensors.empty()) return;
@@ -140,8 +194,11 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
         throw InputError(source, 0, 0, "sensor_mapping", "expected fps > 0 and mm_per_unit > 0");
     EstTrack t = input;
     remove_head_motion(t, s, source);
-    const SensorColumns ui = find_sensor(t, s.upper_incisor, s, source);
+    // Without an upper-incisor sensor the data is in the head frame: the lower
+    // incisor's position alone gives the gap.
+    const bool have_ui = !s.upper_incisor.empty();
     const SensorColumns li = find_sensor(t, s.lower_incisor, s, source);
+    const SensorColumns ui = have_ui ? find_sensor(t, s.upper_incisor, s, source) : li;
     const SensorColumns ul = find_sensor(t, s.upper_lip, s, source);
     const SensorColumns ll = find_sensor(t, s.lower_lip, s, source);
     const std::size_t n = t.frame_count();
@@ -152,7 +209,7 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
         for (std::size_t k = 0; k < n; ++k) v[k] = value(t, k, c);
         return v;
     };
-    const double fwd = mean_finite(column(ul.x)) >= mean_finite(column(ui.x)) ? 1.0 : -1.0;
+    const double fwd = mean_finite(column(ul.x)) >= mean_finite(column(have_ui ? ui.x : li.x)) ? 1.0 : -1.0;
     const double up = mean_finite(column(ul.y)) >= mean_finite(column(ll.y)) ? 1.0 : -1.0;
     auto X = [&](std::size_t k, const SensorColumns& c) { return fwd * value(t, k, c.x) * s.mm_per_unit; };
     auto Y = [&](std::size_t k, const SensorColumns& c) { return up * value(t, k, c.y) * s.mm_per_unit; };
@@ -160,7 +217,7 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
     // Raw measures per sensor frame, in mm.
     std::vector<double> gap(n), li_fwd(n), ul_up(n), ll_rel_up(n), ul_fwd(n), ll_rel_fwd(n);
     for (std::size_t k = 0; k < n; ++k) {
-        gap[k] = Y(k, ui) - Y(k, li);
+        gap[k] = have_ui ? Y(k, ui) - Y(k, li) : -Y(k, li);
         li_fwd[k] = X(k, li);
         ul_up[k] = Y(k, ul);
         ll_rel_up[k] = Y(k, ll) - Y(k, li);
@@ -189,6 +246,27 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
     const double ul_fwd_rest = percentile(ul_fwd, 50.0);
     const double ll_fwd_rest = percentile(ll_rel_fwd, 50.0);
 
+    // Lateral measures (3-D data): jaw shift and the corners' distance from the midline.
+    const std::size_t li_lat = lateral_column(t, s.lower_incisor, s, source);
+    const std::size_t ul_lat = lateral_column(t, s.upper_lip, s, source);
+    const std::size_t ll_lat = lateral_column(t, s.lower_lip, s, source);
+    const std::size_t ml_lat = s.mouth_corner_left.empty() ? EstTrack::npos
+                                                           : lateral_column(t, s.mouth_corner_left, s, source);
+    const std::size_t mr_lat = s.mouth_corner_right.empty() ? EstTrack::npos
+                                                            : lateral_column(t, s.mouth_corner_right, s, source);
+    const double left = s.lateral_positive_left ? 1.0 : -1.0;
+    std::vector<double> shift(n, missing_value), corner_l(n, missing_value), corner_r(n, missing_value);
+    if (li_lat != EstTrack::npos)
+        for (std::size_t k = 0; k < n; ++k) {
+            const double mid = 0.5 * (value(t, k, ul_lat) + value(t, k, ll_lat)) * s.mm_per_unit;
+            shift[k] = left * value(t, k, li_lat) * s.mm_per_unit;
+            if (ml_lat != EstTrack::npos) corner_l[k] = left * (value(t, k, ml_lat) * s.mm_per_unit - mid);
+            if (mr_lat != EstTrack::npos) corner_r[k] = -left * (value(t, k, mr_lat) * s.mm_per_unit - mid);
+        }
+    const double shift_rest = percentile(shift, 50.0);
+    const double corner_l_rest = percentile(corner_l, 50.0);
+    const double corner_r_rest = percentile(corner_r, 50.0);
+
     std::vector<Frame> raw(n);
     for (std::size_t k = 0; k < n; ++k) {
         Frame f;
@@ -202,6 +280,9 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
         f[index(Param::UpperLipRetraction)] = ul_ret;
         f[index(Param::LowerLipRetraction)] = ll_ret;
         f[index(Param::LipRounding)] = -0.5 * (ul_ret + ll_ret);
+        f[index(Param::JawShift)] = (shift[k] - shift_rest) / s.jaw_shift_full_mm;
+        f[index(Param::MouthCornerStretchLeft)] = (corner_l[k] - corner_l_rest) / s.corner_stretch_full_mm;
+        f[index(Param::MouthCornerStretchRight)] = (corner_r[k] - corner_r_rest) / s.corner_stretch_full_mm;
         raw[k] = f;
     }
 
@@ -209,9 +290,7 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
     ParamTrack out;
     out.fps = s.fps;
     out.start_s = t.times_s.front();
-    for (Param p : {Param::JawRotation, Param::JawThrust, Param::UpperLipRaise, Param::LowerLipDepression,
-                    Param::UpperLipRetraction, Param::LowerLipRetraction, Param::LipRounding})
-        out.present[index(p)] = true;
+    out.present = drivable_parameters(s);
     const double end_s = t.times_s.back();
     std::size_t j = 0;
     for (std::size_t k = 0;; ++k) {
@@ -225,6 +304,15 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
             f[p] = out.present[p] ? (1.0 - w) * raw[j][p] + w * raw[j + 1][p] : missing_value;
         out.frames.push_back(f);
     }
+    // Coordinates in the wrong unit give parameters far outside their range.
+    std::vector<double> jaw;
+    for (const Frame& f : out.frames) jaw.push_back(std::abs(f[index(Param::JawRotation)]));
+    const double jaw95 = percentile(jaw, 95.0);
+    if (jaw95 > 5.0)
+        log_warning("{}: jaw_rotation reaches {:.1f} (its range is [{}, {}]): are the coordinates in the unit "
+                    "sensor_mapping.mm_per_unit says ({} mm)? MOCHA's are 1/100 mm (preset \"mocha\")",
+                    source, jaw95, param_info(Param::JawRotation).min, param_info(Param::JawRotation).max,
+                    s.mm_per_unit);
     return out;
 }
 

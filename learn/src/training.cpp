@@ -19,6 +19,7 @@
 
 #include <ceres/ceres.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "avsi/core/error.h"
@@ -787,6 +788,22 @@ std::string viseme_set_json(const VisemeSet& set, const std::string& source) {
 
 }  // namespace
 
+std::array<bool, param_count> measured_parameters(const std::vector<CorpusUtterance>& utterances) {
+    std::array<bool, param_count> out{};
+    for (const auto& u : utterances) {
+        if (u.phones.empty()) continue;
+        for (std::size_t q = 0; q < param_count; ++q) {
+            if (out[q] || !u.track.present[q]) continue;
+            for (std::size_t k = 0; k < u.track.size() && !out[q]; ++k) {
+                const double t = u.track.time_s(k);
+                out[q] = std::isfinite(u.track.frames[k][q]) && t >= u.phones.front().start_s &&
+                         t <= u.phones.back().end_s;
+            }
+        }
+    }
+    return out;
+}
+
 TrainingReport train_model(const TrainingSettings& settings, const std::vector<CorpusUtterance>& train,
                            const std::vector<CorpusUtterance>& test) {
     const auto start = std::chrono::steady_clock::now();
@@ -797,6 +814,7 @@ TrainingReport train_model(const TrainingSettings& settings, const std::vector<C
     const int threads = settings.threads > 0 ? settings.threads
                                              : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
     TrainingReport report;
+    report.trained = measured_parameters(train);
     VisemeSet set;
     switch (kind) {
         case Kind::CohenMassaro:
@@ -831,6 +849,13 @@ TrainingReport run_training(const TrainCommandSettings& s) {
     const auto train = load_corpus_utterances(corpus, split.train_ids);
     const auto test = load_corpus_utterances(corpus, split.test_ids);
     TrainingReport report = train_model(s.training, train, test);
+    std::vector<std::string> trained, kept;
+    for (const auto& info : params()) (report.trained[index(info.param)] ? trained : kept).emplace_back(info.name);
+    if (!kept.empty())
+        log_info("{} measures {} of the 10 parameters; trained: {}; not measured, kept from {}: {}", corpus.name,
+                 trained.size(), fmt::join(trained, ", "),
+                 s.training.init_model.empty() ? std::string("the default model") : s.training.init_model.string(),
+                 fmt::join(kept, ", "));
 
     ModelProvenance prov;
     prov.method = "trained";
@@ -855,6 +880,10 @@ TrainingReport run_training(const TrainCommandSettings& s) {
                               ? fmt::format("; exponent c = {}", s.training.min_c)
                               : fmt::format("; exponent c in [{}, {}]", s.training.min_c, s.training.max_c)),
         report.iterations, report.seconds);
+    if (!kept.empty())
+        prov.notes += fmt::format(" Trained parameters (measured by the corpus): {}. Not measured, so kept from the "
+                                  "initial model: {}.",
+                                  fmt::join(trained, ", "), fmt::join(kept, ", "));
     if (auto* m = dynamic_cast<Mpeg4CohenMassaroModel*>(report.model.get())) {
         // The trained targets live in a viseme set beside the model file.
         const fs::path set_path = fs::path(s.out.string() + "").replace_extension(".visemes.json");

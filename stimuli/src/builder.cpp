@@ -50,7 +50,7 @@ const std::vector<std::string>& vocoder_keys() {
 }
 
 // Bumped when the output of the builder changes for the same inputs.
-constexpr const char* builder_version = "avsi-stimuli-build-3";
+constexpr const char* builder_version = "avsi-stimuli-build-4";
 
 std::array<float, 3> parse_colour(const std::string& hex, const Protocol& protocol) {
     unsigned r = 0, g = 0, b = 0;
@@ -229,7 +229,9 @@ json tts_json(const Protocol& protocol) {
         throw at_tts_key(protocol, e);
     }
     return {{"tts", tts_voice_spec(tts)}, {"engine", info.engine}, {"engine_version", info.engine_version},
-            {"voice", info.voice}, {"voice_sha256", info.voice_sha256}};
+            {"voice", info.voice}, {"voice_sha256", info.voice_sha256},
+            {"phone_times", tts.align_onsets ? "the synthesiser's segments, obstruent onsets aligned to the audio"
+                                             : "the synthesiser's segments"}};
 }
 
 // What a protocol asks to be built: the loaded protocol, corpus, head and

@@ -17,7 +17,7 @@ void run_render(const RenderJobSettings& s) {
     if (s.out_path.empty()) throw UsageError("--out is required");
     const synth::Trajectory trajectory = s.fap_path.empty()
                                              ? synth::read_trajectory_csv(s.trajectory_path)
-                                             : synth::fap_to_trajectory(synth::read_fap(s.fap_path));
+                                             : synth::decode_fap_file(s.fap_path);
     Audio audio;
     if (!s.audio_path.empty()) audio = read_audio(s.audio_path);
     const Head head = load_head(s.head.obj, s.head.rig);

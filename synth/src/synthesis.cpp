@@ -169,6 +169,14 @@ void run_synthesis(const SynthesisSettings& s) {
     if (format == "auto") format = ascii_lower(s.out_path.extension().string()) == ".fap" ? "fap" : "csv";
     if (format != "csv" && format != "fap")
         throw UsageError(fmt::format("--format: expected csv, fap or auto, got \"{}\"", s.format));
+    if (s.fap_target != "mpeg4" && s.fap_target != "greta")
+        throw UsageError(fmt::format("--target: expected mpeg4 or greta, got \"{}\"", s.fap_target));
+    const bool greta = s.fap_target == "greta";
+    if (greta && format != "fap") throw UsageError("--target greta writes a FAP file: give --out x.fap (or --format fap)");
+    // Greta plays every FAP file at 25 fps: synthesise at 25.
+    if (greta && s.fps_given && std::abs(s.fps - 25.0) > 1e-9)
+        throw UsageError(fmt::format("--target greta: Greta plays FAP files at 25 fps, got --fps {}", s.fps));
+    const double fps = greta ? 25.0 : s.fps;
     const auto plot_param = param_from_name(s.plot_param);
     if (!s.plot_path.empty() && !plot_param) {
         std::vector<std::string> names;
@@ -189,24 +197,38 @@ void run_synthesis(const SynthesisSettings& s) {
         phones = std::move(speech.phones);
         if (!s.wav_path.empty()) write_audio(s.wav_path, speech.audio);
     }
-    // A phone the model lacks is a problem of the model file.
-    const Trajectory trajectory = with_file_context(s.model_path, [&] { return model->synthesize(phones, s.fps); });
+    if (phones.empty())
+        throw InputError(have_phones ? s.phones_path.string() : std::string("--text"), 0, 0, "phones",
+                         have_phones ? "expected timed phones, got none (an empty file or tier)"
+                                     : "expected text with something to say, got no phones");
+    Trajectory trajectory;
+    try {
+        trajectory = model->synthesize(phones, fps);
+    } catch (const InputError& e) {
+        // Name the phones' file in diagnostics about the phones.
+        std::vector<Diagnostic> diagnostics = e.diagnostics();
+        for (Diagnostic& d : diagnostics)
+            if (d.path.empty()) d.path = have_phones ? s.phones_path.string() : "--text";
+        throw InputError(std::move(diagnostics));
+    }
     if (format == "fap")
-        write_fap(s.out_path, trajectory_to_fap(trajectory, FapUnits{}, FapMapping{}, s.out_path.stem().string()));
+        write_fap(s.out_path, trajectory_to_fap(trajectory, FapUnits{}, FapMapping{}, s.out_path.stem().string()),
+                  greta ? FapTarget::Greta : FapTarget::Mpeg4);
     else
         write_trajectory_csv(s.out_path, trajectory);
-    log_info("{}: {} frames at {} fps ({} model, {} phones)", s.out_path.string(), trajectory.size(), s.fps,
+    log_info("{}: {} frames at {} fps ({} model, {} phones)", s.out_path.string(), trajectory.size(), fps,
              model->kind(), phones.size());
     if (!s.plot_path.empty()) {
-        write_text_file(s.plot_path, synthesis_plot_svg(*model, phones, *plot_param, s.fps));
+        write_text_file(s.plot_path, synthesis_plot_svg(*model, phones, *plot_param, fps));
         log_info("{}: plot of {}", s.plot_path.string(), s.plot_param);
     }
 }
 
 void run_fap_to_trajectory(const FapConversionSettings& s) {
     if (s.in_path.empty() || s.out_path.empty()) throw UsageError("an input .fap and --out are required");
-    const FapStream stream = read_fap(s.in_path);
-    const Trajectory trajectory = fap_to_trajectory(stream);
+    FapDecodeSettings decode;
+    decode.clamp = s.clamp;
+    const Trajectory trajectory = decode_fap_file(s.in_path, decode);
     write_trajectory_csv(s.out_path, trajectory);
     log_info("{}: {} frames at {} fps from {}", s.out_path.string(), trajectory.size(), trajectory.fps,
              s.in_path.string());

@@ -1,6 +1,7 @@
 // Trajectory frame counts and CSV I/O (`time_s,<param>…`).
 #include "avsi/synth/trajectory.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -16,6 +17,31 @@ std::size_t frame_count(double duration_s, double fps) {
     AVSI_ASSERT(fps > 0.0);
     if (!(duration_s > 0.0)) return 0;
     return static_cast<std::size_t>(std::ceil(duration_s * fps - 1e-9));
+}
+
+bool RangeReport::any() const {
+    for (std::size_t n : frames_outside)
+        if (n > 0) return true;
+    return false;
+}
+
+RangeReport check_ranges(Trajectory& trajectory, bool clamp) {
+    RangeReport report;
+    for (std::size_t k = 0; k < trajectory.frames.size(); ++k)
+        for (const auto& info : params()) {
+            double& v = trajectory.frames[k][index(info.param)];
+            const std::size_t p = index(info.param);
+            if (!std::isfinite(v) || (v >= info.min && v <= info.max)) continue;
+            const double excess = v < info.min ? info.min - v : v - info.max;
+            const double worst = report.worst[p] < info.min ? info.min - report.worst[p] : report.worst[p] - info.max;
+            if (report.frames_outside[p] == 0 || excess > worst) {
+                report.worst[p] = v;
+                report.worst_frame[p] = k;
+            }
+            ++report.frames_outside[p];
+            if (clamp) v = std::clamp(v, info.min, info.max);
+        }
+    return report;
 }
 
 Trajectory read_trajectory_csv(const std::filesystem::path& path) {
@@ -66,6 +92,16 @@ Trajectory read_trajectory_csv(const std::filesystem::path& path) {
                          fmt::format("expected the first frame at 0 s, got {}", times[0]));
     if (!(times[1] > times[0]))
         throw InputError(file, table.rows[1].line, 0, "time_s", "expected increasing times");
+    // Each step as the first one, up to the rounding of the written decimals:
+    // the error names the row where the step changes.
+    const double first_step_s = times[1] - times[0];
+    for (std::size_t k = 2; k < times.size(); ++k) {
+        const double step_s = times[k] - times[k - 1];
+        if (std::abs(step_s - first_step_s) > 2e-6 + 1e-3 * first_step_s)
+            throw InputError(file, table.rows[k].line, 0, "time_s",
+                             fmt::format("expected a constant frame step of {} s (frame {} at {} s), got {}",
+                                         first_step_s, k, times[k - 1] + first_step_s, times[k]));
+    }
     // The rate from the whole span (a step rounded to the written decimals,
     // 0.016667 for 60 fps, would drift a frame off in a few hundred frames),
     // snapped to a whole number of frames per second when that close.

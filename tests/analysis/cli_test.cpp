@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -234,6 +235,47 @@ TEST_F(Cli, PowerIsLabelledSimulation) {
     const CliRun bad = run_cli("power --means 50,150");
     EXPECT_EQ(bad.code, 1);
     EXPECT_NE(bad.output.find("--means"), std::string::npos) << bad.output;
+}
+
+TEST_F(Cli, AnalyzeAnyDependentVariableReproducesTheReferenceAnova) {
+    // The reference data (tests/data/analysis/balanced.csv, R's numbers in
+    // balanced.expected.json) as a lab's own long-format table: a score that
+    // is not a percentage (score = 0.5 · percent − 20, negative values
+    // included). F, p, the sphericity tests and their corrections do not
+    // change under a linear transformation of the dependent variable.
+    const avsi::CsvTable in = avsi::read_csv(fs::path(AVSI_TEST_DATA_DIR) / "analysis" / "balanced.csv");
+    std::string csv = "subject,condition,score\n";
+    for (const auto& row : in.rows)
+        csv += row.fields[in.require_column("subject")] + "," + row.fields[in.require_column("condition")] + "," +
+               fmt::format("{:.12g}", 0.5 * *avsi::parse_double(row.fields[in.require_column("percent")]) - 20.0) +
+               "\n";
+    avsi::write_text_file(dir / "long.csv", csv);
+    const CliRun r = run_cli("analyze " + (dir / "long.csv").string() + " --dv score --out " + (dir / "report").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    const auto doc = nlohmann::json::parse(avsi::read_text_file(dir / "report" / "anova.json"));
+    const auto expected = nlohmann::json::parse(
+        avsi::read_text_file(fs::path(AVSI_TEST_DATA_DIR) / "analysis" / "balanced.expected.json"));
+    EXPECT_EQ(doc["dependent_variable"], "score");
+    EXPECT_EQ(doc["anova"]["df_conditions"].get<double>(), expected["df_conditions"].get<double>());
+    EXPECT_EQ(doc["anova"]["df_error"].get<double>(), expected["df_error"].get<double>());
+    EXPECT_NEAR(doc["anova"]["F"].get<double>(), expected["F"].get<double>(), 1e-9);
+    EXPECT_NEAR(doc["anova"]["p"].get<double>() / expected["p"].get<double>(), 1.0, 1e-6);
+    EXPECT_NEAR(doc["anova"]["ss_conditions"].get<double>(), 0.25 * expected["ss_conditions"].get<double>(), 1e-6);
+    EXPECT_NEAR(doc["sphericity"]["mauchly"]["W"].get<double>(), expected["mauchly_W"].get<double>(), 1e-9);
+    EXPECT_NEAR(doc["sphericity"]["greenhouse_geisser"]["epsilon"].get<double>(), expected["gg_epsilon"].get<double>(),
+                1e-9);
+    EXPECT_NEAR(doc["anova"]["partial_eta_squared"].get<double>(), expected["pes"].get<double>(), 1e-9);
+    // The default dependent variable is percent: this file has none, and says so.
+    const CliRun missing = run_cli("analyze " + (dir / "long.csv").string() + " --out " + (dir / "r2").string());
+    EXPECT_EQ(missing.code, 1);
+    EXPECT_NE(missing.output.find("percent"), std::string::npos) << missing.output;
+    // Only percent is held to [0, 100]; a non-number in the score column names file:line:column.
+    avsi::write_text_file(dir / "bad.csv", "subject,condition,score\ns1,a,-3.5\ns1,b,x\n");
+    const CliRun bad = run_cli("analyze " + (dir / "bad.csv").string() + " --dv score --out " + (dir / "r3").string());
+    EXPECT_EQ(bad.code, 1);
+    EXPECT_NE(bad.output.find("bad.csv:3:3: error: score: expected a number or NA, got \"x\""), std::string::npos)
+        << bad.output;
+    EXPECT_EQ(bad.output.find("bad.csv:2:"), std::string::npos) << bad.output;  // -3.5 is fine
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // balancing, keyword proposals, and the properties the study's material needs
 // (protocols/corpus/sentences.csv, protocols/beskow2004-en.toml).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -13,6 +14,7 @@
 #include "avsi/core/corpus.h"
 #include "avsi/core/corpus_tools.h"
 #include "avsi/core/error.h"
+#include "avsi/core/files.h"
 #include "avsi/core/protocol.h"
 #include "avsi/core/rng.h"
 
@@ -161,9 +163,107 @@ TEST(ImportSentences, ProposesRareContentWordsAndReportsShortfalls) {
     ASSERT_EQ(o.corpus.sentences.size(), 3u);
     EXPECT_EQ(o.corpus.sentences[0].id, "s001");
     EXPECT_NE(o.report.find("only 1 of 3"), std::string::npos) << o.report;
-    EXPECT_NE(o.report.find("man: content word (WordNet: noun, verb), log10 frequency 3.11: not chosen"), std::string::npos) << o.report;
+    EXPECT_NE(o.report.find("man: content word (WordNet: noun, verb), Zipf 5.74: not chosen"), std::string::npos) << o.report;
     EXPECT_NE(o.report.find("4 sentences: 2 with 3 keywords, 2 with fewer (1 with none"), std::string::npos)
         << o.report;
+}
+
+TEST(ImportSentences, RanksOrdinaryWordsByARealFrequency) {
+    // Words SemCor never tagged are WordNet words with a frequency: rare
+    // nouns outrank weak common words (issue 20: hemp, tropics over found, parts).
+    ImportSettings s;
+    s.min_syllables = 0;
+    s.max_syllables = 0;
+    const WordTable& words = WordTable::builtin();
+    for (const char* w : {"birch", "canoe", "peach", "tusk", "hemp", "tropics"}) {
+        EXPECT_FALSE(words.lookup(w).empty()) << w << " is a WordNet word";
+        ASSERT_TRUE(words.zipf(w).has_value()) << w;
+        EXPECT_LT(*words.zipf(w), *words.zipf("found")) << w;
+    }
+    EXPECT_GT(*words.zipf("the"), 7.0);
+    EXPECT_FALSE(words.zipf("qzxv").has_value());
+    const ImportOutcome o =
+        import_sentences({"Hemp is a weed found in parts of the tropics.", "The birch canoe slid on the smooth planks."}, s);
+    auto keywords = [&](std::size_t i) {
+        std::string out;
+        for (const auto& k : o.sentences[i].sentence.keywords) out += (out.empty() ? "" : ";") + k.word;
+        return out;
+    };
+    EXPECT_EQ(keywords(0), "Hemp;weed;tropics");
+    EXPECT_EQ(keywords(1), "birch;canoe;planks");
+    EXPECT_EQ(o.report.find("not in WordNet"), std::string::npos) << o.report;
+}
+
+TEST(ImportSentences, NumberedAndHeadedListsAsPeopleWriteThem) {
+    const fs::path dir = fs::temp_directory_path() / ("avsi_import_lists_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    write_text_file(dir / "harvard.md",
+                    "# Harvard sentences, as typed by a lab\n"
+                    "## List 1\n"
+                    "1. The birch canoe slid on the smooth planks.\n"
+                    "2) Glue the sheet to the dark blue background.\n"
+                    "\n"
+                    "List 2:\n"
+                    "(11) Hemp is a weed found in parts of the tropics.\n"
+                    "  - A rod is used to catch pink salmon.\n"
+                    "12 men sailed to the island.\n");
+    const auto lines = read_sentence_lines(dir / "harvard.md");
+    ASSERT_EQ(lines.size(), 5u);
+    EXPECT_EQ(lines[0].text, "The birch canoe slid on the smooth planks.");
+    EXPECT_EQ(lines[0].numbering, "1.");
+    EXPECT_EQ(lines[0].list, "1");
+    EXPECT_EQ(lines[0].line, 3);
+    EXPECT_EQ(lines[1].text, "Glue the sheet to the dark blue background.");
+    EXPECT_EQ(lines[2].list, "2");
+    EXPECT_EQ(lines[2].numbering, "(11)");
+    EXPECT_EQ(lines[3].text, "A rod is used to catch pink salmon.");
+    EXPECT_EQ(lines[4].text, "12 men sailed to the island.");  // a number that belongs to the sentence
+    EXPECT_EQ(lines[4].numbering, "");
+    ImportSettings s;  // syllables counted: the numbering no longer counts as one
+    const ImportOutcome o = import_listed_sentences(lines, s);
+    EXPECT_EQ(o.sentences[0].syllables, count_syllables("The birch canoe slid on the smooth planks."));
+    EXPECT_EQ(o.corpus.sentences[0].list, "1");
+    EXPECT_EQ(o.corpus.sentences[2].list, "2");
+    EXPECT_NE(o.report.find("numbering \"1.\" removed"), std::string::npos) << o.report;
+    EXPECT_NE(o.report.find("List headings set the list column: 2 lists."), std::string::npos) << o.report;
+    // A file with headings only is an error naming it.
+    write_text_file(dir / "empty.md", "## List 1\n# nothing\n");
+    EXPECT_THROW((void)read_sentence_lines(dir / "empty.md"), InputError);
+    // A list may start again at 1 without a heading; a Markdown rule is not a sentence.
+    write_text_file(dir / "restart.md", "1. The birch canoe slid on the smooth planks.\n2. Glue the sheet.\n---\n"
+                                        "1. Hemp is a weed.\n");
+    EXPECT_EQ(read_sentence_lines(dir / "restart.md").size(), 3u);
+    // Damaged copies: a line pasted twice (item 2 again, line 5), and a number whose sentence was lost (line 6).
+    auto error_of = [&](const std::string& name, const std::string& text) {
+        write_text_file(dir / name, text);
+        try {
+            (void)read_sentence_lines(dir / name);
+        } catch (const InputError& e) {
+            return e.first();
+        }
+        ADD_FAILURE() << name << " was read";
+        return Diagnostic{};
+    };
+    const std::string harvard = read_text_file(dir / "harvard.md");
+    const Diagnostic repeated = error_of("repeated.md", "## List 1\n1. The birch canoe slid on the smooth planks.\n"
+                                                        "2. Glue the sheet to the dark blue background.\n"
+                                                        "3. It is easy to tell the depth of a well.\n"
+                                                        "2. Glue the sheet to the dark blue background.\n");
+    EXPECT_EQ(repeated.line, 5);
+    EXPECT_EQ(repeated.field, "numbering");
+    EXPECT_NE(repeated.format().find("repeated.md:5:1: error: numbering: expected an item number above 3 (line 4, "
+                                     "list 1), got 2"),
+              std::string::npos)
+        << repeated.format();
+    std::string lost = harvard;
+    lost.replace(lost.find("12 men sailed"), std::string("12 men sailed to the island.").size(), "(12)");
+    const Diagnostic empty_item = error_of("lost.md", lost);
+    EXPECT_EQ(empty_item.line, 9);
+    EXPECT_NE(empty_item.format().find("lost.md:9:1: error: sentence: expected a sentence after the numbering "
+                                       "\"(12)\", got nothing"),
+              std::string::npos)
+        << empty_item.format();
+    fs::remove_all(dir);
 }
 
 TEST(ImportSentences, CountsSyllablesAndFlagsTheOutOfRange) {

@@ -4,7 +4,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -51,6 +53,30 @@ TEST(PhonesCli, TextGivesWavAndContiguousPhonesCoveringIt) {
     EXPECT_EQ(phones.front().start_s, 0.0);
     EXPECT_NEAR(phones.back().end_s, audio.duration_s(), 0.020);
     EXPECT_EQ(audio.sample_rate_hz, 22050);
+}
+
+TEST(PhonesCli, PipesIntoStream) {
+    // `avsi phones … --out - | avsi stream`: the TSV with its header on stdout is what stream reads.
+    const fs::path dir = work_dir();
+    const std::string cli = quote(AVSI_CLI_PATH);
+    const std::string out = (dir / "frames.csv").string(), err = (dir / "pipe_err.txt").string();
+    const std::string command = cli + " phones --text 'Come here John.' --out - | " + cli + " stream >" + quote(out) +
+                                " 2>" + quote(err);
+    const int status = std::system(command.c_str());
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_text_file(err);
+    const std::string frames = read_text_file(out);
+    ASSERT_EQ(frames.rfind("time_s,jaw_rotation,", 0), 0u) << frames.substr(0, 200);
+    // One frame per 1/60 s of the utterance: as many as the phones written to a file cover.
+    const RunResult r = run_avsi("phones --text 'Come here John.' --out " + quote((dir / "p.tsv").string()));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const double end_s = read_phones(dir / "p.tsv").back().end_s;
+    const auto lines = static_cast<std::size_t>(std::count(frames.begin(), frames.end(), '\n'));
+    EXPECT_NEAR(static_cast<double>(lines - 1), end_s * 60.0, 2.0);
+    // A header in the middle of the stream is still an error with the line number.
+    write_text_file(dir / "bad.tsv", "start_s\tend_s\tphone\n0\t0.1\tsil\nstart_s\tend_s\tphone\n");
+    const int bad = std::system((cli + " stream <" + quote((dir / "bad.tsv").string()) + " >/dev/null 2>" + quote(err)).c_str());
+    EXPECT_TRUE(WIFEXITED(bad) && WEXITSTATUS(bad) == 1);
+    EXPECT_NE(read_text_file(err).find("<stdin>:3:"), std::string::npos) << read_text_file(err);
 }
 
 // The Festival path from the command line: the phones of come/here/John,

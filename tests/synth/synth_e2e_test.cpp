@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -96,6 +97,51 @@ TEST_F(SynthCli, PhonesToFapAndBackThroughFap2traj) {
                 << "frame " << k << " param " << p;
 }
 
+// `--target greta`: Greta plays every FAP file at 25 fps, so the stream is
+// synthesised at 25 fps in Greta's layout (69 mask entries); another --fps is
+// refused. fap2traj warns about out-of-range parameters, and --clamp limits them.
+TEST_F(SynthCli, GretaTargetAndFap2trajClamp) {
+    const PhoneSequence phones = read_phones(phones_tsv);
+    const fs::path greta = dir / "greta.fap";
+    RunResult r = run_avsi(dir, "synth --model " + quote(models_dir / "ohman.json") + " --phones " +
+                                    quote(phones_tsv) + " --out " + quote(greta) + " --target greta");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::string text = read_text_file(greta);
+    EXPECT_EQ(text.rfind("2.1 greta 25 " + std::to_string(frame_count(phones.back().end_s, 25.0)) + "\n", 0), 0u)
+        << text.substr(0, 80);
+    const std::string mask = text.substr(text.find('\n') + 1, text.find('\n', text.find('\n') + 1) - text.find('\n') - 1);
+    EXPECT_EQ(std::count(mask.begin(), mask.end(), ' '), 69) << mask;  // 69 entries, each followed by a space
+    const FapStream stream = read_fap(greta);
+    EXPECT_EQ(stream.fps, 25.0);
+    r = run_avsi(dir, "synth --phones " + quote(phones_tsv) + " --out " + quote(dir / "g60.fap") +
+                          " --target greta --fps 60");
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.err.find("Greta plays FAP files at 25 fps, got --fps 60"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "g60.fap"));
+    r = run_avsi(dir, "synth --phones " + quote(phones_tsv) + " --out " + quote(dir / "g.csv") + " --target greta");
+    EXPECT_EQ(r.exit_code, 2);
+
+    // An Xface-style "joy" frame (only the corner FAPs set): the corners
+    // stretched and raised past the parameter's range.
+    FapStream joy = stream;
+    joy.frames.resize(2);
+    for (FapFrame& f : joy.frames) f = FapFrame{};
+    for (int fap : {6, 7, 12, 13, 53, 54, 59, 60}) {
+        for (FapFrame& f : joy.frames) f.mask[static_cast<std::size_t>(fap - 1)] = true;
+        joy.frames[1].values[static_cast<std::size_t>(fap - 1)] = fap == 12 || fap == 13 || fap > 58 ? 150.0 : 240.0;
+    }
+    write_fap(dir / "joy.fap", joy);
+    r = run_avsi(dir, "fap2traj " + quote(dir / "joy.fap") + " --out " + quote(dir / "joy.csv"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("joy.fap: mouth_corner_stretch_left outside its range [-0.5, 1]"), std::string::npos)
+        << r.err;
+    EXPECT_GT(read_trajectory_csv(dir / "joy.csv").value(1, Param::MouthCornerStretchLeft), 1.0);
+    r = run_avsi(dir, "fap2traj " + quote(dir / "joy.fap") + " --out " + quote(dir / "joy_clamped.csv") + " --clamp");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("clamped to the range"), std::string::npos) << r.err;
+    EXPECT_EQ(read_trajectory_csv(dir / "joy_clamped.csv").value(1, Param::MouthCornerStretchLeft), 1.0);
+}
+
 TEST_F(SynthCli, TextToCsvAndFapFollowTheFrameRule) {
     // The phones espeak-ng gives for the text, from `avsi phones`, fix the
     // duration the trajectory must cover.
@@ -144,6 +190,17 @@ TEST_F(SynthCli, BadInputsGiveFileLineAndExitCode1) {
                           quote(dir / "z.csv"));
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.rfind(bad_model.string() + ":4", 0), 0u) << r.err;
+
+    // A TextGrid whose phone tier is empty names the file (not "<input>").
+    const fs::path empty = dir / "empty.TextGrid";
+    test::write_file(empty,
+                     "File type = \"ooTextFile\"\nObject class = \"TextGrid\"\n\nxmin = 0\nxmax = 1\n"
+                     "tiers? <exists>\nsize = 1\nitem []:\n    item [1]:\n        class = \"IntervalTier\"\n"
+                     "        name = \"phones\"\n        xmin = 0\n        xmax = 1\n        intervals: size = 0\n");
+    r = run_avsi(dir, "synth --phones " + quote(empty) + " --out " + quote(dir / "e.csv"));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.err.rfind(empty.string() + ": error: phones: expected timed phones, got none", 0), 0u) << r.err;
+    EXPECT_EQ(r.err.find("<input>"), std::string::npos) << r.err;
 
     // Bad usage (both --phones and --text) is exit code 2.
     r = run_avsi(dir, "synth --phones " + quote(phones_tsv) + " --text hi --out " + quote(dir / "w.csv"));

@@ -100,5 +100,81 @@ TEST_F(VocoderCli, MixAddsNoiseAndCalibratePrintsItsTable) {
     EXPECT_NE(c.output.find("50 Hz"), std::string::npos);
 }
 
+// A dual-mono stereo copy of a mono file (both channels the same samples).
+Audio dual_mono(const Audio& mono) {
+    Audio out;
+    out.sample_rate_hz = mono.sample_rate_hz;
+    out.channels = 2;
+    for (float v : mono.samples) {
+        out.samples.push_back(v);
+        out.samples.push_back(v);
+    }
+    return out;
+}
+
+TEST_F(VocoderCli, StereoIsMixedDownByDefaultAndKeptWithTheSameCarrier) {
+    write_audio(path("stereo.wav"), dual_mono(read_audio(path("in/s0.wav"))));
+    // Default: one channel out, and a note that says so, naming the file.
+    CliRun r = run("vocode " + path("stereo.wav") + " " + path("mono_out.wav") + " --seed 3");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(read_audio(path("mono_out.wav")).channels, 1);
+    EXPECT_NE(r.output.find("stereo.wav: 2 channels mixed down to mono"), std::string::npos) << r.output;
+    // keep: two channels, the same noise carrier on both, so dual-mono stays dual-mono.
+    r = run("vocode " + path("stereo.wav") + " " + path("kept.wav") + " --seed 3 --channels keep");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const Audio kept = read_audio(path("kept.wav"));
+    ASSERT_EQ(kept.channels, 2);
+    EXPECT_EQ(kept.channel(0), kept.channel(1));
+    EXPECT_EQ(r.output.find("mixed down"), std::string::npos) << r.output;
+    // The kept left channel is what the mono file vocodes to.
+    ASSERT_EQ(run("vocode " + path("in/s0.wav") + " " + path("s0_out.wav") + " --seed 3").exit_code, 0);
+    EXPECT_EQ(kept.channel(0), read_audio(path("s0_out.wav")).samples);
+    // mix --channels keep adds the same noise to both channels.
+    r = run("mix " + path("stereo.wav") + " " + path("mixed.wav") + " --noise speech-shaped --snr-db 0 --channels keep");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const Audio mixed = read_audio(path("mixed.wav"));
+    ASSERT_EQ(mixed.channels, 2);
+    EXPECT_EQ(mixed.channel(0), mixed.channel(1));
+    EXPECT_NE(run("vocode " + path("stereo.wav") + " " + path("x.wav") + " --channels both").output.find(
+                  "--channels: expected mono or keep, got \"both\""),
+              std::string::npos);
+}
+
+TEST_F(VocoderCli, StoiNamesBothFilesOnARateOrLengthMismatchAndScoresChannels) {
+    const Audio clean = read_audio(path("in/s0.wav"));
+    Audio shorter = clean;
+    shorter.samples.resize(shorter.samples.size() - 100);
+    write_audio(path("short.wav"), shorter);
+    CliRun r = run("stoi " + path("in/s0.wav") + " " + path("short.wav"));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.output.find("short.wav: error: length: expected as many samples as " + path("in/s0.wav")),
+              std::string::npos)
+        << r.output;
+    Audio other_rate = clean;
+    other_rate.sample_rate_hz = 22050;
+    write_audio(path("rate.wav"), other_rate);
+    r = run("stoi " + path("in/s0.wav") + " " + path("rate.wav"));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.output.find("rate.wav: error: sample rate: expected the sample rate of " + path("in/s0.wav") +
+                            " (16000 Hz), got 22050 Hz"),
+              std::string::npos)
+        << r.output;
+    EXPECT_EQ(r.output.find("<input>"), std::string::npos) << r.output;
+    // Stereo: mixed down with a note, or one value per channel.
+    write_audio(path("clean2.wav"), dual_mono(clean));
+    write_audio(path("deg2.wav"), dual_mono(read_audio(path("in/s1.wav"))));
+    r = run("stoi " + path("clean2.wav") + " " + path("deg2.wav"));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find("clean2.wav: 2 channels mixed down to mono for STOI"), std::string::npos) << r.output;
+    r = run("stoi " + path("clean2.wav") + " " + path("deg2.wav") + " --channels keep");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto first = r.output.find('\n');
+    ASSERT_NE(first, std::string::npos);
+    EXPECT_EQ(r.output.substr(0, first), r.output.substr(first + 1, first)) << r.output;  // two equal lines
+    r = run("stoi " + path("clean2.wav") + " " + path("in/s1.wav") + " --channels keep");
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.output.find("channels: expected the channel count of"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace avsi::vocoder

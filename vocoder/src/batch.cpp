@@ -61,8 +61,9 @@ MixResult add_noise(const Audio& audio, const NoiseSettings& noise, const LongTe
 }  // namespace
 
 Audio process_audio(const Audio& input, const ProcessSettings& s, const LongTermSpectrum* ltas,
-                    const std::vector<double>* noise_samples, std::uint64_t noise_seed, FileReport* report) {
-    Audio audio = input;
+                    const std::vector<double>* noise_samples, std::uint64_t noise_seed, FileReport* report,
+                    const std::string& source) {
+    Audio audio = s.channels == ChannelMode::Mono ? mix_down(input, source, "before processing") : input;
     const bool noisy = s.noise.kind != NoiseKind::None;
     if (noisy && (s.noise.stage == NoiseStage::BeforeVocoding || !s.vocode)) {
         MixResult mixed = add_noise(audio, s.noise, ltas, noise_samples, noise_seed);
@@ -94,10 +95,10 @@ FileReport process_file(const fs::path& input, const fs::path& output, const Pro
         if (s.noise.kind == NoiseKind::File) noise = load_noise(s.noise.file, audio.sample_rate_hz);
         // The same per-file noise seed as in a folder run.
         const std::uint64_t seed = derive_seed(s.noise.mix.seed, input.filename().string());
-        const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, &noise, seed, &report);
+        const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, &noise, seed, &report, input.string());
         write_audio(output, out);
     } catch (const InputError& e) {
-        // Give diagnostics without a path the input file's name.
+        // Give diagnostics without a path the input file's name (the noise file names itself).
         std::vector<Diagnostic> diagnostics = e.diagnostics();
         for (Diagnostic& d : diagnostics)
             if (d.path.empty()) d.path = input.string();
@@ -143,7 +144,8 @@ std::vector<FileReport> process_folder(const fs::path& input_folder, const fs::p
                 }
                 FileReport report{files[i], output};
                 const std::uint64_t seed = derive_seed(s.noise.mix.seed, files[i].filename().string());
-                const Audio out = process_audio(audio, s, ltas ? &*ltas : nullptr, noise, seed, &report);
+                const Audio out =
+                    process_audio(audio, s, ltas ? &*ltas : nullptr, noise, seed, &report, files[i].string());
                 write_audio(output, out);
                 reports[i] = report;
             } catch (const InputError& e) {

@@ -11,6 +11,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
+#include "avsi/vocoder/channels.h"
 #include "avsi/core/rng.h"
 #include "avsi/vocoder/hilbert.h"
 #include "avsi/vocoder/resample.h"
@@ -179,7 +180,7 @@ MixResult mix_at_snr(const Audio& speech, std::span<const double> noise, const M
 }
 
 std::vector<double> load_noise(const std::filesystem::path& path, double rate) {
-    const Audio noise = read_audio(path);
+    const Audio noise = mix_down(read_audio(path), path.string(), "as masking noise (one noise is added to every channel)");
     const std::vector<float> mono = noise.mono();
     std::vector<double> x(mono.begin(), mono.end());
     if (noise.sample_rate_hz != rate) {
@@ -187,6 +188,9 @@ std::vector<double> load_noise(const std::filesystem::path& path, double rate) {
         x = resample(x, noise.sample_rate_hz, rate);
     }
     if (x.empty()) throw InputError(path, "expected a noise recording with samples, got an empty file");
+    double energy = 0.0;
+    for (double v : x) energy += v * v;
+    if (energy == 0.0) throw InputError(path, "expected a noise recording with energy, got silence");
     return x;
 }
 

@@ -213,4 +213,41 @@ double stoi(const Audio& clean, const Audio& degraded, const StoiSettings& setti
     return stoi(x, y, clean.sample_rate_hz, settings);
 }
 
+std::vector<double> stoi_files(const std::filesystem::path& clean_path, const std::filesystem::path& degraded_path,
+                               const StoiSettings& settings, ChannelMode channels) {
+    const Audio clean = read_audio(clean_path), degraded = read_audio(degraded_path);
+    const std::string c = clean_path.string(), d = degraded_path.string();
+    if (clean.sample_rate_hz != degraded.sample_rate_hz)
+        throw InputError(d, 0, 0, "sample rate",
+                         fmt::format("expected the sample rate of {} ({} Hz), got {} Hz", c, clean.sample_rate_hz,
+                                     degraded.sample_rate_hz));
+    if (clean.frames() != degraded.frames())
+        throw InputError(d, 0, 0, "length",
+                         fmt::format("expected as many samples as {} ({}, {:.3f} s), got {} ({:.3f} s): STOI compares "
+                                     "the signals frame by frame, so they must be aligned and of one length",
+                                     c, clean.frames(), clean.duration_s(), degraded.frames(), degraded.duration_s()));
+    if (channels == ChannelMode::Keep && clean.channels != degraded.channels)
+        throw InputError(d, 0, 0, "channels",
+                         fmt::format("expected the channel count of {} ({}) with --channels keep, got {}", c,
+                                     clean.channels, degraded.channels));
+    auto score = [&](const std::vector<float>& a, const std::vector<float>& b) {
+        const std::vector<double> x(a.begin(), a.end()), y(b.begin(), b.end());
+        try {
+            return stoi(x, y, clean.sample_rate_hz, settings);
+        } catch (const InputError& e) {
+            std::vector<Diagnostic> diagnostics = e.diagnostics();
+            for (Diagnostic& diag : diagnostics)
+                if (diag.path.empty()) diag.path = d;
+            throw InputError(std::move(diagnostics));
+        }
+    };
+    std::vector<double> out;
+    if (channels == ChannelMode::Keep) {
+        for (int ch = 0; ch < clean.channels; ++ch) out.push_back(score(clean.channel(ch), degraded.channel(ch)));
+    } else {
+        out.push_back(score(mix_down(clean, c, "for STOI").samples, mix_down(degraded, d, "for STOI").samples));
+    }
+    return out;
+}
+
 }  // namespace avsi::vocoder

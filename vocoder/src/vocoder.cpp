@@ -471,7 +471,9 @@ VocoderResult vocode(const Audio& input, const VocoderSettings& settings) {
     for (int c = 0; c < input.channels; ++c) {
         const std::vector<float> samples = input.channel(c);
         const std::vector<double> x(samples.begin(), samples.end());
-        ChannelResult channel = vocode_channel(x, input.sample_rate_hz, settings, c);
+        // Every channel gets channel 0's noise carrier: a dual-mono input stays
+        // dual-mono (independent carriers would make it dichotic).
+        ChannelResult channel = vocode_channel(x, input.sample_rate_hz, settings, 0);
         for (std::size_t n = 0; n < frames; ++n) out[n * input.channels + c] = channel.samples[n];
         if (c == 0) {
             result.bands = std::move(channel.bands);
@@ -528,7 +530,7 @@ std::string describe(const VocoderSettings& s, double rate) {
     switch (s.carrier) {
         case CarrierType::Noise:
             carrier = fmt::format("white noise (uniform amplitude distribution, xoshiro256** generator), an "
-                                  "independent stream per band and channel derived from seed {}",
+                                  "independent stream per band, the same on every channel, derived from seed {}",
                                   s.seed);
             break;
         case CarrierType::Sine:

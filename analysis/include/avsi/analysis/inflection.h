@@ -58,6 +58,11 @@ public:
 
     std::size_t irregular_count() const { return m_irregular_count; }
 
+    // Is `word` a noun in WordNet (protocols/lemma_pos.tsv)?
+    bool is_noun(const std::string& word) const { return (pos_of(word) & Noun) != 0; }
+    // The listed irregular forms of `lemma` (child → children; ring → rang, rung).
+    std::vector<std::string> irregular_forms_of(const std::string& lemma) const;
+
 private:
     enum : std::uint8_t { Noun = 1, Verb = 2 };
     std::uint8_t pos_of(const std::string& word) const;       // WordNet's

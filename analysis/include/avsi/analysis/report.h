@@ -46,6 +46,7 @@ struct ReportSettings {
     std::string title = "Keyword intelligibility by condition";
     double confidence = 0.95;
     std::string rule_set;  // keyword-scoring rule set of the scores ("" unknown), named in the report
+    std::string dv = "percent";  // the dependent variable: its name labels the plot (percent: 0–100 %)
 };
 
 // The anova.json document (as text) for a result.
@@ -65,6 +66,9 @@ struct AnalyzeSettings {
     // list came from in errors (an option or a protocol file).
     std::vector<std::string> conditions;
     std::string conditions_source = "--conditions";
+    // The dependent variable's column (`avsi analyze --dv`): percent correct
+    // by default, or any numeric column of a long-format table.
+    std::string dv = "percent";
 };
 
 // The descriptive report of a dry run or pilot too small to test: fewer than

@@ -3,6 +3,10 @@
 //
 //   scores.csv: subject,condition,keywords,correct,percent[,rule_set]   (long format)
 //
+// or any long-format table with a numeric dependent variable in a column of
+// its own (`subject,condition,score`, speech reception thresholds in dB):
+// read_scores(path, "score"). Only `percent` is checked against [0, 100].
+//
 // Conditions keep the order in which they first appear in the file, so every
 // table, plot and contrast ("b - a") follows the order the user gave.
 #pragma once
@@ -20,7 +24,7 @@ struct ScoreCell {
     std::string condition;
     int keywords = 0;          // keywords scored (0 when only percent is known)
     int correct = 0;           // keywords correct
-    std::optional<double> percent;  // nullopt = missing cell ("NA" or empty)
+    std::optional<double> percent;  // the dependent variable (percent correct by default); nullopt = missing ("NA" or empty)
 };
 
 struct Scores {
@@ -28,12 +32,16 @@ struct Scores {
     // The keyword-scoring rule set that produced them ("strict", "loose",
     // "lenient"; scoring.h), "" when not known (a scores file from elsewhere).
     std::string rule_set;
+    // The column the values came from ("percent", or any --dv column).
+    std::string dv = "percent";
 };
 
-// Reads scores.csv. Requires columns subject, condition, percent; keywords,
-// correct and rule_set (the same on every row) are optional. "NA" or an empty percent is a missing cell. Duplicate
-// subject × condition rows and percentages outside [0, 100] are errors.
-Scores read_scores(const std::filesystem::path& path);
+// Reads scores.csv. Requires columns subject, condition and the dependent
+// variable `dv` (default percent); keywords, correct and rule_set (the same on
+// every row) are optional. "NA" or an empty value is a missing cell. Duplicate
+// subject × condition rows, values that are not numbers and, for percent
+// only, values outside [0, 100] are errors naming file:line:column.
+Scores read_scores(const std::filesystem::path& path, const std::string& dv = "percent");
 
 // The cells of `conditions` only, grouped in that order (file order within a
 // condition), so every table, plot and contrast follows it. An empty list

@@ -1,12 +1,14 @@
 // The sentence corpus: one CSV row per sentence with its scoring keywords.
 //
-//   id,text,keywords[,list][,audio][,labels]
+//   id,text,keywords[,list][,audio][,labels][,review]
 //   s001,"The dog barked at the mailman.","dog|dogs;barked|barking;mailman|postman"
 //
 // `keywords`: keywords separated by ';', each with accepted alternates after
 // '|' (the first is the keyword itself). `list` (optional): a test list number,
 // or "practice" / "warmup". `audio` and `labels` (optional): a recording and
 // its phone alignment (TextGrid/.lab/.tsv), relative to the corpus file.
+// `review` (optional): alternates `avsi corpus import` proposes for a person
+// to check, in the keywords syntax; scoring does not use them.
 #pragma once
 
 #include <filesystem>
@@ -28,6 +30,7 @@ struct Sentence {
     std::string list;                    // "" when not assigned
     std::filesystem::path audio;         // empty when TTS is used
     std::filesystem::path labels;        // empty when TTS is used
+    std::string review;                  // proposed alternates to check ("" if none)
     int line = 0;                        // line in the corpus file
 };
 

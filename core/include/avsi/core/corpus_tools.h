@@ -23,7 +23,9 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <string_view>
@@ -44,12 +46,15 @@ struct WordFrequency {
 // Word frequencies, parts of speech and function words.
 class WordTable {
 public:
-    // protocols/corpus/word-frequency.tsv and protocols/corpus/function-words.txt (loaded once).
+    // protocols/corpus/word-frequency.tsv, protocols/corpus/function-words.txt
+    // and protocols/corpus/word-zipf.tsv (loaded once).
     static const WordTable& builtin();
-    // Reads a frequency table (word, lemma, count, pos; '#' comments) and a
-    // function-word list (one word a line). Throws InputError naming file:line.
+    // Reads a frequency table (word, lemma, count, pos; '#' comments), a
+    // function-word list (one word a line) and optionally a Zipf table (word,
+    // zipf). Throws InputError naming file:line.
     static WordTable load(const std::filesystem::path& frequency_tsv,
-                          const std::filesystem::path& function_words);
+                          const std::filesystem::path& function_words,
+                          const std::filesystem::path& zipf_tsv = {});
 
     // The lemmas `word` (any case) can be a form of, highest count first: the
     // table's own rows (lemma or irregular form), then WordNet's regular
@@ -59,12 +64,17 @@ public:
     // log10(1 + count) of the most frequent lemma; 0 for an unknown word.
     double log_frequency(std::string_view word) const;
     bool is_function_word(std::string_view word) const;
+    // The word form's frequency on the Zipf scale, log10(per billion words),
+    // from the Zipf table (scripts/make-word-zipf: CMU Sphinx's US English
+    // language model); nullopt when the table does not know the form.
+    std::optional<double> zipf(std::string_view word) const;
     std::size_t size() const { return m_rows.size(); }
 
 private:
     std::multimap<std::string, WordFrequency, std::less<>> m_rows;
     std::map<std::string, std::string, std::less<>> m_lemma_pos;  // lemma → parts of speech
     std::set<std::string, std::less<>> m_function_words;
+    std::map<std::string, double, std::less<>> m_zipf;
 };
 
 // Visual classes of phones for balancing viseme content, by lip shape first:
@@ -175,12 +185,31 @@ struct OneWayAnova {
 };
 OneWayAnova one_way_anova(const std::vector<std::vector<double>>& groups);
 
+// An alternate form of a keyword a scorer may want to accept, and why.
+struct AlternateProposal {
+    std::string word;
+    std::string reason;  // "plural", "spelling variant", …
+};
+// Proposes alternates for a (lower-case) keyword. The scoring module's
+// inflection and spelling-variant tables provide one (analysis/alternates.h);
+// core cannot depend on analysis, so the caller passes it in.
+using AlternateProposer = std::function<std::vector<AlternateProposal>(const std::string& keyword)>;
+
 struct ImportSettings {
     int keywords = 3;            // keywords proposed per sentence
     int min_syllables = 7;       // syllable range reported (0 and 0: not counted)
     int max_syllables = 9;
     std::string voice = "en-us";
     std::string id_prefix = "s"; // ids s001, s002, …
+    AlternateProposer alternates;  // empty: no alternates proposed
+};
+
+// One sentence of a list as people write them, with what was taken off it.
+struct ListedSentence {
+    std::string text;        // without its numbering
+    std::string list;        // from the last "List N" heading before it ("" if none)
+    int line = 0;            // line in the file
+    std::string numbering;   // the numbering removed ("1.", "(12)", "-"), or ""
 };
 
 // What import_sentences did with one line.
@@ -199,13 +228,29 @@ struct ImportOutcome {
 
 // Proposes keywords for sentences (one per string): content words, i.e. not in
 // the function-word list; nouns, verbs and adjectives (WordNet) before
-// adverbs and unknown words; within a rank the least frequent first (the most
-// informative), then in sentence order; a word is used once. The chosen
-// keywords are written in sentence order.
+// adverbs and words WordNet does not list; within a rank the least frequent
+// (lowest Zipf value, WordTable::zipf; unknown forms count as rarest) first,
+// as the most informative, then in sentence order; a word is used once. The
+// chosen keywords are written in sentence order. With settings.alternates,
+// each keyword's proposed alternates are listed in the report and in the
+// sentence's `review` column (keyword|alternate syntax), not in its keywords:
+// a person decides which to accept.
 ImportOutcome import_sentences(const std::vector<std::string>& texts, const ImportSettings& settings,
                                const WordTable& words = WordTable::builtin());
-// Reads an unmarked sentence list: one sentence a line, blank lines and lines
-// starting with '#' skipped. Throws InputError if it cannot be read or is empty.
+// The same for sentences read by read_sentence_lines: their list headings set
+// the `list` column and the report says what numbering was removed.
+ImportOutcome import_listed_sentences(const std::vector<ListedSentence>& sentences, const ImportSettings& settings,
+                                      const WordTable& words = WordTable::builtin());
+// Reads a sentence list as people write it: one sentence a line; blank lines
+// and '#' comments skipped; numbering ("1.", "1)", "(1)", "[1]", "1:", a
+// number and a tab) and bullets ("-", "*", "•") removed; a heading "List N"
+// (also "## List 1", "Harvard list 2:", "LIST 3") starts list N; Markdown
+// rules ("---") are skipped. Throws InputError if it cannot be read or holds
+// no sentence, and with file:line for a numbering with no sentence after it
+// ("4." alone) and for an item number that repeats or falls within a list
+// (a pasted or misplaced line; a list may start again at 1).
+std::vector<ListedSentence> read_sentence_lines(const std::filesystem::path& path);
+// The texts of read_sentence_lines.
 std::vector<std::string> read_sentence_list(const std::filesystem::path& path);
 
 }  // namespace avsi

@@ -11,6 +11,13 @@
 // recognition"): one broadband energy instead of six bands.
 //
 //   for (const auto& o : obstruent_onsets(r.audio, r.phones)) use(o.offset_s());
+//
+// align_obstruent_onsets moves each such boundary to the onset found, so the
+// labels (and the face) put the consonant where the audio has it: the
+// synthesisers segment the vowel-to-consonant transition differently (HTS
+// voices give it to the consonant, a median 19 ms before the closure;
+// espeak-ng to the vowel, 13 ms after), and a lip-reader sees the lips meet
+// where the sound stops.
 #pragma once
 
 #include <string>
@@ -42,5 +49,17 @@ struct OnsetSettings {
 // be contiguous and cover the audio.
 std::vector<ObstruentOnset> obstruent_onsets(const Audio& audio, const PhoneSequence& phones,
                                              const OnsetSettings& settings = {});
+
+struct OnsetAlignment {
+    double max_shift_s = 0.060;  // a boundary moves at most this far
+    double min_drop_db = 6.0;    // an onset with a smaller energy drop is no landmark: the label stays
+};
+
+// Moves the start of every stop or fricative after a vowel (the end of the
+// vowel) to its acoustic onset in `audio` (obstruent_onsets), when the energy
+// drops there by at least `min_drop_db` and the onset lies within
+// `max_shift_s` of the label; returns how many boundaries moved. The onset
+// lies between the two phones' centres, so both keep at least half their length.
+std::size_t align_obstruent_onsets(const Audio& audio, PhoneSequence& phones, const OnsetAlignment& alignment = {});
 
 }  // namespace avsi

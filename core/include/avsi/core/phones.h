@@ -106,6 +106,12 @@ public:
     // and applies to a mapped vowel without a digit. Throws InputError naming
     // the phone and `where` if it has no mapping.
     std::vector<Phone> from_festival(std::string_view name, bool stressed, std::string_view where) const;
+    // Maps one symbol of TIMIT's 61-phone set ("ix", "bcl", "h#"; rows
+    // `timit`) or of MOCHA-TIMIT's label set ("@@", "ii", "breath"; rows
+    // `mocha`) to project phones (none for "q"). Throws InputError naming the
+    // symbol and `where` if it has no mapping.
+    std::vector<Phone> from_timit(std::string_view symbol, std::string_view where) const;
+    std::vector<Phone> from_mocha(std::string_view symbol, std::string_view where) const;
     // True if `ipa` (after the fallbacks above) has a mapping.
     bool knows_ipa(std::string_view ipa) const;
 
@@ -117,6 +123,8 @@ private:
     std::map<std::string, std::vector<std::string>, std::less<>> m_espeak_en;
     std::map<std::string, std::vector<std::string>, std::less<>> m_ipa;
     std::map<std::string, std::vector<std::string>, std::less<>> m_festival;
+    std::map<std::string, std::vector<std::string>, std::less<>> m_timit;
+    std::map<std::string, std::vector<std::string>, std::less<>> m_mocha;
     std::map<std::string, bool, std::less<>> m_espeak_stress;  // mark -> stressed
 };
 

@@ -10,6 +10,10 @@
 //   cmu_us_slt_arctic_hts, diphone voices such as kal_diphone): the phones
 //   and their end times are the utterance's Segment relation, the stress that
 //   of each segment's syllable, `pau` is silence.
+// Then each stop or fricative after a vowel starts where the audio's energy
+// falls away (core/onsets.h), unless `align_onsets` is off: the engines put
+// the vowel-to-consonant transition on different sides of the boundary, the
+// face should close the lips where the sound stops.
 //
 // Both engines keep global state; each utterance is synthesised in a child
 // process from the same freshly initialised state, so the same text gives the
@@ -43,6 +47,9 @@ struct TtsSettings {
     double lead_silence_s = 0.15;   // silence before the first phone (the engine's own
                                     // leading pause is padded or cut to this)
     double trail_silence_s = 0.15;  // silence after the last phone (padded or cut to this)
+    bool align_onsets = true;       // the start of each stop and fricative after a vowel
+                                    // moved to its acoustic onset (align_obstruent_onsets,
+                                    // onsets.h); false: the engine's own segment times
 };
 
 struct TtsResult {
@@ -76,7 +83,8 @@ TtsVoiceInfo describe_tts_voice(const TtsSettings& settings);
 // English voices; Festival: voice.list), sorted.
 std::vector<std::string> installed_tts_voices(TtsEngine engine);
 
-// Synthesises `text`. Throws InputError for an unknown or non-English voice,
+// Synthesises `text`; with `align_onsets`, the phone times are the engine's
+// with each vowel-to-obstruent boundary moved to the audio's onset. Throws InputError for an unknown or non-English voice,
 // settings out of range or not applicable to the engine, empty text, or a
 // phone the mapping does not cover.
 TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings = {});

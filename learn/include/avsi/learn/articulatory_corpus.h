@@ -1,8 +1,10 @@
 // A corpus of measured articulation for training and evaluating control
 // models (Beskow §3–4: 287 sentences, 200 train / 87 test): per utterance a
-// parameter track (CSV) or raw sensor data (EST .ema or sensor CSV, mapped
-// by sensor_mapping.h), phone labels (TextGrid, HTK .lab or TSV) and an
-// optional WAV, listed in a manifest with a seeded, reproducible split.
+// parameter track (CSV) or raw sensor data (EST .ema as MOCHA-TIMIT ships
+// it, a Haskins IEEE rate database .mat, or sensor CSV, mapped by
+// sensor_mapping.h), phone labels (TextGrid, HTK or MOCHA .lab, TIMIT .phn or
+// TSV; a Haskins .mat carries its own) and an optional WAV, listed in a
+// manifest with a seeded, reproducible split. docs/articulography.md.
 //
 // Manifest `corpus.json` in the corpus folder (paths relative to it):
 //
@@ -19,8 +21,11 @@
 //
 // or `corpus.csv` with columns id, track, labels and optionally audio, kind,
 // split (the split seed and fraction then come from the caller). "kind" is
-// "parameters" or "sensors" (default: sensors for .ema/.est/.track files,
-// parameters otherwise); "split" fixes an utterance to "train" or "test".
+// "parameters" or "sensors" (default: sensors for .ema/.est/.track/.mat
+// files, parameters otherwise); "split" fixes an utterance to "train" or
+// "test". "labels" may be left out for a .mat track (its PHONES are used).
+// "sensor_mapping" may start from a "preset" ("mocha", "haskins"); without
+// one, .mat tracks use the "haskins" preset.
 //
 // Parameter track CSV: a `time_s` (or `time`) column at a constant step and
 // any subset of the 10 parameter columns (parameters.h). Parameters without a
@@ -86,6 +91,7 @@ struct ArticulatoryCorpus {
     std::string name;
     std::vector<CorpusEntry> entries;
     SensorMappingSettings sensor_mapping;
+    bool sensor_mapping_given = false;  // the manifest has "sensor_mapping" (else .mat tracks use the "haskins" preset)
     std::uint64_t split_seed = 2004;
     double test_fraction = 0.3;
     // SHA-256 over the manifest and every file it names (in manifest order).

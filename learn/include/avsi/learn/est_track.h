@@ -54,7 +54,8 @@ void write_est_track(const std::filesystem::path& path, const EstTrack& track, E
 // column per channel; empty or "nan" cells mark a frame without data.
 EstTrack read_sensor_csv(const std::filesystem::path& path);
 
-// Reads a sensor file chosen by extension: .csv → CSV, anything else → EST.
+// Reads a sensor file chosen by extension: .csv → CSV, .mat → Haskins
+// (haskins_mat.h), anything else → EST.
 EstTrack read_sensor_file(const std::filesystem::path& path);
 
 }  // namespace avsi::learn

@@ -30,16 +30,35 @@
 //                              lower one relative to li) / lip_protrusion_full_mm:
 //                              midsagittal data sees no lip width, and rounding
 //                              goes with protrusion (spreading with retraction).
-//    mouth_corner_stretch_left/right and jaw_shift need lateral data: missing.
+//    With lateral coordinates (3-D data: `lateral_suffix` set), also
+//      jaw_shift             = lateral li displacement (toward the speaker's
+//                              left positive) / jaw_shift_full_mm
+//      mouth_corner_stretch_left/right = the corner sensor's lateral distance
+//                              from the midline (the lips' mean lateral
+//                              position) − rest / corner_stretch_full_mm
+//    Without lateral data (MOCHA, mngu0) these three are missing; without a
+//    corner sensor its stretch is missing (Haskins has only the left, ML).
+//    Without an upper-incisor sensor (`upper_incisor` empty: head-corrected
+//    data such as Haskins') the gap is measured from the lower incisor's
+//    position in the head frame.
 // 4. Frames whose break flag is 0 (no data) or any needed value is NaN give
 //    NaN for the parameters that depend on them.
 // The sensor track is resampled to `fps` by linear interpolation.
+// Presets (`"preset"` in a corpus manifest's sensor_mapping): "mocha" (MOCHA-
+// TIMIT as distributed: ui li ul ll, reference bn + ui, 1/100 mm) and
+// "haskins" (the Haskins IEEE rate database: JAW UL LL ML, x front–back,
+// z vertical, y lateral, mm, head-corrected so no reference sensors).
+// docs/articulography.md tables which parameters each source drives.
 #pragma once
 
+#include <array>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "avsi/learn/est_track.h"
+#include "avsi/synth/parameters.h"
 
 namespace avsi::learn {
 
@@ -63,7 +82,20 @@ struct SensorMappingSettings {
     double lip_vertical_full_mm = 10.0;    // lip raise / depression at 1
     double lip_protrusion_full_mm = 6.0;   // lip retraction / protrusion at 1
     double fps = 60.0;                     // output frame rate
+    // 3-D data: the lateral axis and the mouth-corner sensors (empty: none).
+    std::string lateral_suffix;            // e.g. "_y" (Haskins); empty: 2-D data
+    bool lateral_positive_left = true;     // the lateral axis points to the speaker's left
+    std::string mouth_corner_left;         // e.g. "ML" (Haskins)
+    std::string mouth_corner_right;
+    double jaw_shift_full_mm = 5.0;        // sideways jaw movement at jaw_shift 1
+    double corner_stretch_full_mm = 8.0;   // corner moving out at stretch 1
 };
+
+// The named preset ("mocha", "haskins"), or nullopt.
+std::optional<SensorMappingSettings> sensor_mapping_preset(std::string_view name);
+
+// The parameters a mapping produces (given every sensor it names is present).
+std::array<bool, synth::param_count> drivable_parameters(const SensorMappingSettings& settings);
 
 // Maps one file's sensor coordinates to parameters (see the file comment).
 // Missing channels throw InputError naming `source` and the channels present.

@@ -91,7 +91,14 @@ struct TrainingReport {
     double train_pearson = 0.0;
     double test_pearson = 0.0;
     double seconds = 0.0;
+    // The parameters the training data measures (trained); the others keep
+    // the initial model's values (a corpus without lateral data cannot train
+    // jaw_shift or the mouth corners: docs/articulography.md).
+    std::array<bool, param_count> trained{};
 };
+
+// The parameters with a measured value in some frame of the utterances' phones.
+std::array<bool, param_count> measured_parameters(const std::vector<CorpusUtterance>& utterances);
 
 // Trains a model of settings.model on `train`, early-stopping on `test`.
 TrainingReport train_model(const TrainingSettings& settings, const std::vector<CorpusUtterance>& train,

@@ -7,6 +7,14 @@
 //     <68 mask entries, 0/1, for FAPs 1…68>            ┐ per frame
 //     <frame number> <value of each masked FAP, in FAPU> ┘
 //
+// as the tools write it: Greta puts a file path with spaces into the name
+// (the name is every token between the version and the last two numbers) and
+// writes 69 mask entries (its FAP table has one more slot; a set 69th entry
+// has a value, which is dropped with a warning) and one value for a set FAP 1
+// or 2; Xface writes CRLF lines, a Windows path as the name and a mask line
+// before every frame (masks may differ between frames). docs/fap.md lists
+// what avsi reads and writes of the FAP specification.
+//
 // Values are integers in the FAP's unit (FAPU): MNS, MW, ENS, ES (a face
 // distance / 1024) or AU (1e-5 rad). FAPs 1 (viseme) and 2 (expression) are
 // high-level FAPs with several values each; avsi leaves them unmasked
@@ -25,6 +33,7 @@
 #include <array>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "avsi/synth/trajectory.h"
@@ -79,6 +88,28 @@ struct FapStream {
     std::string name = "avsi";
     double fps = 25.0;
     std::vector<FapFrame> frames;
+    // FAPs set in some frame of the file read (index 0 = FAP 1), including
+    // FAPs 1 and 2 whose values are not kept; empty for streams avsi makes.
+    std::array<bool, fap_count> present_in_file{};
+};
+
+// The MPEG-4 FAP groups (ISO/IEC 14496-2 Annex C): name and FAP numbers.
+struct FapGroup {
+    std::string_view name;
+    int first;  // 1-based, inclusive
+    int last;
+};
+const std::vector<FapGroup>& fap_groups();
+// The MPEG-4 name of a FAP (1-based: 3 → "open_jaw").
+std::string_view fap_name(int fap);
+// FAPs set in the file that the parameter mapping does not use, by group
+// ("head rotation (FAPs 48–50: head_pitch, head_yaw)"), in FAP order.
+std::vector<std::string> unmapped_fap_groups(const FapStream& stream);
+
+// Where a written FAP file is to be played.
+enum class FapTarget {
+    Mpeg4,  // the v2.1 text format with 68 mask entries (Xface, MPEG-4 players)
+    Greta,  // Greta's conventions: 25 fps (Greta plays every file at 25 fps), 69 mask entries
 };
 
 // The FAPs (1-based numbers) avsi writes: the jaw and lip FAPs the mapping uses.
@@ -95,14 +126,29 @@ Trajectory fap_to_trajectory(const FapStream& stream, const FapUnits& units = {}
 // integer FAPU can cause after the inverse mapping (the round-trip bound).
 Frame fap_quantisation_bound(const FapUnits& units = {}, const FapMapping& mapping = {});
 
-// Writes a FAP v2.1 text file.
-void write_fap(const std::filesystem::path& path, const FapStream& stream);
-// Reads a FAP v2.1 text file; malformed files throw InputError with file:line.
-// Rules (Xface's reader): '#' lines and blank lines are skipped; the header
-// is `2.1 name fps frames`; each frame is a line of 68 mask flags (0/1) and
-// a line with the frame number (consecutive) and one value per set flag,
-// except that a set FAP 1 (viseme) takes 4 values and FAP 2 (expression) 6,
-// which are read and dropped.
+struct FapDecodeSettings {
+    bool clamp = false;  // limit decoded parameters to their documented range
+    FapUnits units;
+    FapMapping mapping;
+};
+// Reads a FAP file and decodes it to parameters (fap_to_trajectory), warning
+// (log) about FAP groups present but not mapped (unmapped_fap_groups) and
+// about parameters outside their documented range (per parameter: frames,
+// the worst value and its time); with `clamp` those are limited to the range.
+Trajectory decode_fap_file(const std::filesystem::path& path, const FapDecodeSettings& settings = {});
+
+// Writes a FAP v2.1 text file for `target`. Greta needs a 25 fps stream
+// (anything else throws InputError naming the file, field "fps").
+void write_fap(const std::filesystem::path& path, const FapStream& stream, FapTarget target = FapTarget::Mpeg4);
+// Reads a FAP v2.1 text file (Xface's, Greta's, avsi's); malformed files
+// throw InputError with file:line. Rules: '#' lines and blank lines are
+// skipped; CR before the line end is dropped; the header is `2.1 name… fps
+// frames` (the name may hold spaces); each frame is a line of at least 68
+// mask flags (0/1; flags after the 68th are not MPEG-4 FAPs: a set one is
+// warned about and its value dropped) and a line with the frame number
+// (consecutive) and one value per set flag, except that a set FAP 1 (viseme)
+// and FAP 2 (expression) take 4 and 6 values (the specification, Xface) or one
+// each (Greta), whichever the line's count fits; they are read and dropped.
 FapStream read_fap(const std::filesystem::path& path);
 
 }  // namespace avsi::synth

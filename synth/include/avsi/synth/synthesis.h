@@ -23,6 +23,8 @@ struct SynthesisSettings {
     double fps = 60.0;
     std::filesystem::path out_path;
     std::string format = "auto";         // csv | fap | auto (by out_path extension)
+    std::string fap_target = "mpeg4";    // fap: mpeg4 (Xface) | greta (25 fps, Greta's layout)
+    bool fps_given = false;              // --fps was on the command line
     std::filesystem::path plot_path;     // optional SVG
     std::string plot_param = "jaw_rotation";
 };
@@ -45,6 +47,7 @@ std::string synthesis_plot_svg(const ControlModel& model, const PhoneSequence& p
 struct FapConversionSettings {
     std::filesystem::path in_path;
     std::filesystem::path out_path;
+    bool clamp = false;  // limit decoded parameters to their documented range
 };
 
 // `avsi fap2traj`: reads a FAP file and writes the trajectory CSV.

@@ -27,6 +27,17 @@ struct Trajectory {
 // inside the utterance and the last one covers its end.
 std::size_t frame_count(double duration_s, double fps);
 
+// Frames where parameters leave their documented range (parameters.h).
+struct RangeReport {
+    std::array<std::size_t, param_count> frames_outside{};  // per parameter
+    std::array<double, param_count> worst{};                // the value furthest outside
+    std::array<std::size_t, param_count> worst_frame{};
+    bool any() const;
+};
+// Counts the values outside [min, max] of each parameter; with `clamp`, also
+// limits them to the range.
+RangeReport check_ranges(Trajectory& trajectory, bool clamp);
+
 // CSV with a header `time_s,jaw_rotation,…`. Reading accepts the columns in
 // any order, requires all 10 and a constant frame step; errors name file:line.
 Trajectory read_trajectory_csv(const std::filesystem::path& path);

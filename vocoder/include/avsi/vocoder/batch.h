@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "avsi/core/audio.h"
+#include "avsi/vocoder/channels.h"
 #include "avsi/vocoder/masking.h"
 #include "avsi/vocoder/vocoder.h"
 
@@ -29,6 +30,7 @@ struct ProcessSettings {
     bool vocode = true;
     VocoderSettings vocoder;
     NoiseSettings noise;
+    ChannelMode channels = ChannelMode::Mono;  // a multi-channel input: mixed down (default) or kept (channels.h)
 };
 
 // What happened to one file.
@@ -46,11 +48,14 @@ std::vector<std::filesystem::path> list_wav_files(const std::filesystem::path& f
 // The long-term spectrum of WAV files and folders of them.
 LongTermSpectrum long_term_spectrum_of(const std::vector<std::filesystem::path>& files_or_folders);
 
-// Noise (if any) and vocoding (if on) of one signal. `ltas` is required for
-// speech-shaped noise; `noise_samples` for a noise file (at the audio rate);
-// `noise_seed` seeds the speech-shaped noise and the excerpt choice.
+// Noise (if any) and vocoding (if on) of one signal, mixed down to mono first
+// unless settings.channels keeps the channels (the note names `source`).
+// `ltas` is required for speech-shaped noise; `noise_samples` for a noise
+// file (at the audio rate); `noise_seed` seeds the speech-shaped noise and
+// the excerpt choice.
 Audio process_audio(const Audio& input, const ProcessSettings& settings, const LongTermSpectrum* ltas,
-                    const std::vector<double>* noise_samples, std::uint64_t noise_seed, FileReport* report = nullptr);
+                    const std::vector<double>* noise_samples, std::uint64_t noise_seed, FileReport* report = nullptr,
+                    const std::string& source = "audio");
 
 // Reads `input`, processes it, writes `output` (16-bit WAV). The noise seed
 // is derived from the seed and the file name, as in process_folder.

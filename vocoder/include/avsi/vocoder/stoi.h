@@ -7,10 +7,12 @@
 // from 150 Hz, 30-frame (384 ms) segments, clipping at β = −15 dB (STOI).
 #pragma once
 
+#include <filesystem>
 #include <span>
 #include <vector>
 
 #include "avsi/core/audio.h"
+#include "avsi/vocoder/channels.h"
 
 namespace avsi::vocoder {
 
@@ -27,5 +29,13 @@ double stoi(std::span<const double> clean, std::span<const double> degraded, dou
 
 // The same for two Audio buffers (mixed to mono; rates must agree).
 double stoi(const Audio& clean, const Audio& degraded, const StoiSettings& settings = {});
+
+// `avsi stoi`: reads the two files and scores them: one value (the channels
+// mixed down to mono, with a note naming the file) or, with ChannelMode::Keep,
+// one per channel (the clean file's channel c against the degraded file's).
+// Mismatched rates, lengths or channel counts, and signals too short to
+// score, throw InputError naming the degraded file and the clean one.
+std::vector<double> stoi_files(const std::filesystem::path& clean, const std::filesystem::path& degraded,
+                               const StoiSettings& settings = {}, ChannelMode channels = ChannelMode::Mono);
 
 }  // namespace avsi::vocoder
