@@ -937,8 +937,9 @@ PhoneSequence read_phones(const std::filesystem::path& path, const LabelReadOpti
     check_label_times(intervals, path.string(), unit, seconds_per_unit);
     PhoneSequence phones = phones_from_intervals(intervals, path.string(), set);
     if (phones.empty())
-        throw InputError(path, intervals.empty() ? std::string("expected at least one phone, got none (an empty file?)")
-                                                 : "expected at least one phone, got only zero-length labels");
+        throw InputError(path.string(), 0, 0, "phones",
+                         intervals.empty() ? std::string("expected timed phones, got none (an empty file or tier)")
+                                           : "expected timed phones, got only zero-length labels");
     return phones;
 }
 

@@ -65,7 +65,8 @@ TEST(Checks, LibraryExceptionsAreReRaisedNamingTheFile) {
 TEST(Json, NestingBeyondTheLimitIsRefusedBeforeParsingWithLineAndColumn) {
     const std::string deep = "{\n  \"a\": " + std::string(100000, '[') + std::string(100000, ']') + "}";
     const Diagnostic d = first_problem([&] { parse_json(deep, "deep.json"); });
-    EXPECT_EQ(d.format(), "deep.json:2:72: error: nesting: expected JSON nested at most 64 levels deep, got deeper");
+    // The object is level 1, so the 64th bracket (column 8 + 63) is level 65.
+    EXPECT_EQ(d.format(), "deep.json:2:71: error: nesting: expected JSON nested at most 64 levels deep, got deeper");
     // Brackets inside strings do not count.
     EXPECT_NO_THROW(parse_json("{\"s\": \"" + std::string(1000, '[') + "\"}", "s.json"));
     EXPECT_NO_THROW(parse_json(std::string(max_json_depth, '[') + std::string(max_json_depth, ']'), "ok.json"));
