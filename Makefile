@@ -20,7 +20,7 @@ ifneq ($(CI),)
 CMAKE_FLAGS += -DAVSI_WERROR=ON
 endif
 
-.PHONY: all deps configure build build-cli test demo bench sanitize clean
+.PHONY: all deps configure build build-cli test demo bench sanitize fuzz clean
 
 all: build
 
@@ -55,5 +55,13 @@ sanitize: deps
 	cmake --build build-asan -j $(JOBS)
 	cd build-asan && ctest --output-on-failure -j $(JOBS) --label-exclude slow
 
+# libFuzzer on every parser (clang; tests/fuzz/README.md): FUZZ_SECONDS per
+# parser (default 5 minutes), new corpus entries kept in build-fuzz/corpus,
+# findings in build-fuzz/findings, the summary table in build-fuzz/summary.md.
+FUZZ_SECONDS ?= 300
+fuzz: deps
+	scripts/install-deps --fuzz
+	scripts/fuzz --seconds $(FUZZ_SECONDS) --build-dir build-fuzz
+
 clean:
-	rm -rf $(BUILD_DIR) build-asan out
+	rm -rf $(BUILD_DIR) build-asan build-fuzz out

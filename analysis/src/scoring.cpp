@@ -339,6 +339,9 @@ std::vector<Response> read_responses(const std::filesystem::path& path) {
     for (std::size_t i = 0; i < 8; ++i) c[i] = table.require_column(names[i]);
     std::vector<Response> out;
     DiagnosticList problems;
+    // (subject, trial) → line of its first row: a trial answered twice (in
+    // any session) would be scored twice.
+    std::map<std::pair<std::string, std::string>, int> seen;
     for (const auto& row : table.rows) {
         Response r;
         r.subject = trim(row.fields[c[0]]);
@@ -358,9 +361,16 @@ std::vector<Response> read_responses(const std::filesystem::path& path) {
             problems.add(p, row.line, int(c[6]) + 1, "sentence", "expected a sentence id, got \"\"");
         if (r.phase == "test" && r.condition.empty())
             problems.add(p, row.line, int(c[4]) + 1, "condition", "expected a condition for a test trial, got \"\"");
+        const auto [first, inserted] = seen.emplace(std::make_pair(r.subject, r.trial), row.line);
+        if (!inserted && !r.trial.empty())
+            problems.add(p, row.line, int(c[2]) + 1, "trial",
+                         fmt::format("expected each trial of a subject once, got subject {} trial {} again (first "
+                                     "on line {})",
+                                     r.subject, r.trial, first->second));
         out.push_back(std::move(r));
     }
     problems.throw_if_any();
+    if (out.empty()) throw InputError(path, "expected at least one response, got none");
     return out;
 }
 

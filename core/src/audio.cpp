@@ -48,6 +48,7 @@ Audio read_audio(const std::filesystem::path& path) {
                                            info.frames, read));
     if (audio.sample_rate_hz <= 0 || audio.channels <= 0)
         throw InputError(path, "audio file has no valid sample rate or channel count");
+    if (info.frames == 0) throw InputError(path, "audio file has no samples");
     return audio;
 }
 

@@ -54,6 +54,25 @@ void DiagnosticList::throw_if_any() const {
     if (!m_items.empty()) throw InputError(m_items);
 }
 
+std::string excerpt(std::string_view text, std::size_t max_bytes) {
+    std::size_t cut = std::min(max_bytes, text.size());
+    while (cut > 0 && cut < text.size() && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
+    std::string out;
+    for (const char c : text.substr(0, cut)) {
+        const auto u = static_cast<unsigned char>(c);
+        if (u < 0x20 || u == 0x7F) {  // control characters (NUL, line breaks) shown escaped
+            static const char* hex = "0123456789abcdef";
+            out += "\\x";
+            out += hex[u >> 4];
+            out += hex[u & 15];
+        } else {
+            out += c;
+        }
+    }
+    if (cut < text.size()) out += "… (" + std::to_string(text.size()) + " bytes)";
+    return out;
+}
+
 std::size_t edit_distance(const std::string& a, const std::string& b) {
     const std::size_t n = a.size(), m = b.size();
     std::vector<std::vector<std::size_t>> d(n + 1, std::vector<std::size_t>(m + 1));
@@ -71,6 +90,9 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
 }
 
 std::string closest_match(const std::string& word, const std::vector<std::string>& candidates) {
+    // Only short tokens can be typos of a name; the distance is quadratic in
+    // the length, so a megabyte-long label must not reach it.
+    if (word.size() > k_max_hint_length) return {};
     std::string best;
     std::size_t best_distance = std::max<std::size_t>(2, word.size() / 3) + 1;
     for (const auto& c : candidates) {

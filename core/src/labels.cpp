@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/csv.h"
+#include "avsi/core/checks.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
@@ -177,7 +178,7 @@ std::vector<Token> tokenize_textgrid(const std::string& text, const std::string&
                 throw InputError(path, line, 0, "",
                                  fmt::format("expected a number, a \"string\" or a TextGrid keyword, got "
                                              "\"{}\"{}",
-                                             word, close.empty() ? "" : fmt::format(" (did you mean '{}'?)", close)));
+                                             excerpt(word), close.empty() ? "" : fmt::format(" (did you mean '{}'?)", close)));
             }
             key = word;
             i = j;
@@ -850,7 +851,7 @@ PhoneSequence phones_from_intervals(const std::vector<Interval>& input, const st
         const Interval& iv = intervals[first_unknown];
         throw InputError(source_path, iv.line, 0, fmt::format("interval {}", first_unknown + 1),
                          fmt::format("unknown phone label \"{}\": expected {} listed in protocols/phone_map.tsv",
-                                     trim(iv.text), phone_set_text(phone_set)));
+                                     excerpt(trim(iv.text)), phone_set_text(phone_set)));
     }
 
     PhoneSequence phones;
@@ -868,6 +869,7 @@ PhoneSequence phones_from_intervals(const std::vector<Interval>& input, const st
         if (!(iv.start_s >= 0.0) || !(iv.end_s >= iv.start_s) || !std::isfinite(iv.end_s))
             throw InputError(source_path, iv.line, 0, field,
                              fmt::format("expected 0 <= start <= end, got {} .. {}", iv.start_s, iv.end_s));
+        require_time_s(iv.end_s, at(source_path, iv.line, 0, field + " end"));
         if (iv.start_s < previous_end - 1e-6)
             throw InputError(source_path, iv.line, 0, field,
                              fmt::format("expected a start at or after the previous label's end ({}), got {}",
@@ -933,7 +935,12 @@ PhoneSequence read_phones(const std::filesystem::path& path, const LabelReadOpti
                                            path.extension().string()));
     }
     check_label_times(intervals, path.string(), unit, seconds_per_unit);
-    return phones_from_intervals(intervals, path.string(), set);
+    PhoneSequence phones = phones_from_intervals(intervals, path.string(), set);
+    if (phones.empty())
+        throw InputError(path.string(), 0, 0, "phones",
+                         intervals.empty() ? std::string("expected timed phones, got none (an empty file or tier)")
+                                           : "expected timed phones, got only zero-length labels");
+    return phones;
 }
 
 std::string phones_tsv(const PhoneSequence& phones) {

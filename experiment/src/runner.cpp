@@ -26,9 +26,11 @@
 #include <nlohmann/json.hpp>
 
 #include "avsi/core/audio.h"
+#include "avsi/core/checks.h"
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/core/log.h"
 #include "avsi/core/protocol.h"
 #include "avsi/experiment/adaptive_session.h"
@@ -123,12 +125,7 @@ StimulusManifest read_stimulus_manifest(const fs::path& dir) {
     if (!fs::is_regular_file(path))
         throw InputError(path, "no stimulus manifest here; build the stimulus folder with `avsi build-stimuli "
                                "protocol.toml --out DIR`");
-    nlohmann::json j;
-    try {
-        j = nlohmann::json::parse(read_text_file(path));
-    } catch (const nlohmann::json::exception& e) {
-        throw InputError(path, fmt::format("not valid JSON: {}", e.what()));
-    }
+    const nlohmann::json j = read_json_file(path);
     if (!j.is_object() || j.value("format", "") != "avsi-stimuli-manifest" || !j.contains("stimuli") ||
         !j["stimuli"].is_array())
         throw InputError(path, 0, 0, "format", "expected an avsi stimulus manifest (format \"avsi-stimuli-manifest\")");
@@ -142,12 +139,21 @@ StimulusManifest read_stimulus_manifest(const fs::path& dir) {
         try {
             ManifestEntry e;
             e.path = item.at("path").get<std::string>();
-            e.frames = item.at("frames").get<int>();
-            e.fps = item.at("fps").get<double>();
+            const auto& frames = item.at("frames");
+            // A stimulus lasts at most max_time_s at 1000 fps.
+            if (!frames.is_number_integer() || frames.get<double>() < 1 || frames.get<double>() > max_time_s * 1000)
+                problems.add(path.string(), 0, 0, field + ".frames",
+                             fmt::format("expected an integer in [1, {}], got {}", max_time_s * 1000, frames.dump()));
+            else
+                e.frames = frames.get<int>();
+            e.fps = require_in_range(item.at("fps").get<double>(), 1e-3, 1000.0, at(path.string(), 0, 0, field + ".fps"),
+                                     "a frame rate");
             e.sha256 = item.at("sha256").get<std::string>();
             m.stimuli[e.path] = e;
         } catch (const nlohmann::json::exception& e) {
-            problems.add(path.string(), 0, 0, field, fmt::format("expected path, frames, fps and sha256: {}", e.what()));
+            problems.add(path.string(), 0, 0, field, fmt::format("expected path, frames, fps and sha256: {}", json_error_text(e)));
+        } catch (const InputError& e) {
+            problems.add(e.first());
         }
     }
     problems.throw_if_any();
@@ -460,6 +466,10 @@ RunResult run_session(const RunSettings& settings) {
     auto opener = make_stimulus_opener(settings, protocol.render.fps);
 
     Store store(settings.database);
+    // One runner per subject: a second one stops here, before any window or
+    // write (the first one's sessions stay as they are).
+    const std::string broken_lock = store.lock_subject(settings.subject);
+    if (!broken_lock.empty()) log_warning("{}: subject {}: {}", settings.database.string(), settings.subject, broken_lock);
     if (const auto name = store.meta("experiment"); name && *name != protocol.name)
         throw InputError(settings.database, fmt::format("this database belongs to experiment \"{}\", the protocol "
                                                         "is \"{}\"; give another --db",
@@ -504,6 +514,20 @@ RunResult run_session(const RunSettings& settings) {
                                                      settings.database.string());
     }
     const std::vector<int> answered = store.answered_positions(settings.subject);
+    if (answered.size() >= plan.size()) {
+        // Every trial answered: a session left open was killed after its last
+        // commit. Close it as completed rather than opening an empty session.
+        for (const auto& open : store.open_sessions(settings.subject)) {
+            store.end_session(open.session, "completed");
+            store.add_event(open.session, settings.subject, "completed",
+                            fmt::format("session {} ended without closing after the last trial was answered; "
+                                        "closed as completed by the next run",
+                                        open.session));
+        }
+        throw InputError(settings.database, fmt::format("subject {} has answered all {} planned trials; nothing to "
+                                                        "run (give another --subject)",
+                                                        settings.subject, plan.size()));
+    }
     RunResult result;
     result.answered_before = static_cast<int>(answered.size());
     result.total = static_cast<int>(plan.size());

@@ -2,6 +2,12 @@
 #include "avsi/experiment/store.h"
 
 #include <sqlite3.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
 
 #include <algorithm>
 #include <chrono>
@@ -18,12 +24,44 @@ namespace avsi::experiment {
 
 namespace {
 
+// A failed SQLite call as an InputError naming the database and a cause a lab
+// can act on (disk full, read-only, damaged, locked), with SQLite's text.
+[[noreturn]] void throw_sqlite(sqlite3* db, const std::string& detail = {}) {
+    const int code = sqlite3_extended_errcode(db);
+    const int errno_value = sqlite3_system_errno(db);
+    const char* name = sqlite3_db_filename(db, "main");
+    const std::filesystem::path path = name && *name ? name : "<session database>";
+    std::string cause;
+    switch (code & 0xff) {
+        case SQLITE_FULL: cause = "disk full: no space left for the session database"; break;
+        case SQLITE_READONLY: cause = "read-only: the database, its folder or the disk cannot be written"; break;
+        case SQLITE_CORRUPT:
+        case SQLITE_NOTADB: cause = "the file is damaged or not an SQLite database"; break;
+        case SQLITE_BUSY:
+        case SQLITE_LOCKED: cause = "another process holds the database locked"; break;
+        case SQLITE_CANTOPEN: cause = "cannot open the database or its journal (folder missing or read-only?)"; break;
+        case SQLITE_IOERR:
+            if (errno_value == ENOSPC || errno_value == EDQUOT || errno_value == EFBIG)
+                cause = "disk full: no space left for the session database";
+            else if (errno_value == EROFS || errno_value == EACCES || errno_value == EPERM)
+                cause = "read-only: the database, its folder or the disk cannot be written";
+            else
+                cause = "input/output error";
+            break;
+        default: cause = "not a usable avsi session database"; break;
+    }
+    std::string message = fmt::format("{} (SQLite: {}", cause, sqlite3_errmsg(db));
+    if (errno_value != 0 && (code & 0xff) != SQLITE_ERROR) message += fmt::format("; {}", std::strerror(errno_value));
+    message += detail.empty() ? ")" : "; " + detail + ")";
+    throw InputError(path, message);
+}
+
 // One prepared statement; binds by 1-based index and steps.
 class Statement {
 public:
     Statement(sqlite3* db, const std::string& sql) : m_db(db) {
         if (sqlite3_prepare_v2(db, sql.c_str(), -1, &m_stmt, nullptr) != SQLITE_OK)
-            throw std::runtime_error(fmt::format("SQLite: {} in: {}", sqlite3_errmsg(db), sql));
+            throw_sqlite(db, sql.size() > 60 ? sql.substr(0, 60) + "…" : sql);
     }
     ~Statement() { sqlite3_finalize(m_stmt); }
     Statement(const Statement&) = delete;
@@ -39,7 +77,7 @@ public:
         const int rc = sqlite3_step(m_stmt);
         if (rc == SQLITE_ROW) return true;
         if (rc == SQLITE_DONE) return false;
-        throw std::runtime_error(fmt::format("SQLite: {}", sqlite3_errmsg(m_db)));
+        throw_sqlite(m_db);
     }
     void run() {
         while (step()) {
@@ -56,7 +94,7 @@ public:
 
 private:
     Statement& check(int rc) {
-        if (rc != SQLITE_OK) throw std::runtime_error(fmt::format("SQLite: {}", sqlite3_errmsg(m_db)));
+        if (rc != SQLITE_OK) throw_sqlite(m_db);
         return *this;
     }
     sqlite3* m_db;
@@ -77,12 +115,7 @@ public:
 
 private:
     void exec(const char* sql) {
-        char* error = nullptr;
-        if (sqlite3_exec(m_db, sql, nullptr, nullptr, &error) != SQLITE_OK) {
-            std::string message = error ? error : "unknown";
-            sqlite3_free(error);
-            throw std::runtime_error("SQLite: " + message);
-        }
+        if (sqlite3_exec(m_db, sql, nullptr, nullptr, nullptr) != SQLITE_OK) throw_sqlite(m_db);
     }
     sqlite3* m_db;
     bool m_done = false;
@@ -220,12 +253,28 @@ std::string utc_now() {
 }
 
 Store::Store(const std::filesystem::path& path) : m_path(path) {
-    if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+    std::error_code ec;
+    if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
+    if (ec) throw InputError(path, fmt::format("cannot create the database's folder: {}", ec.message()));
+    // The database and its folder must be writable (WAL puts -wal and -shm
+    // files beside it): say so now, before any trial, not at the first commit.
+    const std::filesystem::path folder = path.has_parent_path() ? path.parent_path() : ".";
+    for (const auto& [file, what] : {std::pair{path, "the session database"}, std::pair{folder, "its folder"}}) {
+        if (std::filesystem::exists(file) && ::access(file.c_str(), W_OK) != 0)
+            throw InputError(path, fmt::format("read-only: {} {} cannot be written ({}); avsi writes there (responses, "
+                                               "the WAL journal): copy the database to a writable place or fix "
+                                               "the permissions",
+                                               what, file.string(), std::strerror(errno)));
+    }
     if (sqlite3_open_v2(path.c_str(), &m_db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
-        const std::string message = m_db ? sqlite3_errmsg(m_db) : "out of memory";
-        sqlite3_close(m_db);
-        m_db = nullptr;
-        throw InputError(path, "cannot open the session database: " + message);
+        if (!m_db) throw InputError(path, "cannot open the session database: out of memory");
+        try {
+            throw_sqlite(m_db);
+        } catch (...) {
+            sqlite3_close(m_db);
+            m_db = nullptr;
+            throw;
+        }
     }
     sqlite3_busy_timeout(m_db, 5000);
     try {
@@ -287,16 +336,98 @@ Store::Store(const std::filesystem::path& path) : m_path(path) {
 }
 
 Store::~Store() {
+    for (const int subject : std::vector<int>(m_locked_subjects)) {
+        try {
+            unlock_subject(subject);
+        } catch (const std::exception&) {
+            // A lock that cannot be removed is broken by the next runner.
+        }
+    }
     if (m_db) sqlite3_close(m_db);
 }
 
-void Store::exec(const std::string& sql) const {
-    char* error = nullptr;
-    if (sqlite3_exec(m_db, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
-        std::string message = error ? error : "unknown";
-        sqlite3_free(error);
-        throw std::runtime_error("SQLite: " + message);
+namespace {
+
+// What identifies a running process across pid reuse: its start time in
+// clock ticks since boot (/proc/<pid>/stat field 22), "" if it is not running.
+std::string process_start(long pid) {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+    std::string stat;
+    if (!in || !std::getline(in, stat)) return {};
+    const auto paren = stat.rfind(')');
+    if (paren == std::string::npos) return {};
+    std::istringstream fields(stat.substr(paren + 1));
+    std::string field;
+    for (int i = 3; i <= 22 && (fields >> field); ++i) {
     }
+    return field;
+}
+
+std::string boot_id() {
+    std::ifstream in("/proc/sys/kernel/random/boot_id");
+    std::string id;
+    std::getline(in, id);
+    return id;
+}
+
+std::string host_name() {
+    char name[256] = {};
+    if (::gethostname(name, sizeof name - 1) != 0) return "unknown";
+    return name;
+}
+
+}  // namespace
+
+std::string Store::lock_subject(int subject) {
+    Transaction tx(m_db);
+    exec("CREATE TABLE IF NOT EXISTS runner_locks(subject INTEGER PRIMARY KEY, pid INTEGER NOT NULL, "
+         "host TEXT NOT NULL, boot_id TEXT NOT NULL, process_start TEXT NOT NULL, locked_utc TEXT NOT NULL)");
+    const long self = static_cast<long>(::getpid());
+    const std::string host = host_name(), boot = boot_id(), start = process_start(self);
+    std::string broken;
+    {
+        Statement held(m_db, "SELECT pid, host, boot_id, process_start, locked_utc FROM runner_locks WHERE subject = ?");
+        held.bind(1, subject);
+        if (held.step()) {
+            const long pid = held.integer(0);
+            const std::string holder_host = held.text(1), holder_boot = held.text(2), holder_start = held.text(3),
+                              since = held.text(4);
+            const bool same_machine = holder_host == host && holder_boot == boot;
+            const bool ours = same_machine && pid == self && holder_start == start;
+            const bool alive = same_machine && !ours && process_start(pid) == holder_start;
+            if (alive || !same_machine) {
+                throw InputError(m_path, fmt::format(
+                    "subject {} is being run by another runner (process {} on {} since {}){}; one runner per subject: "
+                    "wait for it to finish or close it",
+                    subject, pid, holder_host, since,
+                    same_machine ? "" : fmt::format(" — on another machine, so its lock is kept until that "
+                                                    "runner ends or the row of runner_locks is removed")));
+            }
+            if (!ours)
+                broken = fmt::format("a lock left by process {} on {} since {} (no longer running) was broken", pid,
+                                     holder_host, since);
+        }
+    }
+    Statement(m_db, "INSERT OR REPLACE INTO runner_locks(subject, pid, host, boot_id, process_start, locked_utc) "
+                    "VALUES(?, ?, ?, ?, ?, ?)")
+        .bind(1, subject).bind(2, static_cast<int>(self)).bind(3, host).bind(4, boot).bind(5, start)
+        .bind(6, utc_now()).run();
+    tx.commit();
+    if (std::find(m_locked_subjects.begin(), m_locked_subjects.end(), subject) == m_locked_subjects.end())
+        m_locked_subjects.push_back(subject);
+    return broken;
+}
+
+void Store::unlock_subject(int subject) {
+    const auto it = std::find(m_locked_subjects.begin(), m_locked_subjects.end(), subject);
+    if (it == m_locked_subjects.end()) return;
+    m_locked_subjects.erase(it);
+    Statement(m_db, "DELETE FROM runner_locks WHERE subject = ? AND pid = ? AND process_start = ?")
+        .bind(1, subject).bind(2, static_cast<int>(::getpid())).bind(3, process_start(::getpid())).run();
+}
+
+void Store::exec(const std::string& sql) const {
+    if (sqlite3_exec(m_db, sql.c_str(), nullptr, nullptr, nullptr) != SQLITE_OK) throw_sqlite(m_db);
 }
 
 int Store::schema_version() const {

@@ -24,6 +24,7 @@
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/core/log.h"
 #include "avsi/core/rng.h"
 #include "avsi/experiment/design.h"
@@ -226,8 +227,8 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
     if (fs::exists(out)) {
         nlohmann::json previous;
         try {
-            previous = nlohmann::json::parse(read_text_file(out / "study.json"));
-        } catch (const nlohmann::json::exception&) {
+            previous = read_json_file(out / "study.json");
+        } catch (const InputError&) {
         }
         if (!previous.is_object() || previous.value("format", "") != "avsi-web-study")
             throw InputError(out / "study.json", "not an avsi study export; choose another --out or remove the folder");
@@ -245,12 +246,7 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
         copy_into(web / "node_modules" / f.package / f.file, dir / f.to);
         result.vendored.push_back(f.to);
         const fs::path package_json = web / "node_modules" / f.package / "package.json";
-        nlohmann::json package;
-        try {
-            package = nlohmann::json::parse(read_text_file(package_json));
-        } catch (const nlohmann::json::exception& e) {
-            throw InputError(package_json, fmt::format("not valid JSON: {}", e.what()));
-        }
+        const nlohmann::json package = read_json_file(package_json);
         vendored[f.package] = package.value("version", "");
         vendored_txt += fmt::format("{}  <-  {}@{} ({}), licence {}, {}\n", f.to, f.package, package.value("version", "?"),
                                     f.file, package.value("license", "?"), package.value("homepage", ""));

@@ -19,6 +19,7 @@
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/core/log.h"
 #include "avsi/experiment/design.h"
 #include "avsi/experiment/runner.h"
@@ -65,6 +66,7 @@ std::pair<int, int> line_column(const std::string& text, std::size_t offset) {
 // objects (jsPsych's export). Objects with an "avsi" key are records; others
 // are counted in `ignored`.
 void parse_records(const std::string& text, const std::string& file, std::vector<Record>& out, int& ignored) {
+    check_json_structure(text, file);
     std::istringstream in(text);
     bool any = false;
     while (true) {

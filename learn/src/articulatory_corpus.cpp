@@ -13,9 +13,11 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "avsi/core/checks.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/rng.h"
 #include "avsi/core/text.h"
@@ -27,6 +29,9 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
+
+// How far labels may run past the end of their track.
+constexpr double k_label_overrun_s = 1.0;
 
 std::vector<std::string> param_names() {
     std::vector<std::string> names;
@@ -82,6 +87,7 @@ ParamTrack read_param_track_csv(const fs::path& path) {
                          fmt::format("expected a time in seconds, got \"{}\"", row.fields[*time_col]));
             continue;
         }
+        require_time_s(*t, at(table.path, row.line, static_cast<int>(*time_col) + 1, table.header[*time_col]));
         times.push_back(*t);
         Frame f;
         f.fill(missing_value);
@@ -92,8 +98,16 @@ ParamTrack read_param_track_csv(const fs::path& path) {
             if (!v)
                 problems.add(table.path, row.line, 0, table.header[c],
                              fmt::format("expected a number, empty or nan, got \"{}\"", field));
-            else
-                f[p] = *v;
+            else {
+                // Within one range width beyond the parameter's documented range.
+                const auto& info = params()[p];
+                try {
+                    f[p] = require_near_range(*v, info.min, info.max, 1.0,
+                                              at(table.path, row.line, static_cast<int>(c) + 1, table.header[c]));
+                } catch (const InputError& e) {
+                    problems.add(e.first());
+                }
+            }
         }
         track.frames.push_back(f);
     }
@@ -207,8 +221,9 @@ void read_mapping(const json& j, SensorMappingSettings& s, DiagnosticList& probl
     }
     for (double v : {s.mm_per_unit, s.jaw_opening_full_mm, s.jaw_thrust_full_mm, s.lip_vertical_full_mm,
                      s.lip_protrusion_full_mm, s.fps, s.jaw_shift_full_mm, s.corner_stretch_full_mm})
-        if (!(v > 0.0)) {
-            problems.add(path, 0, 0, "sensor_mapping", "expected every scale, unit and fps to be > 0");
+        if (!(v > 0.0 && v <= 1e6)) {
+            problems.add(path, 0, 0, "sensor_mapping",
+                         fmt::format("expected every scale, unit and fps in (0, 1e6], got {}", v));
             break;
         }
     if (!(s.rest_percentile >= 0.0 && s.rest_percentile <= 100.0))
@@ -278,12 +293,7 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
                       fmt::format("row {}", row.line));
         }
     } else {
-        json j;
-        try {
-            j = json::parse(text);
-        } catch (const json::parse_error& e) {
-            throw InputError(mpath, 0, 0, "json", e.what());
-        }
+        const json j = parse_json(text, mpath);
         static const std::vector<std::string> top = {"format", "version", "name", "split", "sensor_mapping",
                                                      "utterances", "description", "generator"};
         for (const auto& [key, value] : j.items())
@@ -389,6 +399,16 @@ CorpusUtterance load_corpus_utterance(const ArticulatoryCorpus& corpus, const Co
             u.track = map_sensors_to_params(read_sensor_file(entry.track), corpus.sensor_mapping, entry.track.string());
     }
     if (u.phones.empty()) throw InputError(entry.labels, "no phones in the label file");
+    // The labels must describe this track: ending at most k_label_overrun_s
+    // after its last frame (aligners round the final silence).
+    const double track_end_s =
+        u.track.start_s + static_cast<double>(u.track.frames.size() > 0 ? u.track.frames.size() - 1 : 0) / u.track.fps;
+    if (u.phones.back().end_s > track_end_s + k_label_overrun_s)
+        throw InputError(entry.labels, 0, 0, "end",
+                         fmt::format("expected the labels to end by {:.3f} s (the track {} ends at {:.3f} s, plus "
+                                     "{} s), got {:.3f} s",
+                                     track_end_s + k_label_overrun_s, entry.track.string(), track_end_s,
+                                     k_label_overrun_s, u.phones.back().end_s));
     return u;
 }
 

@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "avsi/core/checks.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
@@ -49,6 +50,13 @@ bool parse_bool(const std::string& v, bool& out) {
     }
     return false;
 }
+
+// The largest magnitude a track value may have: EMA coordinates are
+// millimetres (a head is ~200 mm), other channels (F0 in Hz, energies)
+// stay far below 10⁶; 10³⁸ is a corrupt file, not a measurement.
+constexpr double k_max_track_value = 1e6;
+// The most channels a track may declare (MOCHA has 14–22, mngu0 36).
+constexpr std::size_t k_max_channels = 10000;
 
 }  // namespace
 
@@ -100,12 +108,15 @@ EstTrack read_est_track(const std::filesystem::path& path) {
             throw InputError(file, 0, 0, key, "required header field is missing");
         return it->second;
     };
-    auto require_count = [&](const std::string& key) -> std::size_t {
+    // A declared count, at most `limit` and at most what the data after the
+    // header can hold at `min_bytes_each` bytes per item.
+    auto require_count = [&](const std::string& key, std::size_t min_bytes_each = 0,
+                             std::size_t limit = max_declared_count) -> std::size_t {
         const auto [v, l] = require(key);
         const auto n = parse_int(v);
         if (!n || *n < 0)
             throw InputError(file, l, 1, key, fmt::format("expected a count ≥ 0, got \"{}\"", v));
-        return static_cast<std::size_t>(*n);
+        return require_declared_count(*n, min_bytes_each, bytes.size() - pos, at(file, l, 1, key), limit);
     };
 
     const auto [type_text, type_line] = require("DataType");
@@ -113,8 +124,9 @@ EstTrack read_est_track(const std::filesystem::path& path) {
     if (type != "ascii" && type != "binary")
         throw InputError(file, type_line, 1, "DataType",
                          fmt::format("expected ascii or binary, got \"{}\"", type_text));
-    const std::size_t frames = require_count("NumFrames");
-    const std::size_t nch = require_count("NumChannels");
+    // Each value takes at least 2 bytes in ASCII ("0 ") and 4 in binary.
+    const std::size_t nch = require_count("NumChannels", 0, k_max_channels);
+    const std::size_t frames = require_count("NumFrames", (type == "binary" ? 4 : 2) * (1 + nch));
     if (header.count("numauxchannels")) {
         const std::size_t aux = require_count("NumAuxChannels");
         if (aux != 0)
@@ -167,6 +179,11 @@ EstTrack read_est_track(const std::filesystem::path& path) {
             std::memcpy(row.data(), bytes.data() + pos + k * stride * 4, stride * 4);
             if (swap)
                 for (auto& v : row) v = swap_float(v);
+            const bool present = breaks ? row[1] != 0.0f : true;
+            require_time_s(row[0], at(file, 0, 0, fmt::format("frame {} time", k + 1)));
+            for (std::size_t i = breaks ? 2 : 1; present && i < stride; ++i)
+                require_in_range(row[i], -k_max_track_value, k_max_track_value,
+                                 at(file, 0, 0, fmt::format("frame {} {}", k + 1, track.channels[i - (breaks ? 2 : 1)])));
             track.times_s.push_back(row[0]);
             track.present.push_back(breaks ? row[1] != 0.0f : true);
             track.values.emplace_back(row.begin() + (breaks ? 2 : 1), row.end());
@@ -191,9 +208,12 @@ EstTrack read_est_track(const std::filesystem::path& path) {
             std::vector<float> values;
             for (std::size_t i = 0; i < fields.size(); ++i) {
                 const auto v = parse_double(fields[i]);
+                const Diagnostic where = at(file, line_no, 0, i == 0 ? "time" : fmt::format("value {}", i + 1));
                 if (!v)
-                    throw InputError(file, line_no, 0, i == 0 ? "time" : fmt::format("value {}", i + 1),
+                    throw InputError(file, line_no, 0, where.field,
                                      fmt::format("expected a number, got \"{}\"", fields[i]));
+                if (i == 0) require_time_s(*v, where);
+                else require_in_range(*v, -k_max_track_value, k_max_track_value, where);
                 values.push_back(static_cast<float>(*v));
             }
             if (track.times_s.size() == frames)
@@ -270,6 +290,7 @@ EstTrack read_sensor_csv(const std::filesystem::path& path) {
         if (!t)
             throw InputError(table.path, row.line, 0, table.header[time_col],
                              fmt::format("expected a time in seconds, got \"{}\"", row.fields[time_col]));
+        require_time_s(*t, at(table.path, row.line, static_cast<int>(time_col) + 1, table.header[time_col]));
         std::vector<float> values;
         bool present = true;
         for (std::size_t c : cols) {
@@ -283,6 +304,8 @@ EstTrack read_sensor_csv(const std::filesystem::path& path) {
             if (!v)
                 throw InputError(table.path, row.line, 0, table.header[c],
                                  fmt::format("expected a number, empty or nan, got \"{}\"", f));
+            require_in_range(*v, -k_max_track_value, k_max_track_value,
+                             at(table.path, row.line, static_cast<int>(c) + 1, table.header[c]));
             values.push_back(static_cast<float>(*v));
         }
         if (!track.times_s.empty() && !(*t > track.times_s.back()))

@@ -19,6 +19,7 @@
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/log.h"
 #include "avsi/core/protocol.h"
@@ -422,7 +423,7 @@ std::map<std::string, json> manifest_entries(const std::filesystem::path& manife
     unreadable = false;
     if (!std::filesystem::exists(manifest_path)) return entries;
     try {
-        const json old = json::parse(read_text_file(manifest_path));
+        const json old = read_json_file(manifest_path);
         for (const auto& e : old.at("stimuli")) entries[e.at("path").get<std::string>()] = e;
     } catch (const std::exception&) {
         entries.clear();
@@ -456,7 +457,10 @@ void verify_one(const Job& job, const std::map<std::string, json>& entries, cons
         add("the WAV " + job.wav.generic_string() + " differs from the one built (SHA-256)");
     try {
         const DecodedVideo v = decode_video(video);
-        const auto frames = e.value("frames", std::size_t{0});
+        // Integers only: a float such as 1e300 converted to a count is undefined.
+        const auto frames_json = e.value("frames", json());
+        const auto frames = frames_json.is_number_unsigned() ? frames_json.get<std::size_t>() : std::size_t{0};
+        if (!frames_json.is_number_unsigned()) add("the manifest's frames is not a count: " + frames_json.dump());
         const double fps = e.value("fps", 0.0);
         if (v.frame_count != frames)
             add(fmt::format("decodes to {} frames, the manifest says {}", v.frame_count, frames));

@@ -4,6 +4,7 @@
 #include "avsi/stimuli/head.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -11,13 +12,17 @@
 #include <set>
 #include <span>
 
+#include <fmt/format.h>
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 #include <tiny_obj_loader.h>
 
+#include "avsi/core/checks.h"
+#include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/stimuli/image_io.h"
 #include "rig_reader.h"
 #include "smoothstep.h"
@@ -49,12 +54,44 @@ struct ObjRead {
     std::optional<std::size_t> uv_conflict;
 };
 
+// A head fits in 10 m: a coordinate, size or factor in a mesh or rig
+// beyond ±10⁴ (mm) is garbage, not a head.
+constexpr double k_max_head_mm = 1e4;
+
 ObjRead read_obj(const std::filesystem::path& path) {
     tinyobj::ObjReaderConfig config;
     config.triangulate = true;
     config.vertex_color = true;
     tinyobj::ObjReader reader;
     if (!std::filesystem::exists(path)) throw InputError(path, "cannot open: no such file");
+    // tinyobjloader reads a coordinate it cannot parse ("nan", "1e999", "x")
+    // as 0: check every vertex line first, with its line number.
+    {
+        const std::string text = read_text_file(path);
+        std::size_t pos = 0;
+        for (int line = 1; pos < text.size(); ++line) {
+            const std::size_t end = std::min(text.find('\n', pos), text.size());
+            const std::string_view l(text.data() + pos, end - pos);
+            if (l.size() > 2 && l[0] == 'v' && (l[1] == ' ' || l[1] == '\t')) {
+                std::size_t i = 2;
+                for (int k = 0; i < l.size(); ++k) {
+                    while (i < l.size() && std::isspace(static_cast<unsigned char>(l[i]))) ++i;
+                    std::size_t j = i;
+                    while (j < l.size() && !std::isspace(static_cast<unsigned char>(l[j]))) ++j;
+                    if (j == i) break;
+                    const auto value = parse_double(l.substr(i, j - i));
+                    const std::string field = k < 3 ? std::string("vertex ") + "xyz"[k] : "vertex colour";
+                    if (!value)
+                        throw InputError(path.string(), line, static_cast<int>(i) + 1, field,
+                                         fmt::format("expected a number, got \"{}\"", excerpt(l.substr(i, j - i))));
+                    require_in_range(*value, -k_max_head_mm, k_max_head_mm, at(path.string(), line, static_cast<int>(i) + 1, field),
+                                     "a coordinate in mm");
+                    i = j;
+                }
+            }
+            pos = end + 1;
+        }
+    }
     if (!reader.ParseFromFile(path.string(), config))
         throw InputError(path, "not a readable OBJ mesh: " + reader.Error());
     const auto& attrib = reader.GetAttrib();
@@ -64,6 +101,10 @@ ObjRead read_obj(const std::filesystem::path& path) {
     mesh.positions.resize(n);
     mesh.colors.resize(n, glm::vec3(1.0f));
     for (std::size_t i = 0; i < n; ++i) {
+        for (int k = 0; k < 3; ++k)
+            require_in_range(attrib.vertices[3 * i + k], -k_max_head_mm, k_max_head_mm,
+                             at(path.string(), 0, 0, fmt::format("vertex {} {}", i + 1, "xyz"[k])),
+                             "a coordinate in mm");
         mesh.positions[i] = {attrib.vertices[3 * i], attrib.vertices[3 * i + 1],
                              attrib.vertices[3 * i + 2]};
         if (attrib.colors.size() >= 3 * n)
@@ -135,14 +176,20 @@ struct RigReader {
             problem(field, "expected an array of 3 numbers, got " + j.dump());
             return glm::vec3(0.0f);
         }
-        return {j[0].get<float>(), j[1].get<float>(), j[2].get<float>()};
+        return {number(j[0], field + "[0]"), number(j[1], field + "[1]"), number(j[2], field + "[2]")};
     }
     float number(const json& j, const std::string& field) {
         if (!j.is_number()) {
             problem(field, "expected a number, got " + j.dump());
             return 0.0f;
         }
-        return j.get<float>();
+        const double v = j.get<double>();
+        if (!(std::abs(v) <= k_max_head_mm)) {
+            problem(field, fmt::format("expected a number in [{}, {}] (mm or a factor), got {}", -k_max_head_mm,
+                                       k_max_head_mm, v));
+            return 0.0f;
+        }
+        return static_cast<float>(v);
     }
 };
 
@@ -435,13 +482,8 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
     auto obj = read_obj(obj_path);
     head.mesh = std::move(obj.mesh);
 
-    json doc;
-    try {
-        doc = json::parse(read_text_file(rig_path));
-    } catch (const json::parse_error& e) {
-        throw InputError(rig_path, std::string("not valid JSON: ") + e.what());
-    }
-    detail::read_rig(head, doc, obj.uv_conflict, true);
+    const json doc = read_json_file(rig_path);
+    with_json_context(rig_path, [&] { detail::read_rig(head, doc, obj.uv_conflict, true); });
     return head;
 }
 

@@ -132,8 +132,13 @@ void accumulate_sse2(const double* u, std::size_t len, double rate, int count, c
 
 }  // namespace
 
+// (clang ignores GCC's target pragma: the same region as a function attribute.)
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2,fma"))), apply_to = function)
+#else
 #pragma GCC push_options
 #pragma GCC target("avx2,fma")
+#endif
 
 extern "C" __m256d _ZGVdN4v_exp(__m256d);
 extern "C" __m256d _ZGVdN4v_log(__m256d);
@@ -217,7 +222,11 @@ void accumulate_avx2(const double* u, std::size_t len, double rate, int count, c
 
 }  // namespace
 
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
 #pragma GCC pop_options
+#endif
 
 #endif  // AVSI_CM_LIBMVEC
 

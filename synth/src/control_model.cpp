@@ -10,6 +10,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "model_json.h"
 
 namespace avsi::synth {
@@ -33,7 +34,11 @@ const std::vector<std::string>& model_kinds() {
 }
 
 std::unique_ptr<ControlModel> load_model(const std::filesystem::path& path) {
-    using namespace detail;
+    return with_json_context(path, [&] { return detail::load_model_json(path); });
+}
+
+namespace detail {
+std::unique_ptr<ControlModel> load_model_json(const std::filesystem::path& path) {
     const json root = parse_json_file(path);
     DiagnosticList problems;
     JsonReader reader(path.string(), problems);
@@ -72,6 +77,7 @@ std::unique_ptr<ControlModel> load_model(const std::filesystem::path& path) {
     model->set_provenance(std::move(provenance));
     return model;
 }
+}  // namespace detail
 
 void save_model(const ControlModel& model, const std::filesystem::path& path) {
     write_text_file(path, model.to_json_text());
@@ -257,27 +263,7 @@ std::vector<std::string> phone_symbols() {
     return out;
 }
 
-json parse_json_file(const std::filesystem::path& path) {
-    const std::string text = read_text_file(path);
-    try {
-        return json::parse(text);
-    } catch (const json::parse_error& e) {
-        // e.byte is 1-based, pointing just past the offending character.
-        const std::size_t offset = e.byte > 0 ? std::min<std::size_t>(e.byte - 1, text.size()) : 0;
-        int line = 1, column = 1;
-        for (std::size_t i = 0; i < offset; ++i) {
-            if (text[i] == '\n') {
-                ++line;
-                column = 1;
-            } else {
-                ++column;
-            }
-        }
-        std::string what = e.what();
-        if (const auto pos = what.find("syntax error"); pos != std::string::npos) what = what.substr(pos);
-        throw InputError(path.string(), line, column, "", "invalid JSON: " + what);
-    }
-}
+json parse_json_file(const std::filesystem::path& path) { return avsi::read_json_file(path); }
 
 void missing_phone(const Phone& phone, std::size_t segment, std::string_view kind) {
     throw InputError(Diagnostic{"", 0, 0, fmt::format("phone {} ('{}' at {:.3f} s)", segment + 1, phone.symbol, phone.start_s),

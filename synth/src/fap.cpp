@@ -32,6 +32,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "avsi/core/checks.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
@@ -344,8 +345,8 @@ FapStream read_fap(const std::filesystem::path& path) {
     const std::string& fps_text = header[header.size() - 2];
     const std::string& frames_text = header.back();
     const auto fps = parse_double(fps_text);
-    if (!fps || !(*fps > 0.0) || !std::isfinite(*fps))
-        throw InputError(file, header_line, 0, "fps", fmt::format("expected a positive number, got \"{}\"", fps_text));
+    if (!fps || !(*fps > 0.0) || !(*fps <= 1000.0))
+        throw InputError(file, header_line, 0, "fps", fmt::format("expected a frame rate in (0, 1000], got \"{}\"", fps_text));
     out.fps = *fps;
     const auto declared = parse_int(frames_text);
     if (!declared || *declared < 0)
@@ -419,6 +420,9 @@ FapStream read_fap(const std::filesystem::path& path) {
                 if (!x || !std::isfinite(*x))
                     throw InputError(file, value_line, 0, fmt::format("frame {} FAP {}", k, i + 1),
                                      fmt::format("expected a number, got \"{}\"", values[v]));
+                // 10⁵ FAPU is ~100 times a face's key distances (1024 FAPU each).
+                require_in_range(*x, -1e5, 1e5, at(file, value_line, 0, fmt::format("frame {} FAP {}", k, i + 1)),
+                                 "a FAP value in FAPU");
                 if (width == 1 && i > 1) frame.values[i] = *x;
             }
         }

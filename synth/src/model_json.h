@@ -80,6 +80,8 @@ std::unique_ptr<ControlModel> load_ann(const json& root, const std::filesystem::
 
 // Parses JSON text; a syntax error throws InputError with file:line:column.
 json parse_json_file(const std::filesystem::path& path);
+// load_model without the boundary that names the file for library errors.
+std::unique_ptr<ControlModel> load_model_json(const std::filesystem::path& path);
 
 // Throws InputError naming the phone and segment if `entry` is null.
 [[noreturn]] void missing_phone(const Phone& phone, std::size_t segment, std::string_view kind);

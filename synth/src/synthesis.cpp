@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/audio.h"
+#include "avsi/core/checks.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"

@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "avsi/core/checks.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
@@ -65,6 +66,7 @@ Trajectory read_trajectory_csv(const std::filesystem::path& path) {
                          fmt::format("expected a number, got \"{}\"", row.fields[time_col]));
             continue;
         }
+        require_time_s(*t, at(file, row.line, static_cast<int>(time_col) + 1, "time_s"));
         Frame frame{};
         for (const auto& info : params()) {
             const std::size_t c = cols[index(info.param)];
@@ -74,7 +76,9 @@ Trajectory read_trajectory_csv(const std::filesystem::path& path) {
                              fmt::format("expected a number, got \"{}\"", row.fields[c]));
                 continue;
             }
-            frame[index(info.param)] = *v;
+            // Within one range width beyond the documented range.
+            frame[index(info.param)] = require_near_range(
+                *v, info.min, info.max, 1.0, at(file, row.line, static_cast<int>(c) + 1, std::string(info.name)));
         }
         times.push_back(*t);
         out.frames.push_back(frame);

@@ -10,6 +10,7 @@
 #include <sqlite3.h>
 
 #include <chrono>
+#include <fstream>
 #include <map>
 #include <regex>
 #include <set>
@@ -705,6 +706,105 @@ TEST_F(RunnerE2E, AdaptiveScoreCheckCorrectionsCountAndAreLogged) {
         if (row.record.corrected && !row.record.track.empty()) {
             EXPECT_GT(row.record.next_level_db, row.record.level_db);
         }
+}
+
+// Rows of a table, read without writing.
+std::size_t rows_of(const fs::path& db, const std::string& table) {
+    sqlite3* h = nullptr;
+    std::size_t n = 0;
+    if (sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
+        sqlite3_busy_timeout(h, 2000);
+        sqlite3_stmt* st = nullptr;
+        if (sqlite3_prepare_v2(h, ("SELECT count(*) FROM " + table).c_str(), -1, &st, nullptr) == SQLITE_OK &&
+            sqlite3_step(st) == SQLITE_ROW)
+            n = static_cast<std::size_t>(sqlite3_column_int(st, 0));
+        sqlite3_finalize(st);
+    }
+    sqlite3_close(h);
+    return n;
+}
+
+TEST_F(RunnerE2E, ASecondRunnerOnTheSameSubjectRefusesBeforeShowingAnything) {
+    const fs::path dir = temp_dir("e2e_two_runners");
+    const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "protocol.toml";
+    const fs::path db = dir / "two.sqlite";
+    const auto script = write_script(dir / "s.txt", 10, 1);
+    const pid_t first = spawn(run_args(protocol, 1, db, script), dir / "first.txt");
+    // Wait until the first runner has committed a trial, then hold it still
+    // (between transactions: it holds no SQLite lock) while the second starts.
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (committed(db) < 1 && std::chrono::steady_clock::now() < give_up)
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ASSERT_GE(committed(db), 1) << read_text_file(dir / "first.txt");
+    // Stopped outside a write transaction: retried until a write lock is free.
+    for (int attempt = 0;; ++attempt) {
+        ASSERT_EQ(::kill(first, SIGSTOP), 0);
+        sqlite3* h = nullptr;
+        bool free = false;
+        if (sqlite3_open(db.c_str(), &h) == SQLITE_OK) {
+            free = sqlite3_exec(h, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) == SQLITE_OK;
+            sqlite3_exec(h, "ROLLBACK", nullptr, nullptr, nullptr);
+        }
+        sqlite3_close(h);
+        if (free) break;
+        ASSERT_LT(attempt, 1000);
+        ::kill(first, SIGCONT);
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    std::map<std::string, std::size_t> before;
+    for (const char* t : {"sessions", "responses", "presentations", "events", "runner_locks"}) before[t] = rows_of(db, t);
+    auto second_args = run_args(protocol, 1, db, script);
+    second_args.push_back("--screenshots");
+    second_args.push_back((dir / "shots").string());
+    const int second = run(second_args, dir / "second.txt");
+    const std::string second_log = read_text_file(dir / "second.txt");
+    for (const auto& [table, n] : before) EXPECT_EQ(rows_of(db, table), n) << table << " changed";
+    ::kill(first, SIGCONT);
+    int status = 0;
+    ::waitpid(first, &status, 0);
+    EXPECT_EQ(second, 1) << second_log;
+    EXPECT_NE(second_log.find(db.string() + ": error: subject 1 is being run by another runner (process " +
+                              std::to_string(first)),
+              std::string::npos)
+        << second_log;
+    // Nothing was shown: no screenshot of any screen.
+    EXPECT_FALSE(fs::exists(dir / "shots") && !fs::is_empty(dir / "shots"));
+    // The first runner finished undisturbed, and released the lock.
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_text_file(dir / "first.txt");
+    EXPECT_EQ(committed(db), 10);
+    EXPECT_EQ(rows_of(db, "runner_locks"), 0u);
+}
+
+TEST_F(RunnerE2E, AKillAfterTheLastTrialClosesTheSessionInsteadOfOpeningAnEmptyOne) {
+    const fs::path dir = temp_dir("e2e_done");
+    const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "protocol.toml";
+    const fs::path db = dir / "done.sqlite";
+    const auto script = write_script(dir / "s.txt", 10, 1);
+    ASSERT_EQ(run(run_args(protocol, 1, db, script), dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+    // As if killed after its last commit: the session never closed, the lock stayed.
+    sqlite3* h = nullptr;
+    ASSERT_EQ(sqlite3_open(db.c_str(), &h), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(h, "UPDATE sessions SET ended_utc = NULL, end_reason = NULL", nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    // The dead runner's lock: this host and boot, a process that no longer runs.
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    std::string boot;
+    std::getline(std::ifstream("/proc/sys/kernel/random/boot_id"), boot);
+    const std::string lock = fmt::format("INSERT INTO runner_locks VALUES(1, 999999, '{}', '{}', 'x', '2026-01-01')",
+                                         host, boot);
+    ASSERT_EQ(sqlite3_exec(h, lock.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(h);
+    const std::size_t sessions = rows_of(db, "sessions");
+    EXPECT_EQ(run(run_args(protocol, 1, db, script), dir / "again.txt"), 1);
+    const std::string log = read_text_file(dir / "again.txt");
+    EXPECT_NE(log.find("subject 1 has answered all 10 planned trials; nothing to run"), std::string::npos) << log;
+    EXPECT_EQ(rows_of(db, "sessions"), sessions) << "a new session was opened";
+    Store store(db);
+    const auto all = store.sessions(1);
+    ASSERT_EQ(all.size(), 1u);
+    EXPECT_EQ(all[0].end_reason, "completed");
+    EXPECT_EQ(store.answered_positions(1).size(), 10u);
 }
 
 }  // namespace

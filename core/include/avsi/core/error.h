@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace avsi {
@@ -63,8 +64,16 @@ private:
     std::vector<Diagnostic> m_items;
 };
 
+// The start of `text` for a message: at most `max_bytes` bytes (not cutting
+// a UTF-8 character), with "…" and the full length when cut.
+std::string excerpt(std::string_view text, std::size_t max_bytes = 60);
+
+// Words longer than this get no "did you mean" hint.
+inline constexpr std::size_t k_max_hint_length = 64;
+
 // The closest candidate to `word` by edit distance, or "" if none is close
-// enough to be a plausible typo (for "did you mean" hints).
+// enough to be a plausible typo (for "did you mean" hints) or `word` is
+// longer than k_max_hint_length.
 std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
 
 // Optimal-string-alignment (Damerau-Levenshtein) distance between two strings.

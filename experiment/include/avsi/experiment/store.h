@@ -217,6 +217,17 @@ public:
 
     void add_event(int session, int subject, const std::string& kind, const std::string& detail);
 
+    // Takes the runner's advisory lock on `subject` for this process (a row
+    // of the runner_locks table, created on first use; not part of the
+    // versioned schema, older avsi ignore it). Throws InputError naming the
+    // database and the holder (pid, host, since when) if a running process
+    // holds it. A lock whose process is gone (crash, kill; checked by pid,
+    // process start time and boot id on the same host) is broken: returns a
+    // description of it then, "" otherwise. Released by unlock_subject or the
+    // Store's destructor.
+    std::string lock_subject(int subject);
+    void unlock_subject(int subject);
+
     // Commits the presentation and response of one trial in one durable
     // transaction. Throws if the trial already has a response (never asked twice).
     void commit_trial(int session, const PlannedTrial& trial, const Presentation& presentation,
@@ -289,6 +300,7 @@ private:
     void exec(const std::string& sql) const;
     std::filesystem::path m_path;
     sqlite3* m_db = nullptr;
+    std::vector<int> m_locked_subjects;
 };
 
 // Writes responses.csv, timing.csv, timing_summary.csv, frames.csv,
