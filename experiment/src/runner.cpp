@@ -721,11 +721,14 @@ RunResult run_session(const RunSettings& settings) {
                         } else {
                             store.commit_trial(session, *t, p, action.response, record);
                         }
-                        log_info("trial {}{}: SNR {:.2f} dB, {} of {} keywords{}", t->position,
+                        log_info("trial {}{}: {} {:.2f} {}, {} of {} keywords{}", t->position,
                                  record.attempt > 1 ? fmt::format(" (presentation {})", record.attempt) : "",
-                                 record.level_db, record.correct, record.keywords,
+                                 adaptive->settings().list_variable() ? analysis::to_string(adaptive->settings().variable)
+                                                                      : std::string("SNR"),
+                                 record.level_db, adaptive->settings().unit(), record.correct, record.keywords,
                                  record.track.empty() ? std::string(" (no track)")
-                                                      : fmt::format(", next {:.2f} dB{}", record.next_level_db,
+                                                      : fmt::format(", next {:.2f} {}{}", record.next_level_db,
+                                                                    adaptive->settings().unit(),
                                                                     record.repeat ? " (the same sentence again)" : ""));
                         if (action.repeat) {
                             playback = Playback{};
