@@ -68,7 +68,23 @@ double AdaptiveSession::level_db(const PlannedTrial& trial) const {
 }
 
 std::filesystem::path AdaptiveSession::variant_path(const PlannedTrial& trial) const {
-    return stimuli::variant_audio_path(trial.stimulus, analysis::to_string(m_settings.variable), level_db(trial));
+    return m_stimuli_dir /
+           stimuli::variant_audio_path(trial.stimulus, analysis::to_string(m_settings.variable), level_db(trial));
+}
+
+void AdaptiveSession::check_variants(const std::vector<PlannedTrial>& plan) const {
+    if (!m_settings.list_variable()) return;
+    const std::string variable = analysis::to_string(m_settings.variable);
+    for (const auto& t : plan) {
+        std::vector<double> levels = t.phase == Phase::Test ? m_settings.levels : std::vector{m_settings.practice_level};
+        for (const double level : levels) {
+            const auto path = m_stimuli_dir / stimuli::variant_audio_path(t.stimulus, variable, level);
+            if (!std::filesystem::is_regular_file(path))
+                throw InputError(path, fmt::format("the {} = {} audio variant of {} is missing: build the stimuli with "
+                                                   "this protocol (avsi build-stimuli)",
+                                                   variable, level, t.stimulus));
+        }
+    }
 }
 
 int AdaptiveSession::next_attempt(const PlannedTrial& trial) const {

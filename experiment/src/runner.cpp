@@ -502,6 +502,16 @@ RunResult run_session(const RunSettings& settings) {
     if (protocol.adaptive.present()) {
         adaptive = std::make_unique<AdaptiveSession>(protocol, corpus, store.adaptive_trials(settings.subject),
                                                      settings.database.string());
+        if (adaptive->settings().list_variable()) {
+            // Band-count / cutoff tracks play the builder's audio variants.
+            if (settings.stimuli_dir.empty())
+                throw UsageError(fmt::format("--stimuli: a \"{}\" track plays the pre-rendered audio variants of the "
+                                             "stimulus folder; give --stimuli DIR (with --test-pattern the video is "
+                                             "the test clip, the audio the variants)",
+                                             analysis::to_string(adaptive->settings().variable)));
+            adaptive->set_stimuli_dir(settings.stimuli_dir);
+            adaptive->check_variants(plan);
+        }
     }
     const std::vector<int> answered = store.answered_positions(settings.subject);
     RunResult result;

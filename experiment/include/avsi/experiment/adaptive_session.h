@@ -77,6 +77,14 @@ public:
 
     const analysis::AdaptiveProtocol& settings() const { return m_settings; }
 
+    // List variables: the stimulus folder the variants are read from (the
+    // planned stimulus paths are relative to it).
+    void set_stimuli_dir(std::filesystem::path dir) { m_stimuli_dir = std::move(dir); }
+    // List variables: every level's variant of every test trial of `plan` is
+    // there (InputError naming the first missing one), so a session does not
+    // stop mid-track on a missing file.
+    void check_variants(const std::vector<PlannedTrial>& plan) const;
+
     // The level the trial's next presentation gets, in the variable's units:
     // its track's level (test trials) or the fixed practice level.
     double level_db(const PlannedTrial& trial) const;
@@ -114,6 +122,7 @@ private:
     std::map<std::string, analysis::AdaptiveTrack> m_tracks;
     std::map<int, int> m_attempts;  // position → presentations stored
     std::map<int, std::vector<double>> m_noise_by_rate;  // a noise recording, per sample rate
+    std::filesystem::path m_stimuli_dir;
 };
 
 }  // namespace avsi::experiment
