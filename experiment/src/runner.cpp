@@ -733,8 +733,7 @@ RunResult run_session(const RunSettings& settings) {
                         }
                         log_info("trial {}{}: {} {:.2f} {}, {} of {} keywords{}", t->position,
                                  record.attempt > 1 ? fmt::format(" (presentation {})", record.attempt) : "",
-                                 adaptive->settings().list_variable() ? analysis::to_string(adaptive->settings().variable)
-                                                                      : std::string("SNR"),
+                                 adaptive->settings().list_variable() ? std::string("level") : std::string("SNR"),
                                  record.level_db, adaptive->settings().unit(), record.correct, record.keywords,
                                  record.track.empty() ? std::string(" (no track)")
                                                       : fmt::format(", next {:.2f} {}{}", record.next_level_db,

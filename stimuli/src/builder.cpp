@@ -460,8 +460,10 @@ void verify_one(const Job& job, const std::map<std::string, json>& entries, cons
     else if (sha256_file(wav) != e.value("wav_sha256", ""))
         add("the WAV " + job.wav.generic_string() + " differs from the one built (SHA-256)");
     std::map<std::string, std::string> listed;  // variant path → SHA-256 in the manifest
-    if (e.contains("variants") && e["variants"].is_array())
-        for (const auto& v : e["variants"]) listed[v.value("wav", "")] = v.value("sha256", "");
+    if (e.contains("variants") && e["variants"].is_object() && e["variants"].contains("files") &&
+        e["variants"]["files"].is_array())
+        for (const auto& v : e["variants"]["files"])
+            if (v.is_object()) listed[v.value("wav", "")] = v.value("sha256", "");
     for (const auto& variant : job.variants) {
         const std::string name = variant.wav.generic_string();
         const auto l = listed.find(name);
