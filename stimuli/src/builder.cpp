@@ -753,6 +753,15 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                             v.envelope_cutoff_hz = variant.level;
                         Audio rendered = vocoder::vocode(sp.audio, v).audio;
                         const Level vl = set_speech_level(rendered, protocol.corpus.level_dbfs);
+                        if (vl.peak_dbfs > max_peak_dbfs)
+                            throw InputError(protocol.path.string(), protocol.corpus.level_line,
+                                             protocol.corpus.level_column, "corpus.level_dbfs",
+                                             fmt::format("expected a speech level at which every stimulus peaks at or "
+                                                         "below {:.1f} dBFS; at {:.1f} dBFS sentence '{}' with {} = {} "
+                                                         "peaks at {:.2f} dBFS",
+                                                         max_peak_dbfs, protocol.corpus.level_dbfs, job.sentence->id,
+                                                         analysis::to_string(plan.adaptive.variable), variant.level,
+                                                         vl.peak_dbfs));
                         write_audio(settings.out_dir / variant.wav, rendered);
                         variants.push_back({{"level", variant.level},
                                             {"wav", variant.wav.generic_string()},
