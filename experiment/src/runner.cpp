@@ -145,6 +145,9 @@ StimulusManifest read_stimulus_manifest(const fs::path& dir) {
             e.frames = item.at("frames").get<int>();
             e.fps = item.at("fps").get<double>();
             e.sha256 = item.at("sha256").get<std::string>();
+            if (item.contains("variants") && !item["variants"].is_null())
+                for (const auto& v : item["variants"].at("files"))
+                    e.variants[v.at("wav").get<std::string>()] = v.at("sha256").get<std::string>();
             m.stimuli[e.path] = e;
         } catch (const nlohmann::json::exception& e) {
             problems.add(path.string(), 0, 0, field, fmt::format("expected path, frames, fps and sha256: {}", e.what()));
@@ -172,6 +175,16 @@ void StimulusFolderOpener::verify(const std::vector<std::string>& stimuli) const
             problems.add(file.string(), 0, 0, "sha256",
                          fmt::format("expected {} (manifest.json), got {}: the file changed after the build",
                                      entry->second.sha256, sha));
+        if (entry == m_manifest.stimuli.end()) continue;
+        for (const auto& [variant, expected] : entry->second.variants) {
+            const fs::path wav = m_dir / variant;
+            if (!fs::is_regular_file(wav))
+                problems.add(wav.string(), 0, 0, "", "missing audio variant (rebuild with `avsi build-stimuli`)");
+            else if (const std::string sha = sha256_file(wav); sha != expected)
+                problems.add(wav.string(), 0, 0, "sha256",
+                             fmt::format("expected {} (manifest.json), got {}: the file changed after the build",
+                                         expected, sha));
+        }
     }
     problems.throw_if_any();
 }
