@@ -70,11 +70,12 @@ const bool registered_analyze = register_command({
                 if (result.anova) fmt::print("SRT: {}\n", analysis::apa_anova(result.anova->anova));
                 for (const auto& b : result.benefits)
                     if (b.n >= 2)
-                        fmt::print("visual benefit of {} over {}: {:.2f} dB, {:.0f} % CI [{:.2f}, {:.2f}] (n = {})\n",
-                                   b.condition, b.reference, b.mean_db, 100 * a.confidence, b.ci_low_db, b.ci_high_db, b.n);
+                        fmt::print("visual benefit of {} over {}: {:.2f} {}, {:.0f} % CI [{:.2f}, {:.2f}] (n = {})\n",
+                                   b.condition, b.reference, b.mean_db, result.unit, 100 * a.confidence, b.ci_low_db,
+                                   b.ci_high_db, b.n);
                     else
-                        fmt::print("visual benefit of {} over {}: {:.2f} dB (n = {}: no interval)\n", b.condition,
-                                   b.reference, b.mean_db, b.n);
+                        fmt::print("visual benefit of {} over {}: {:.2f} {} (n = {}: no interval)\n", b.condition,
+                                   b.reference, b.mean_db, result.unit, b.n);
                 fmt::print("report: {}\n", (a.out_dir / "index.html").string());
                 return 0;
             }

@@ -26,10 +26,16 @@ struct SimulateSrtOptions {
 int run_simulate_srt(const SimulateSrtOptions& o, bool procedure_given) {
     analysis::SrtSimulationSettings s;
     if (!o.protocol.empty()) {
-        const analysis::AdaptiveProtocol a = analysis::adaptive_protocol(load_protocol(o.protocol));
+        const Protocol protocol = load_protocol(o.protocol);
+        const analysis::AdaptiveProtocol a = analysis::adaptive_protocol(protocol);
         if (!a.enabled)
             throw InputError(o.protocol, 0, 0, "adaptive", "expected an [adaptive] section: the protocol runs no adaptive tracks");
         if (procedure_given) throw UsageError("--procedure: the protocol's [adaptive] section sets the procedure");
+        if (a.list_variable())
+            throw InputError(o.protocol, protocol.adaptive.line(), 0, "adaptive.variable",
+                             fmt::format("expected \"snr\": simulate-srt models listeners by a psychometric function "
+                                         "of the SNR in dB; a \"{}\" track (levels on a list) is not simulated",
+                                         analysis::to_string(a.variable)));
         s.track = a.track;
     } else {
         s.track.procedure = o.procedure == "word" ? analysis::AdaptiveProcedure::Word : analysis::AdaptiveProcedure::Sentence;

@@ -70,9 +70,10 @@ std::vector<AdaptiveTrialRow> read_adaptive_trials(const fs::path& path) {
         };
         auto number = [&](std::size_t c, const char* name, double& out) {
             const auto v = parse_double(field(c));
-            if (!v || std::fabs(*v) > 200.0)
+            if (!v || std::fabs(*v) > 100000.0)
                 problems.add(t.path, r.line, static_cast<int>(c) + 1, name,
-                             fmt::format("expected a level in [-200, 200] dB, got \"{}\"", field(c)));
+                             fmt::format("expected a level in [-100000, 100000] (dB, bands or Hz), got \"{}\"",
+                                         field(c)));
             else
                 out = *v;
         };
@@ -98,10 +99,18 @@ std::vector<AdaptiveTrialRow> read_adaptive_trials(const fs::path& path) {
 
 SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSettings& settings,
                         const std::vector<std::string>& conditions, const std::string& reference,
-                        const std::string& source, double confidence) {
+                        const std::string& source, double confidence, const AdaptiveProtocol* list) {
     validate(settings, source);
     SrtAnalysis a;
     a.settings = settings;
+    if (list && list->list_variable()) {
+        a.unit = list->unit();
+        a.level_label = list->variable == AdaptiveVariable::Bands ? "vocoder bands" : "envelope cutoff (Hz)";
+        a.threshold_label = list->variable == AdaptiveVariable::Bands ? "vocoder bands" : "Hz envelope cutoff";
+    } else {
+        list = nullptr;
+    }
+    const auto value_of = [&](double track_level) { return list ? list->value_of(track_level) : track_level; };
     // Tracks in first-appearance order of subject, then condition.
     std::vector<std::string> subjects, seen_conditions;
     std::map<std::pair<std::string, std::string>, std::vector<const AdaptiveTrialRow*>> by_track;
@@ -154,18 +163,18 @@ SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSe
                     ok = false;
                     break;
                 }
-                if (std::fabs(track.level_db() - r.level_db) > 1e-6) {
+                if (std::fabs(value_of(track.level_db()) - r.level_db) > 1e-6) {
                     problems.add(source, r.line, r.level_column, "level_db",
                                  fmt::format("expected {} (the [adaptive] rules replayed on the stored scores of "
                                              "subject {}, {}), got {}",
-                                             track.level_db(), subject, condition, r.level_db));
+                                             value_of(track.level_db()), subject, condition, r.level_db));
                     ok = false;
                     break;
                 }
                 track.record(r.keywords, r.correct);
             }
             if (!ok) continue;
-            tr.steps = track.steps();
+            tr.steps = list ? list->in_units(track.steps()) : track.steps();
             tr.srt = estimate_srt(settings, tr.steps);
             tr.ml = estimate_srt(settings, tr.steps, SrtEstimator::MaximumLikelihood);
             a.tracks.push_back(std::move(tr));
@@ -337,7 +346,7 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     if (a.anova) {
         detail::XyPlot p;
         p.title = settings.title;
-        p.y_label = "SRT (dB SNR)";
+        p.y_label = fmt::format("SRT ({})", a.threshold_label);
         p.x_categories = a.conditions;
         detail::XySeries s;
         s.line = false;
@@ -358,9 +367,9 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     {
         detail::XyPlot p;
         p.title = "Psychometric functions (keywords, pooled over subjects)";
-        p.x_label = "SNR (dB)";
+        p.x_label = a.level_label;
         p.y_label = "Keywords correct (proportion)";
-        p.caption = fmt::format("points: pooled proportions per {:.1f} dB level; lines: ML logistic fits", kPoolGridDb);
+        p.caption = fmt::format("points: pooled proportions per {:.1f} {} level; lines: ML logistic fits", kPoolGridDb, a.unit);
         p.y_from_zero = true;
         int color = 0;
         for (const auto& f : a.fits) {
@@ -399,12 +408,12 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
         detail::XyPlot p;
         p.title = fmt::format("Subject {}: adaptive tracks", subject);
         p.x_label = "Presentation";
-        p.y_label = "SNR (dB)";
+        p.y_label = a.level_label;
         p.caption = "filled: every keyword right; open: not; ringed: reversal (the step after it changes direction)";
         for (const auto& t : a.tracks) {
             if (t.subject != subject) continue;
             detail::XySeries s;
-            s.name = t.condition + (t.srt.valid ? fmt::format(" ({:.1f} dB)", t.srt.srt_db) : "");
+            s.name = t.condition + (t.srt.valid ? fmt::format(" ({:.1f} {})", t.srt.srt_db, a.unit) : "");
             s.color = static_cast<int>(std::find(a.conditions.begin(), a.conditions.end(), t.condition) -
                                        a.conditions.begin());
             for (const auto& st : t.steps) {
@@ -422,7 +431,14 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
 
     // report.md and index.html.
     const std::string procedure =
-        a.settings.procedure == AdaptiveProcedure::Sentence
+        a.unit != "dB"
+            ? fmt::format("sentence scoring, 1-up/1-down on all keywords correct on a list of levels ({}; steps of {} "
+                          "levels after sentences 1-{}, then {}{}); threshold = mean of the levels ({}) from sentence "
+                          "{}{}",
+                          a.level_label, a.settings.large_step_db, a.settings.large_steps, a.settings.small_step_db,
+                          a.settings.repeat_first ? "; first sentence repeated upward until correct" : "", a.unit,
+                          a.settings.srt_from, a.settings.srt_include_next ? " plus the next level" : "")
+        : a.settings.procedure == AdaptiveProcedure::Sentence
             ? fmt::format("sentence scoring, 1-up/1-down on all keywords correct ({} dB steps after sentences 1-{}, "
                           "then {} dB{}); SRT = mean of the levels from sentence {}{}",
                           a.settings.large_step_db, a.settings.large_steps, a.settings.small_step_db,
@@ -446,11 +462,12 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
         detail::html_escape(settings.title), detail::html_escape(settings.source.string()), detail::html_escape(procedure));
 
     // SRT means.
-    md += "## SRT by condition (dB SNR; lower is better)\n\n";
-    html += "<h2>SRT by condition (dB SNR; lower is better)</h2>\n";
+    md += fmt::format("## SRT by condition ({}; lower is better)\n\n", a.threshold_label);
+    html += fmt::format("<h2>SRT by condition ({}; lower is better)</h2>\n", a.threshold_label);
     if (a.anova) {
         md += "| condition | n | mean SRT | SD | within-subject CI |\n| --- | ---: | ---: | ---: | --- |\n";
-        html += "<table><tr><th>condition</th><th>n</th><th>mean SRT (dB)</th><th>SD</th><th>within-subject CI</th></tr>\n";
+        html += fmt::format("<table><tr><th>condition</th><th>n</th><th>mean SRT ({})</th><th>SD</th><th>within-subject "
+                            "CI</th></tr>\n", a.unit);
         for (const auto& d : a.anova->descriptives) {
             md += fmt::format("| {} | {} | {:.2f} | {:.2f} | [{:.2f}, {:.2f}] |\n", d.condition, d.n, d.mean, d.sd,
                               d.ci_low, d.ci_high);
@@ -470,11 +487,11 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     md += fmt::format("## Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)\n\n", a.reference);
     html += fmt::format("<h2>Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)</h2>\n",
                         detail::html_escape(a.reference));
-    md += fmt::format("| condition | n | benefit (dB) | {:.0f} % CI | t | df | p |\n| --- | ---: | ---: | --- | ---: | ---: | ---: |\n",
-                      100 * settings.confidence);
-    html += fmt::format("<table><tr><th>condition</th><th>n</th><th>benefit (dB)</th><th>{:.0f} % CI</th><th>t</th>"
+    md += fmt::format("| condition | n | benefit ({}) | {:.0f} % CI | t | df | p |\n| --- | ---: | ---: | --- | ---: | ---: | ---: |\n",
+                      a.unit, 100 * settings.confidence);
+    html += fmt::format("<table><tr><th>condition</th><th>n</th><th>benefit ({})</th><th>{:.0f} % CI</th><th>t</th>"
                         "<th>df</th><th>p</th></tr>\n",
-                        100 * settings.confidence);
+                        a.unit, 100 * settings.confidence);
     for (const auto& b : a.benefits) {
         const std::string p = b.p_value ? apa_p(*b.p_value) : "NA";
         md += fmt::format("| {} | {} | {:.2f} | [{:.2f}, {:.2f}] | {} | {:.0f} | {} |\n", b.condition, b.n, b.mean_db,
@@ -486,10 +503,12 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     }
     html += "</table>\n";
     // Per-subject SRTs.
-    md += "\n## SRT per subject and condition\n\n| subject | condition | SRT (dB) | SE | ML SRT | ML SE | presentations | reversals |\n"
-          "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n";
-    html += "<h2>SRT per subject and condition</h2>\n<table><tr><th>subject</th><th>condition</th><th>SRT (dB)</th>"
-            "<th>SE</th><th>ML SRT</th><th>ML SE</th><th>presentations</th><th>reversals</th></tr>\n";
+    md += fmt::format("\n## SRT per subject and condition\n\n| subject | condition | SRT ({}) | SE | ML SRT | ML SE | "
+                      "presentations | reversals |\n| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+                      a.unit);
+    html += fmt::format("<h2>SRT per subject and condition</h2>\n<table><tr><th>subject</th><th>condition</th><th>SRT "
+                        "({})</th><th>SE</th><th>ML SRT</th><th>ML SE</th><th>presentations</th><th>reversals</th></tr>\n",
+                        a.unit);
     for (const auto& t : a.tracks) {
         const std::string srt = t.srt.valid ? fixed2(t.srt.srt_db) : "NA", se = t.srt.valid ? fixed2(t.srt.se_db) : "NA";
         const std::string ml = t.ml.valid ? fixed2(t.ml.srt_db) : "NA", mlse = t.ml.valid ? fixed2(t.ml.se_db) : "NA";
@@ -504,10 +523,12 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     md += "\nSE of the mean of levels: SD/√n of the averaged levels, which are serially correlated, so it is optimistic; "
           "ML SE: from the Fisher information of the track's own fit.\n\n";
     // Pooled psychometric functions.
-    md += "## Psychometric functions (pooled over subjects)\n\n| condition | L50 (dB) | slope (/dB) | level at target | keywords |\n"
-          "| --- | ---: | ---: | ---: | ---: |\n";
-    html += "<h2>Psychometric functions (pooled over subjects)</h2>\n<table><tr><th>condition</th><th>L50 (dB)</th>"
-            "<th>slope (/dB)</th><th>level at target</th><th>keywords</th></tr>\n";
+    md += fmt::format("## Psychometric functions (pooled over subjects)\n\n| condition | L50 ({0}) | slope (/{0}) | level "
+                      "at target | keywords |\n| --- | ---: | ---: | ---: | ---: |\n",
+                      a.unit);
+    html += fmt::format("<h2>Psychometric functions (pooled over subjects)</h2>\n<table><tr><th>condition</th><th>L50 "
+                        "({0})</th><th>slope (/{0})</th><th>level at target</th><th>keywords</th></tr>\n",
+                        a.unit);
     for (const auto& f : a.fits) {
         const std::string l50 = f.fit.converged ? fixed2(f.fit.l50_db) : "NA";
         const std::string slope = f.fit.converged ? fmt::format("{:.3f}", f.fit.slope_per_db) : "NA";
@@ -556,7 +577,7 @@ SrtAnalysis analyze_adaptive_file(const AdaptiveAnalyzeSettings& s) {
         throw InputError(s.protocol, 0, 0, "adaptive", "expected an [adaptive] section: the protocol runs no adaptive tracks");
     const auto rows = read_adaptive_trials(s.input);
     SrtAnalysis a = analyze_srt(rows, adaptive.track, protocol.condition_names(), adaptive.reference, s.input.string(),
-                                s.confidence);
+                                s.confidence, &adaptive);
     SrtReportSettings rs;
     rs.out_dir = s.out_dir;
     rs.source = s.input;

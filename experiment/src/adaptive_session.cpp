@@ -9,6 +9,8 @@
 #include "avsi/analysis/scoring.h"
 #include "avsi/core/error.h"
 #include "avsi/core/rng.h"
+#include "avsi/core/audio.h"
+#include "avsi/stimuli/builder.h"
 #include "avsi/vocoder/masking.h"
 
 namespace avsi::experiment {
@@ -36,12 +38,14 @@ AdaptiveSession::AdaptiveSession(const Protocol& protocol, const Corpus& corpus,
             throw InputError(database, 0, 0, "adaptive_trials.track",
                              fmt::format("subject {} trial {}: the track \"{}\" is not a condition of the protocol",
                                          row.subject, row.position, r.track));
-        if (std::fabs(it->second.level_db() - r.level_db) > 1e-9)
+        const double expected = m_settings.value_of(it->second.level_db());
+        if (std::fabs(expected - r.level_db) > 1e-9)
             throw InputError(database, 0, 0, "adaptive_trials.level_db",
-                             fmt::format("subject {} trial {}: stored at {} dB, the protocol's [adaptive] rules give {} "
-                                         "dB: the rules changed since the session started; resume with the protocol "
+                             fmt::format("subject {} trial {}: stored at {} {}, the protocol's [adaptive] rules give {} "
+                                         "{}: the rules changed since the session started; resume with the protocol "
                                          "it started with",
-                                         row.subject, row.position, r.level_db, it->second.level_db()));
+                                         row.subject, row.position, r.level_db, m_settings.unit(), expected,
+                                         m_settings.unit()));
         it->second.record(r.keywords, r.correct);
     }
 }
@@ -58,8 +62,29 @@ const analysis::AdaptiveTrack& AdaptiveSession::track(const std::string& conditi
 }
 
 double AdaptiveSession::level_db(const PlannedTrial& trial) const {
-    if (trial.phase != Phase::Test) return m_settings.practice_snr_db;
-    return track(trial.condition).level_db();
+    if (trial.phase != Phase::Test)
+        return m_settings.list_variable() ? m_settings.practice_level : m_settings.practice_snr_db;
+    return m_settings.value_of(track(trial.condition).level_db());
+}
+
+std::filesystem::path AdaptiveSession::variant_path(const PlannedTrial& trial) const {
+    return m_stimuli_dir /
+           stimuli::variant_audio_path(trial.stimulus, analysis::to_string(m_settings.variable), level_db(trial));
+}
+
+void AdaptiveSession::check_variants(const std::vector<PlannedTrial>& plan) const {
+    if (!m_settings.list_variable()) return;
+    const std::string variable = analysis::to_string(m_settings.variable);
+    for (const auto& t : plan) {
+        std::vector<double> levels = t.phase == Phase::Test ? m_settings.levels : std::vector{m_settings.practice_level};
+        for (const double level : levels) {
+            const auto path = m_stimuli_dir / stimuli::variant_audio_path(t.stimulus, variable, level);
+            if (!std::filesystem::is_regular_file(path))
+                throw InputError(path, fmt::format("the {} = {} audio variant of {} is missing: build the stimuli with "
+                                                   "this protocol (avsi build-stimuli)",
+                                                   variable, level, t.stimulus));
+        }
+    }
 }
 
 int AdaptiveSession::next_attempt(const PlannedTrial& trial) const {
@@ -72,6 +97,22 @@ MixedPresentation AdaptiveSession::mix(const PlannedTrial& trial, const std::vec
     out.sample_rate = sample_rate;
     out.attempt = next_attempt(trial);
     out.level_db = level_db(trial);
+    if (m_settings.list_variable()) {
+        // The builder's pre-rendered variant at this level, played as written.
+        const auto path = variant_path(trial);
+        if (!std::filesystem::is_regular_file(path))
+            throw InputError(path, fmt::format("the stimulus's {} = {} variant is missing: run avsi build-stimuli with "
+                                               "this protocol",
+                                               analysis::to_string(m_settings.variable), out.level_db));
+        const Audio variant = read_audio(path);
+        if (variant.sample_rate_hz != sample_rate)
+            throw InputError(path, 0, 0, "sample_rate",
+                             fmt::format("expected the stimulus video's audio rate {} Hz, got {} Hz", sample_rate,
+                                         variant.sample_rate_hz));
+        out.samples = variant.mono();
+        out.noise_gain_db = kNoNoiseDbfs;
+        return out;
+    }
     const std::uint64_t seed = derive_seed(
         m_protocol.seed, fmt::format("adaptive-noise/{}/{}/{}", trial.subject, trial.position, out.attempt));
     Audio s;
@@ -147,14 +188,14 @@ AdaptiveRecord AdaptiveSession::record(const PlannedTrial& trial, const MixedPre
     a.next_level_db = mixed.level_db;
     if (trial.phase == Phase::Test && !marks.empty()) {
         auto& t = m_tracks.at(trial.condition);
-        if (std::fabs(t.level_db() - mixed.level_db) > 1e-12)
+        if (std::fabs(m_settings.value_of(t.level_db()) - mixed.level_db) > 1e-12)
             throw std::logic_error("adaptive: the presentation was mixed at another level than its track's");
         const analysis::TrackStep& step = t.record(a.keywords, a.correct);
         a.track = trial.condition;
         a.presentation = step.presentation;
         a.sentence_index = step.sentence;
-        a.next_level_db = step.next_level_db;
-        a.step_db = step.step_db;
+        a.next_level_db = m_settings.value_of(step.next_level_db);
+        a.step_db = a.next_level_db - a.level_db;
         a.reversal = step.reversal;
         a.reversals = step.reversals;
         a.repeat = step.repeat;

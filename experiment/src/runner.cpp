@@ -149,6 +149,9 @@ StimulusManifest read_stimulus_manifest(const fs::path& dir) {
             e.fps = require_in_range(item.at("fps").get<double>(), 1e-3, 1000.0, at(path.string(), 0, 0, field + ".fps"),
                                      "a frame rate");
             e.sha256 = item.at("sha256").get<std::string>();
+            if (item.contains("variants") && !item["variants"].is_null())
+                for (const auto& v : item["variants"].at("files"))
+                    e.variants[v.at("wav").get<std::string>()] = v.at("sha256").get<std::string>();
             m.stimuli[e.path] = e;
         } catch (const nlohmann::json::exception& e) {
             problems.add(path.string(), 0, 0, field, fmt::format("expected path, frames, fps and sha256: {}", json_error_text(e)));
@@ -178,6 +181,16 @@ void StimulusFolderOpener::verify(const std::vector<std::string>& stimuli) const
             problems.add(file.string(), 0, 0, "sha256",
                          fmt::format("expected {} (manifest.json), got {}: the file changed after the build",
                                      entry->second.sha256, sha));
+        if (entry == m_manifest.stimuli.end()) continue;
+        for (const auto& [variant, expected] : entry->second.variants) {
+            const fs::path wav = m_dir / variant;
+            if (!fs::is_regular_file(wav))
+                problems.add(wav.string(), 0, 0, "", "missing audio variant (rebuild with `avsi build-stimuli`)");
+            else if (const std::string sha = sha256_file(wav); sha != expected)
+                problems.add(wav.string(), 0, 0, "sha256",
+                             fmt::format("expected {} (manifest.json), got {}: the file changed after the build",
+                                         expected, sha));
+        }
     }
     problems.throw_if_any();
 }
@@ -512,6 +525,16 @@ RunResult run_session(const RunSettings& settings) {
     if (protocol.adaptive.present()) {
         adaptive = std::make_unique<AdaptiveSession>(protocol, corpus, store.adaptive_trials(settings.subject),
                                                      settings.database.string());
+        if (adaptive->settings().list_variable()) {
+            // Band-count / cutoff tracks play the builder's audio variants.
+            if (settings.stimuli_dir.empty())
+                throw UsageError(fmt::format("--stimuli: a \"{}\" track plays the pre-rendered audio variants of the "
+                                             "stimulus folder; give --stimuli DIR (with --test-pattern the video is "
+                                             "the test clip, the audio the variants)",
+                                             analysis::to_string(adaptive->settings().variable)));
+            adaptive->set_stimuli_dir(settings.stimuli_dir);
+            adaptive->check_variants(plan);
+        }
     }
     const std::vector<int> answered = store.answered_positions(settings.subject);
     if (answered.size() >= plan.size()) {
@@ -745,11 +768,13 @@ RunResult run_session(const RunSettings& settings) {
                         } else {
                             store.commit_trial(session, *t, p, action.response, record);
                         }
-                        log_info("trial {}{}: SNR {:.2f} dB, {} of {} keywords{}", t->position,
+                        log_info("trial {}{}: {} {:.2f} {}, {} of {} keywords{}", t->position,
                                  record.attempt > 1 ? fmt::format(" (presentation {})", record.attempt) : "",
-                                 record.level_db, record.correct, record.keywords,
+                                 adaptive->settings().list_variable() ? std::string("level") : std::string("SNR"),
+                                 record.level_db, adaptive->settings().unit(), record.correct, record.keywords,
                                  record.track.empty() ? std::string(" (no track)")
-                                                      : fmt::format(", next {:.2f} dB{}", record.next_level_db,
+                                                      : fmt::format(", next {:.2f} {}{}", record.next_level_db,
+                                                                    adaptive->settings().unit(),
                                                                     record.repeat ? " (the same sentence again)" : ""));
                         if (action.repeat) {
                             playback = Playback{};

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "avsi/analysis/adaptive.h"
 #include "avsi/core/audio.h"
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
@@ -162,6 +163,12 @@ json vocoder_json(const vocoder::VocoderSettings& v) {
             {"seed", v.seed}};
 }
 
+// One pre-rendered audio variant of a stimulus (adaptive list variable).
+struct Variant {
+    double level = 0.0;
+    std::filesystem::path wav;
+};
+
 struct Job {
     const Sentence* sentence = nullptr;
     const ProtocolCondition* condition = nullptr;
@@ -171,6 +178,7 @@ struct Job {
     std::uint64_t vocoder_seed = 0;
     std::uint64_t blink_seed = 0;
     json entry;  // the manifest entry once built (or reused)
+    std::vector<Variant> variants;  // adaptive list variable: the audio at each level
 };
 
 // The highest sample peak a stimulus may have after its level is set:
@@ -260,6 +268,7 @@ struct Plan {
     std::map<std::string, std::shared_ptr<const synth::ControlModel>> models;
     json settings_json;
     std::vector<Job> jobs;
+    analysis::AdaptiveProtocol adaptive;  // a list variable's levels are pre-rendered
     std::size_t not_needed = 0;  // pairs the design never shows
 
     explicit Plan(const BuildSettings& settings);
@@ -281,6 +290,7 @@ Plan::Plan(const BuildSettings& settings)
     render.background = parse_colour(pr.background, protocol);
     fps = pr.fps;
     vocoder_base = vocoder_settings(protocol);
+    adaptive = analysis::adaptive_protocol(protocol);
     // The protocol's own head ([render] head_gltf, or head_mesh + head_rig) or the built-in one.
     if (!pr.head_gltf.empty())
         head = load_gltf_head(pr.head_gltf, pr.head_mapping.empty() ? default_blendshape_mapping() : pr.head_mapping);
@@ -372,11 +382,19 @@ Plan::Plan(const BuildSettings& settings)
             job.wav = std::filesystem::path(s.id) / (c.name + ".wav");
             job.vocoder_seed = derive_seed(vocoder_base.seed, "vocoder/" + s.id);
             job.blink_seed = derive_seed(protocol.seed, "blinks/" + s.id + "/" + c.name);
-            const json key = {{"settings", settings_json},
+            json variants_key = nullptr;
+            if (adaptive.list_variable() && c.audio == ConditionAudio::Vocoded) {
+                const std::string variable = analysis::to_string(adaptive.variable);
+                for (const double level : adaptive.levels)
+                    job.variants.push_back({level, variant_audio_path(job.video, variable, level)});
+                variants_key = {{"variable", variable}, {"levels", adaptive.levels}};
+            }
+            json key = {{"settings", settings_json},
                               {"audio", audio_key},
                               {"condition", {{"face", to_string(c.face)}, {"audio", to_string(c.audio)},
                                              {"model", model_hash.count(c.name) ? model_hash[c.name] : ""}}},
                               {"seeds", {{"vocoder", job.vocoder_seed}, {"blinks", job.blink_seed}}}};
+            if (!variants_key.is_null()) key["variants"] = variants_key;
             job.input_hash = sha256_hex(key.dump());
             jobs.push_back(std::move(job));
         }
@@ -455,6 +473,19 @@ void verify_one(const Job& job, const std::map<std::string, json>& entries, cons
     if (!std::filesystem::exists(wav)) add("the WAV " + job.wav.generic_string() + " is missing");
     else if (sha256_file(wav) != e.value("wav_sha256", ""))
         add("the WAV " + job.wav.generic_string() + " differs from the one built (SHA-256)");
+    std::map<std::string, std::string> listed;  // variant path → SHA-256 in the manifest
+    if (e.contains("variants") && e["variants"].is_object() && e["variants"].contains("files") &&
+        e["variants"]["files"].is_array())
+        for (const auto& v : e["variants"]["files"])
+            if (v.is_object()) listed[v.value("wav", "")] = v.value("sha256", "");
+    for (const auto& variant : job.variants) {
+        const std::string name = variant.wav.generic_string();
+        const auto l = listed.find(name);
+        if (l == listed.end()) add(fmt::format("the variant {} is not listed in the manifest", name));
+        else if (!std::filesystem::exists(out_dir / variant.wav)) add("the variant " + name + " is missing");
+        else if (sha256_file(out_dir / variant.wav) != l->second)
+            add("the variant " + name + " differs from the one built (SHA-256)");
+    }
     try {
         const DecodedVideo v = decode_video(video);
         // Integers only: a float such as 1e300 converted to a count is undefined.
@@ -536,6 +567,11 @@ void write_articulation_qc(const Plan& plan, const std::filesystem::path& out_di
 }
 
 }  // namespace
+
+std::filesystem::path variant_audio_path(const std::filesystem::path& video, const std::string& variable,
+                                         double level) {
+    return video.parent_path() / fmt::format("{}.{}-{:g}.wav", video.stem().string(), variable, level);
+}
 
 BuildReport build_stimuli(const BuildSettings& settings) {
     const auto start = std::chrono::steady_clock::now();
@@ -720,6 +756,37 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                 }
                 const auto video_path = settings.out_dir / job.video;
                 write_audio(settings.out_dir / job.wav, audio);
+                // The adaptive list variable's levels: the same vocoder and
+                // seed with that band count or cutoff, at the speech level.
+                json variants = nullptr;
+                if (!job.variants.empty()) {
+                    variants = json::array();
+                    for (const auto& variant : job.variants) {
+                        vocoder::VocoderSettings v = vocoder_base;
+                        v.seed = job.vocoder_seed;
+                        if (plan.adaptive.variable == analysis::AdaptiveVariable::Bands)
+                            v.bands = static_cast<int>(variant.level);
+                        else
+                            v.envelope_cutoff_hz = variant.level;
+                        Audio rendered = vocoder::vocode(sp.audio, v).audio;
+                        const Level vl = set_speech_level(rendered, protocol.corpus.level_dbfs);
+                        if (vl.peak_dbfs > max_peak_dbfs)
+                            throw InputError(protocol.path.string(), protocol.corpus.level_line,
+                                             protocol.corpus.level_column, "corpus.level_dbfs",
+                                             fmt::format("expected a speech level at which every stimulus peaks at or "
+                                                         "below {:.1f} dBFS; at {:.1f} dBFS sentence '{}' with {} = {} "
+                                                         "peaks at {:.2f} dBFS",
+                                                         max_peak_dbfs, protocol.corpus.level_dbfs, job.sentence->id,
+                                                         analysis::to_string(plan.adaptive.variable), variant.level,
+                                                         vl.peak_dbfs));
+                        write_audio(settings.out_dir / variant.wav, rendered);
+                        variants.push_back({{"level", variant.level},
+                                            {"wav", variant.wav.generic_string()},
+                                            {"gain_db", vl.gain_db},
+                                            {"peak_dbfs", vl.peak_dbfs},
+                                            {"sha256", sha256_file(settings.out_dir / variant.wav)}});
+                    }
+                }
                 BlinkSettings blinks;
                 blinks.seed = job.blink_seed;
                 blinks.enabled = c.face == FaceMode::Model;
@@ -764,6 +831,10 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                              {"input_sha256", job.input_hash},
                              {"sha256", sha256_file(video_path)},
                              {"wav_sha256", sha256_file(settings.out_dir / job.wav)}};
+                if (!variants.is_null())
+                    job.entry["variants"] = {{"variable", analysis::to_string(plan.adaptive.variable)},
+                                             {"unit", plan.adaptive.unit()},
+                                             {"files", variants}};
                 progress.advance();
             }
         } catch (...) {

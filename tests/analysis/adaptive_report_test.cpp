@@ -16,6 +16,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/protocol.h"
+#include "avsi/core/rng.h"
 
 using namespace avsi;
 using namespace avsi::analysis;
@@ -195,6 +196,86 @@ TEST(AdaptiveReport, BadFieldsAreReportedWithFileLineAndColumn) {
         EXPECT_NE(m.find("t.csv:2:4: error: level_db: expected a level"), std::string::npos) << m;
         EXPECT_NE(m.find("t.csv:2:6: error: correct: expected at most keywords (3), got 4"), std::string::npos)
             << m;
+    }
+    fs::remove_all(dir);
+}
+
+// A band-count study: the stored levels are band counts, the tracks replay on
+// positions of the list, and the thresholds, the benefit and the report are
+// in bands — each SRT checked against the mean of the CSV's own band levels.
+TEST(AdaptiveReport, BandCountTracksAreReportedInBands) {
+    const fs::path dir = temp_dir("bands");
+    const std::string protocol_text = read_text_file(kProtocol);
+    write_text_file(dir / "corpus.csv", read_text_file(kProtocol.parent_path() / "corpus.csv"));
+    write_text_file(dir / "bands.toml",
+                    protocol_text.substr(0, protocol_text.find("[adaptive]")) +
+                        "[adaptive]\nvariable = \"bands\"\nlevels = [1, 2, 3, 4, 6, 8, 12, 16]\nstart_level = 8\n"
+                        "srt_from = 3\nsrt_include_next = false\nreference = \"audio-only\"\n");
+    const Protocol protocol = load_protocol(dir / "bands.toml");
+    const AdaptiveProtocol adaptive = adaptive_protocol(protocol);
+    Rng rng(3);
+    std::string text = "subject,phase,condition,presentation,sentence_index,attempt,level_db,keywords,correct,next_level_db\n";
+    std::map<std::pair<int, std::string>, std::vector<double>> averaged;  // levels of sentences 3..10, by hand below
+    for (int subject = 1; subject <= 4; ++subject)
+        for (const auto& [condition, l50] : {std::pair{"audio-only", 6.0}, std::pair{"audiovisual", 3.0}}) {
+            AdaptiveTrack t(adaptive.track);
+            const SimulatedListener listener{l50 + subject * 0.5, 0.4, 3};
+            while (t.sentences() < 10) {
+                const double bands = adaptive.value_of(t.level_db());
+                const TrackStep& s = t.record(3, simulate_response(listener, bands, rng));
+                text += fmt::format("{},test,{},{},{},{},{},{},{},{}\n", subject, condition, s.presentation, s.sentence,
+                                    s.attempt, bands, s.keywords, s.correct, adaptive.value_of(s.next_level_db));
+            }
+        }
+    write_text_file(dir / "adaptive_trials.csv", text);
+    // The hand computation: per track, the band level of the last presentation of sentences 3..10.
+    const CsvTable csv = read_csv(dir / "adaptive_trials.csv");
+    std::map<std::tuple<int, std::string, int>, double> last;  // (subject, condition, sentence) → bands
+    for (const auto& r : csv.rows)
+        last[{std::stoi(r.fields[0]), r.fields[2], std::stoi(r.fields[4])}] = std::stod(r.fields[6]);
+    for (const auto& [key, bands] : last)
+        if (std::get<2>(key) >= 3) averaged[{std::get<0>(key), std::get<1>(key)}].push_back(bands);
+
+    AdaptiveAnalyzeSettings settings;
+    settings.input = dir / "adaptive_trials.csv";
+    settings.protocol = dir / "bands.toml";
+    settings.out_dir = dir / "report";
+    const SrtAnalysis a = analyze_adaptive_file(settings);
+    EXPECT_EQ(a.unit, "bands");
+    ASSERT_EQ(a.tracks.size(), 8u);
+    std::map<int, double> benefit;
+    for (const auto& t : a.tracks) {
+        SCOPED_TRACE(t.subject + " " + t.condition);
+        const auto& levels = averaged.at({std::stoi(t.subject), t.condition});
+        ASSERT_EQ(levels.size(), 8u);
+        const double mean = std::accumulate(levels.begin(), levels.end(), 0.0) / levels.size();
+        ASSERT_TRUE(t.srt.valid);
+        EXPECT_NEAR(t.srt.srt_db, mean, 1e-12);
+        for (const auto& st : t.steps)
+            EXPECT_NE(std::find(adaptive.levels.begin(), adaptive.levels.end(), st.level_db), adaptive.levels.end());
+        benefit[std::stoi(t.subject)] += (t.condition == "audio-only" ? 1 : -1) * mean;
+    }
+    ASSERT_EQ(a.benefits.size(), 1u);
+    double mean_benefit = 0;
+    for (const auto& [s, b] : benefit) mean_benefit += b / benefit.size();
+    EXPECT_NEAR(a.benefits[0].mean_db, mean_benefit, 1e-9);
+    const std::string report = read_text_file(dir / "report" / "report.md");
+    EXPECT_NE(report.find("## SRT by condition (vocoder bands; lower is better)"), std::string::npos) << report;
+    EXPECT_NE(report.find("| condition | n | benefit (bands) |"), std::string::npos) << report;
+    EXPECT_EQ(report.find("dB"), std::string::npos) << report;
+    // A stored band count the rules do not give is refused with its line.
+    std::string tampered = text;
+    const auto line2 = tampered.find('\n') + 1;
+    const auto field = tampered.find(",8,", line2);
+    tampered.replace(field, 3, ",6,");
+    write_text_file(dir / "tampered.csv", tampered);
+    settings.input = dir / "tampered.csv";
+    try {
+        analyze_adaptive_file(settings);
+        FAIL() << "accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("tampered.csv:2:"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("level_db: expected 8"), std::string::npos) << e.what();
     }
     fs::remove_all(dir);
 }

@@ -347,14 +347,119 @@ practice = 0
     EXPECT_FALSE(adaptive_protocol(parse_protocol(base, "study.toml")).enabled);
     try {
         adaptive_protocol(parse_protocol(
-            base + "[adaptive]\nvariable = \"bands\"\nreference = \"visual\"\nsmall_step = 2\nsrt_from = 11\n", "study.toml"));
+            base + "[adaptive]\nvariable = \"band\"\nreference = \"visual\"\nsmall_step = 2\nsrt_from = 11\n", "study.toml"));
         FAIL() << "accepted";
     } catch (const InputError& e) {
         const std::string m = e.what();
-        EXPECT_NE(m.find("study.toml:18:12: error: adaptive.variable: \"bands\" tracks"), std::string::npos) << m;
+        EXPECT_NE(m.find("study.toml:18:12: error: adaptive.variable"), std::string::npos) << m;
         EXPECT_NE(m.find("adaptive.reference"), std::string::npos) << m;
         EXPECT_NE(m.find("adaptive.small_step"), std::string::npos) << m;
         EXPECT_NE(m.find("did you mean"), std::string::npos) << m;
         EXPECT_NE(m.find("adaptive.srt_from"), std::string::npos) << m;
     }
+}
+
+namespace {
+
+// The test corpus with two vocoded conditions and an [adaptive] section.
+Protocol list_protocol(const std::string& adaptive, const std::string& second_audio = "vocoded") {
+    return parse_protocol(R"([experiment]
+name = "t"
+seed = 1
+[corpus]
+sentences = ")" + std::string(AVSI_TEST_DATA_DIR) + R"(/adaptive/corpus.csv"
+[[condition]]
+name = "audio-only"
+face = "still"
+[[condition]]
+name = "av"
+face = "still"
+audio = ")" + second_audio + R"("
+[design]
+lists = 2
+sentences_per_list = 10
+warmup = 0
+practice = 0
+[adaptive]
+)" + adaptive,
+                          "study.toml");
+}
+
+}  // namespace
+
+TEST(AdaptiveListVariable, BandTrackStepsByPositionOnTheLevelsAsComputedByHand) {
+    const AdaptiveProtocol a = adaptive_protocol(
+        list_protocol("variable = \"bands\"\nlevels = [1, 2, 3, 4, 6, 8, 12, 16]\nstart_level = 4\n"
+                      "large_step_levels = 2\nlarge_steps = 2\nsmall_step_levels = 1\nrepeat_first = false\n"
+                      "srt_from = 3\npractice_level = 12\n"));
+    ASSERT_TRUE(a.list_variable());
+    EXPECT_EQ(a.unit(), "bands");
+    EXPECT_DOUBLE_EQ(a.practice_level, 12.0);
+    EXPECT_DOUBLE_EQ(a.track.start_db, 3.0);  // position of 4 bands
+    EXPECT_DOUBLE_EQ(a.track.min_db, 0.0);
+    EXPECT_DOUBLE_EQ(a.track.max_db, 7.0);
+    AdaptiveTrack t(a.track);
+    // Sentence by sentence (3 keywords): right, wrong, wrong, then right five times.
+    const std::vector<int> correct{3, 1, 2, 3, 3, 3, 3, 3};
+    for (int c : correct) t.record(3, c);
+    const auto steps = a.in_units(t.steps());
+    // By hand: 4 -(2 positions)-> 2 -(+2)-> 4 -(+1, small from sentence 3)-> 6 -> 4 -> 3 -> 2 -> 1 -> 1 (bound).
+    const std::vector<double> level{4, 2, 4, 6, 4, 3, 2, 1}, next{2, 4, 6, 4, 3, 2, 1, 1};
+    ASSERT_EQ(steps.size(), level.size());
+    for (std::size_t i = 0; i < steps.size(); ++i) {
+        SCOPED_TRACE(i);
+        EXPECT_DOUBLE_EQ(steps[i].level_db, level[i]);
+        EXPECT_DOUBLE_EQ(steps[i].next_level_db, next[i]);
+        EXPECT_DOUBLE_EQ(steps[i].step_db, next[i] - level[i]);
+    }
+    EXPECT_TRUE(steps.back().at_bound);
+    EXPECT_FALSE(steps[6].at_bound);
+    EXPECT_TRUE(steps[1].reversal);  // down, then up
+    EXPECT_TRUE(steps[3].reversal);  // up, then down
+    // Threshold: the levels of sentences 3..8 (4, 6, 4, 3, 2, 1) and the next one (1), in bands.
+    const SrtEstimate e = estimate_srt(a.track, steps);
+    ASSERT_TRUE(e.valid);
+    EXPECT_NEAR(e.srt_db, (4.0 + 6 + 4 + 3 + 2 + 1 + 1) / 7.0, 1e-12);
+    EXPECT_THROW(a.value_of(8.0), std::logic_error);
+    EXPECT_THROW(a.value_of(0.5), std::logic_error);
+}
+
+TEST(AdaptiveListVariable, CutoffLevelsDefaultToTheMiddleStartAndTheTopPractice) {
+    const AdaptiveProtocol a =
+        adaptive_protocol(list_protocol("variable = \"cutoff\"\nlevels = [4, 8, 16.5, 32, 64]\n"));
+    EXPECT_EQ(a.unit(), "Hz");
+    EXPECT_EQ(a.variable, AdaptiveVariable::CutoffHz);
+    EXPECT_DOUBLE_EQ(a.value_of(a.track.start_db), 16.5);
+    EXPECT_DOUBLE_EQ(a.practice_level, 64.0);
+    EXPECT_DOUBLE_EQ(a.track.large_step_db, 2.0);
+    EXPECT_DOUBLE_EQ(a.track.small_step_db, 1.0);
+}
+
+TEST(AdaptiveListVariable, RefusesWordScoringSnrKeysBadListsAndCleanConditions) {
+    try {
+        adaptive_protocol(list_protocol("variable = \"bands\"\nprocedure = \"word\"\nlevels = [2, 1.5, 2, 99]\n"
+                                        "start_level = 5\nstart_snr_db = 0\n",
+                                        "clean"));
+        FAIL() << "accepted";
+    } catch (const InputError& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("adaptive.procedure: expected \"sentence\" with variable = \"bands\""), std::string::npos) << m;
+        EXPECT_NE(m.find("study.toml:21:14: error: adaptive.levels[2]: expected a band count in [1, 64], got 1.5"),
+                  std::string::npos)
+            << m;
+        EXPECT_NE(m.find("adaptive.levels[3]: expected levels in strictly ascending order"), std::string::npos) << m;
+        EXPECT_NE(m.find("adaptive.levels[4]: expected a band count in [1, 64], got 99"), std::string::npos) << m;
+        EXPECT_NE(m.find("adaptive.start_level: expected one of the levels (2), got 5"), std::string::npos) << m;
+        EXPECT_NE(m.find("adaptive.start_snr_db: expected only with variable = \"snr\""), std::string::npos) << m;
+        EXPECT_NE(m.find("condition \"av\" has audio = \"clean\""), std::string::npos) << m;
+    }
+    try {
+        adaptive_protocol(list_protocol("levels = [1, 2]\n"));
+        FAIL() << "accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("adaptive.levels: expected only with variable = \"bands\" or \"cutoff\""),
+                  std::string::npos)
+            << e.what();
+    }
+    EXPECT_THROW(adaptive_protocol(list_protocol("variable = \"cutoff\"\nlevels = [16]\n")), InputError);
 }

@@ -14,6 +14,9 @@
 #include "avsi/experiment/adaptive_session.h"
 #include "avsi/experiment/session.h"
 #include "avsi/experiment/web_study.h"
+#include "avsi/stimuli/builder.h"
+#include "avsi/core/audio.h"
+#include "avsi/core/files.h"
 #include "avsi/vocoder/masking.h"
 #include "test_support.h"
 
@@ -141,18 +144,78 @@ TEST(AdaptiveSession, TheLiveScoreStepsTheTrackAndAResumeReplaysToTheSameLevels)
     fs::remove_all(dir);
 }
 
-TEST(AdaptiveSession, BandCountTracksAreRefusedAsNotImplemented) {
-    Protocol p = load_protocol(kProtocol);
-    ConfigValue v;
-    v.string = "bands";
-    p.adaptive.set("variable", v);
+TEST(AdaptiveSession, BandCountTrackPlaysTheVariantOfItsLevelAndResumes) {
+    const fs::path dir = temp_dir("adaptive_session_bands");
+    const fs::path source = fs::path(AVSI_TEST_DATA_DIR) / "adaptive";
+    fs::copy_file(source / "corpus.csv", dir / "corpus.csv");
+    std::string text = read_text_file(source / "protocol.toml");
+    text = text.substr(0, text.find("[adaptive]")) +
+           "[adaptive]\nvariable = \"bands\"\nlevels = [2, 4, 8]\nstart_level = 4\nrepeat_first = false\n"
+           "large_step_levels = 1\nsrt_from = 2\n";
+    write_text_file(dir / "bands.toml", text);
+    const Protocol p = load_protocol(dir / "bands.toml");
     const Corpus corpus = read_corpus(p.corpus.sentences);
+    const auto plan = plan_of(p, corpus, 1);
+    AdaptiveSession a(p, corpus, {}, "db");
+    a.set_stimuli_dir(dir / "stimuli");
     try {
-        AdaptiveSession a(p, corpus, {}, "db");
-        FAIL() << "accepted";
+        a.check_variants(plan);
+        FAIL() << "accepted a folder without variants";
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("not implemented"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(".bands-"), std::string::npos) << e.what();
     }
+    // Each variant: a constant equal to its level / 100, so the samples say which one played.
+    for (const auto& t : plan)
+        for (const double level : a.settings().levels) {
+            const fs::path path = dir / "stimuli" / stimuli::variant_audio_path(t.stimulus, "bands", level);
+            fs::create_directories(path.parent_path());
+            Audio v;
+            v.sample_rate_hz = 16000;
+            v.samples.assign(800, static_cast<float>(level / 100.0));
+            write_audio(path, v, SampleFormat::Float32);
+        }
+    EXPECT_NO_THROW(a.check_variants(plan));
+    const auto speech = speechlike(16000);
+    std::vector<Store::AdaptiveRow> stored;
+    std::map<std::string, int> per_track;
+    int n = 0;
+    for (const auto& t : plan) {
+        if (n == 6) break;
+        const double level = a.level_db(t);
+        EXPECT_EQ(a.variant_path(t).filename().string(),
+                  fs::path(t.stimulus).stem().string() + fmt::format(".bands-{}.wav", level));
+        const MixedPresentation m = a.mix(t, speech, 16000);
+        EXPECT_DOUBLE_EQ(m.level_db, level);
+        ASSERT_EQ(m.samples.size(), 800u);
+        EXPECT_FLOAT_EQ(m.samples.front(), static_cast<float>(level / 100.0));
+        EXPECT_FLOAT_EQ(m.samples.back(), static_cast<float>(level / 100.0));
+        EXPECT_EQ(m.noise_gain_db, kNoNoiseDbfs);
+        if (t.phase != Phase::Test) {
+            EXPECT_DOUBLE_EQ(level, 8.0);  // the practice level defaults to the top one
+            continue;
+        }
+        // Each track alternately all right and all wrong: 4 → 2 → 4 → 2 … (one position a step).
+        const int k = per_track[t.condition]++;
+        const auto marks = a.score(t, k % 2 == 0 ? corpus.sentence(t.sentence).text : "");
+        const AdaptiveRecord r = a.record(t, m, "", marks, marks);
+        EXPECT_DOUBLE_EQ(r.level_db, level);
+        EXPECT_DOUBLE_EQ(r.next_level_db, a.level_db(t));
+        EXPECT_DOUBLE_EQ(r.step_db, r.next_level_db - r.level_db);
+        EXPECT_TRUE(r.level_db == 2.0 || r.level_db == 4.0) << r.level_db;
+        stored.push_back({1, t.position, 1, r});
+        ++n;
+    }
+    // A variant at another sample rate than the video's audio is refused.
+    const auto test_trial = std::find_if(plan.begin(), plan.end(), [](const PlannedTrial& t) { return t.phase == Phase::Test; });
+    EXPECT_THROW(a.mix(*test_trial, speech, 48000), InputError);
+    // Resume: the replay of the stored records gives the same next levels.
+    AdaptiveSession resumed(p, corpus, stored, "db");
+    for (const auto& c : p.conditions)
+        EXPECT_DOUBLE_EQ(resumed.track(c.name).level_db(), a.track(c.name).level_db()) << c.name;
+    auto tampered = stored;
+    tampered.front().record.level_db = 8.0;
+    EXPECT_THROW(AdaptiveSession(p, corpus, tampered, "db"), InputError);
+    fs::remove_all(dir);
 }
 
 TEST(AdaptiveDesign, InterleavedTracksAlternateConditionsSentenceBySentence) {

@@ -26,6 +26,7 @@
 #include "avsi/experiment/media.h"
 #include "avsi/experiment/runner.h"
 #include "avsi/experiment/store.h"
+#include "avsi/stimuli/builder.h"
 #include "avsi/stimuli/image_io.h"
 #include "avsi/stimuli/video.h"
 #include "avsi/vocoder/masking.h"
@@ -805,6 +806,143 @@ TEST_F(RunnerE2E, AKillAfterTheLastTrialClosesTheSessionInsteadOfOpeningAnEmptyO
     ASSERT_EQ(all.size(), 1u);
     EXPECT_EQ(all[0].end_reason, "completed");
     EXPECT_EQ(store.answered_positions(1).size(), 10u);
+}
+
+// A band-count track (variable = "bands"): the runner plays, for every
+// presentation, the stimulus's pre-rendered audio variant at the level it
+// logs — the captured device audio is that variant's samples exactly, and no
+// other level's — and a session killed twice mid-track resumes at the stored
+// next level. The variants here are distinct seeded noises written at the
+// planned stimulus paths (the builder's own variants are checked in
+// test_stimuli); the video is the test clip.
+TEST_F(RunnerE2E, BandCountTrackPlaysTheLoggedVariantAndResumesMidTrack) {
+    const fs::path dir = temp_dir("e2e_adaptive_bands");
+    const fs::path source = fs::path(AVSI_TEST_DATA_DIR) / "adaptive";
+    fs::copy_file(source / "corpus.csv", dir / "corpus.csv");
+    std::string text = read_text_file(source / "protocol.toml");
+    text = text.substr(0, text.find("[adaptive]"));
+    text += "[adaptive]\nprocedure = \"sentence\"\ntracks = \"interleaved\"\nvariable = \"bands\"\n"
+            "levels = [1, 2, 4, 8, 16]\nstart_level = 4\nlarge_step_levels = 2\nlarge_steps = 2\n"
+            "small_step_levels = 1\nrepeat_first = true\nsrt_from = 5\npractice_level = 16\nreference = \"audio-only\"\n";
+    const fs::path protocol = dir / "bands.toml";
+    write_text_file(protocol, text);
+    const Protocol p = load_protocol(protocol);
+    const analysis::AdaptiveProtocol rules = analysis::adaptive_protocol(p);
+    ASSERT_TRUE(rules.list_variable());
+    const Corpus corpus = read_corpus(p.corpus.sentences);
+    const std::vector<PlannedTrial> plan = make_design(p, corpus, 1);
+    TestPatternSettings pattern;
+    pattern.fps = p.render.fps;
+    const auto clip = make_test_pattern(pattern);
+    // The variants: seeded noise per stimulus and level, the clip's length and rate.
+    const fs::path stimuli = dir / "stimuli";
+    std::map<int, std::string> stimulus_of;  // trial position → planned stimulus
+    for (const auto& t : plan) {
+        stimulus_of[t.position] = t.stimulus;
+        for (const double level : rules.levels) {
+            const fs::path path = stimuli / stimuli::variant_audio_path(t.stimulus, "bands", level);
+            if (fs::exists(path)) continue;
+            fs::create_directories(path.parent_path());
+            Rng rng(derive_seed(5, path.string()));
+            Audio a;
+            a.sample_rate_hz = clip->sample_rate();
+            a.samples.resize(clip->audio().size());
+            for (float& v : a.samples) v = static_cast<float>(0.05 * rng.normal(0.0, 1.0));
+            write_audio(path, a);
+        }
+    }
+    std::string script;
+    std::set<std::string> started;
+    for (std::size_t i = 0; i < plan.size(); ++i) {
+        const std::string answer = corpus.sentence(plan[i].sentence).text;
+        if (plan[i].phase != Phase::Test) script += answer + "\n";
+        else if (started.insert(plan[i].condition).second) script += "no idea || " + answer + "\n";
+        else script += i % 3 == 0 ? "-\n" : answer + "\n";
+    }
+    write_text_file(dir / "script.txt", script);
+    const fs::path db = dir / "bands.sqlite";
+    std::vector<std::string> args = run_args(protocol, 1, db, dir / "script.txt");
+    // Without the stimulus folder the variants cannot be found: refused before the session starts.
+    EXPECT_EQ(run(args, dir / "refused.txt"), 2) << read_text_file(dir / "refused.txt");
+    EXPECT_NE(read_text_file(dir / "refused.txt").find("--stimuli"), std::string::npos) << read_text_file(dir / "refused.txt");
+    EXPECT_FALSE(fs::exists(db) && count_rows(db, "adaptive_trials") > 0);
+    args.insert(args.end(), {"--stimuli", stimuli.string(), "--audio-capture", (dir / "audio").string()});
+    auto presentations = [&]() { return count_rows(db, "adaptive_trials"); };
+    int kills = 0;
+    for (const int target : {6, 14}) {
+        const pid_t pid = spawn(args, dir / "log.txt");
+        const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+        while (presentations() < target && std::chrono::steady_clock::now() < give_up)
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        ::kill(pid, SIGKILL);
+        int status = 0;
+        ::waitpid(pid, &status, 0);
+        ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill:\n" << read_text_file(dir / "log.txt");
+        ++kills;
+        ASSERT_GE(presentations(), target);
+        ASSERT_LT(presentations(), 26) << "killed too late to be mid-track";
+    }
+    ASSERT_EQ(run(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    const CsvTable responses = read_csv(dir / "export" / "responses.csv");
+    ASSERT_EQ(responses.rows.size(), plan.size());
+
+    const CsvTable t = read_csv(dir / "export" / "adaptive_trials.csv");
+    const auto c_trial = t.require_column("trial"), c_attempt = t.require_column("attempt"),
+               c_track = t.require_column("track"), c_level = t.require_column("level_db"),
+               c_next = t.require_column("next_level_db"), c_keywords = t.require_column("keywords"),
+               c_correct = t.require_column("correct"), c_phase = t.require_column("phase");
+    std::set<std::pair<int, int>> seen;
+    std::map<std::string, std::vector<const CsvRow*>> tracks;
+    int matched = 0;
+    for (const auto& row : t.rows) {
+        const int trial = std::stoi(row.fields[c_trial]), attempt = std::stoi(row.fields[c_attempt]);
+        EXPECT_TRUE(seen.insert({trial, attempt}).second) << "trial " << trial << " presentation " << attempt << " twice";
+        const double level = *parse_double(row.fields[c_level]);
+        if (row.fields[c_phase] == "test") tracks[row.fields[c_track]].push_back(&row);
+        else EXPECT_EQ(level, 16.0);  // the practice level
+        // The captured audio is the logged level's variant, sample for sample, and no other level's.
+        const fs::path wav = dir / "audio" / (attempt == 1 ? fmt::format("trial{:03}.wav", trial)
+                                                           : fmt::format("trial{:03}_{}.wav", trial, attempt));
+        SCOPED_TRACE(wav.string());
+        const std::vector<float> captured = read_audio(wav).mono();
+        for (const double other : rules.levels) {
+            const std::vector<float> variant =
+                read_audio(stimuli / stimuli::variant_audio_path(stimulus_of.at(trial), "bands", other)).mono();
+            if (other == level) {
+                EXPECT_EQ(captured, variant);
+                matched += captured == variant;
+            } else {
+                EXPECT_NE(captured, variant);
+            }
+        }
+    }
+    EXPECT_EQ(matched, static_cast<int>(t.rows.size()));
+    ASSERT_EQ(tracks.size(), 2u);
+    for (const auto& [name, rows] : tracks) {
+        SCOPED_TRACE(name);
+        analysis::AdaptiveTrack replay(rules.track);
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+            const auto& f = rows[k]->fields;
+            EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), rules.value_of(replay.level_db()));
+            if (k > 0) EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), *parse_double(rows[k - 1]->fields[c_next]));
+            replay.record(std::stoi(f[c_keywords]), std::stoi(f[c_correct]));
+            EXPECT_DOUBLE_EQ(*parse_double(f[c_next]), rules.value_of(replay.level_db()));
+        }
+        EXPECT_EQ(replay.sentences(), 10);
+    }
+    std::cerr << "[ info ] " << kills << " kills, " << matched << " presentations matched to their variant\n";
+
+    // The threshold in bands.
+    ASSERT_EQ(run({"analyze", (dir / "export" / "adaptive_trials.csv").string(), "--protocol", protocol.string(),
+                   "--out", (dir / "report").string()},
+                  dir / "analyze.txt"),
+              0)
+        << read_text_file(dir / "analyze.txt");
+    const std::string report = read_text_file(dir / "report" / "report.md");
+    EXPECT_NE(report.find("SRT by condition (vocoder bands"), std::string::npos) << report;
+    EXPECT_NE(report.find("| SRT (bands) |"), std::string::npos) << report;
+    EXPECT_NE(read_text_file(dir / "analyze.txt").find(" bands"), std::string::npos) << read_text_file(dir / "analyze.txt");
 }
 
 }  // namespace

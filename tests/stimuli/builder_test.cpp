@@ -407,3 +407,75 @@ TEST_F(BuilderFixture, RefusesUnknownAndInconsistentVocoderKeysWithTheirLocation
 
 }  // namespace
 }  // namespace avsi::stimuli
+
+namespace avsi::stimuli {
+
+// A band-count adaptive protocol ([adaptive] variable = "bands"): the builder
+// pre-renders each vocoded stimulus's audio at every level beside the MP4,
+// lists the files with their SHA-256 in the manifest, and --verify checks
+// them. The variant at the protocol's own band count is the stimulus's WAV
+// sample for sample (the same vocoder and seed).
+TEST_F(BuilderFixture, BandCountTracksGetAnAudioVariantPerLevelListedAndVerified) {
+    auto protocol = protocol_with_vocoder(dir / "p", "bands = 3\nlow_hz = 100\nhigh_hz = 5000\n");
+    std::string text = read_text_file(protocol);
+    const auto clean = text.find("[[condition]]\nname = \"audio-only\"");
+    ASSERT_NE(clean, std::string::npos);
+    text.erase(clean, text.find("[[condition]]", clean + 1) - clean);  // every condition vocoded
+    text.replace(text.find("lists = 3"), 9, "lists = 2");
+    text += "\n[adaptive]\nvariable = \"bands\"\nlevels = [2, 3, 6]\nsrt_from = 1\n";
+    write_text_file(protocol, text);
+    BuildSettings s = settings("bands");
+    s.protocol_path = protocol;
+    s.max_sentences = 1;
+    const BuildReport report = build_stimuli(s);
+    ASSERT_EQ(report.rendered, 2u);
+    const auto manifest = nlohmann::json::parse(read_text_file(s.out_dir / "manifest.json"));
+    int files = 0;
+    for (const auto& e : manifest["stimuli"]) {
+        SCOPED_TRACE(e["path"].get<std::string>());
+        const auto& v = e["variants"];
+        ASSERT_TRUE(v.is_object());
+        EXPECT_EQ(v["variable"], "bands");
+        EXPECT_EQ(v["unit"], "bands");
+        ASSERT_EQ(v["files"].size(), 3u);
+        const Audio main = read_audio(s.out_dir / e["wav"].get<std::string>());
+        std::vector<std::vector<float>> rendered;
+        for (const auto& f : v["files"]) {
+            const std::string wav = f["wav"].get<std::string>();
+            EXPECT_EQ(wav, variant_audio_path(e["path"].get<std::string>(), "bands", f["level"].get<double>())
+                               .generic_string());
+            EXPECT_EQ(sha256_file(s.out_dir / wav), f["sha256"].get<std::string>());
+            const Audio a = read_audio(s.out_dir / wav);
+            EXPECT_EQ(a.sample_rate_hz, main.sample_rate_hz);
+            EXPECT_EQ(a.samples.size(), main.samples.size());
+            if (f["level"].get<double>() == 3.0) EXPECT_EQ(a.samples, main.samples);
+            rendered.push_back(a.samples);
+            ++files;
+        }
+        EXPECT_NE(rendered[0], rendered[1]);
+        EXPECT_NE(rendered[1], rendered[2]);
+    }
+    EXPECT_EQ(files, 6);
+    EXPECT_EQ(build_stimuli(s).rendered, 0u);  // unchanged: nothing rebuilt
+    const VerifyReport ok = verify_stimuli(s);
+    EXPECT_EQ(ok.verified, 2u);
+    EXPECT_TRUE(ok.problems.empty());
+    // A changed variant and a missing one are found.
+    const auto& first = manifest["stimuli"][0];
+    const std::string changed = first["variants"]["files"][0]["wav"], missing = first["variants"]["files"][2]["wav"];
+    Audio a = read_audio(s.out_dir / changed);
+    a.samples[100] += 0.01f;
+    write_audio(s.out_dir / changed, a);
+    std::filesystem::remove(s.out_dir / missing);
+    const VerifyReport broken = verify_stimuli(s);
+    EXPECT_EQ(broken.verified, 1u);
+    std::string all;
+    for (const auto& p : broken.problems) all += p + "\n";
+    EXPECT_NE(all.find("the variant " + changed + " differs from the one built"), std::string::npos) << all;
+    EXPECT_NE(all.find("the variant " + missing + " is missing"), std::string::npos) << all;
+    // Other levels: the stimuli are out of date and rebuilt.
+    write_text_file(protocol, text.substr(0, text.find("levels = [2, 3, 6]")) + "levels = [2, 4]\nsrt_from = 1\n");
+    EXPECT_EQ(build_stimuli(s).rendered, 2u);
+}
+
+}  // namespace avsi::stimuli

@@ -51,8 +51,10 @@ namespace avsi::analysis {
 enum class AdaptiveProcedure { Sentence, Word };
 // How a word track's SRT is estimated.
 enum class SrtEstimator { MeanOfLevels, MaximumLikelihood };
-// What the track varies.
-enum class AdaptiveVariable { Snr };
+// What the track varies: the SNR of the masking noise (dB, any real level),
+// or, for vocoded speech, the number of vocoder bands or the envelope
+// cutoff (Hz), stepped by position on the protocol's list of levels.
+enum class AdaptiveVariable { Snr, Bands, CutoffHz };
 // Interleaved: the conditions' tracks alternate sentence by sentence; blocked:
 // one condition's track after the other (the design's blocks).
 enum class TrackOrder { Interleaved, Blocked };
@@ -63,6 +65,7 @@ std::string to_string(AdaptiveProcedure procedure);
 std::string to_string(SrtEstimator estimator);
 std::string to_string(TrackOrder order);
 std::string to_string(LevelRule rule);
+std::string to_string(AdaptiveVariable variable);
 
 // The rules of one track (every condition's track of a protocol uses the same).
 struct TrackSettings {
@@ -272,9 +275,30 @@ struct AdaptiveProtocol {
     double practice_snr_db = 10.0;        // warm-up and practice sentences (fixed)
     bool confirm_scores = false;          // the experimenter confirms or corrects each score
     std::string reference;                // the audio-only condition (visual benefit); "" = the first
+    // List variables (bands, cutoff): the levels in the variable's units,
+    // strictly ascending (easier upwards). The track then runs on positions
+    // 0..n−1 of this list (track.start_db, min_db, max_db and the steps are
+    // positions); every level stored or reported is the list's value.
+    std::vector<double> levels;
+    double practice_level = 0.0;          // list variables: the level of warm-up and practice sentences
+
+    // Whether the track steps on a list of levels (bands, cutoff).
+    bool list_variable() const { return variable != AdaptiveVariable::Snr; }
+    // The unit of levels and thresholds: "dB", "bands" or "Hz".
+    std::string unit() const;
+    // A track level in the variable's units: the SNR itself, or levels[position].
+    double value_of(double track_level) const;
+    // The steps of a track with every level (level, next level, step) in the variable's units.
+    std::vector<TrackStep> in_units(const std::vector<TrackStep>& steps) const;
 };
 
 // Reads and validates protocol.adaptive (every problem at once, with file:line:col).
+// variable = "bands" | "cutoff" needs `levels` (strictly ascending numbers;
+// bands integers in [1, 64], cutoffs in (0, 10000] Hz), sentence scoring
+// (word scoring's real-valued ΔL has no meaning on a list: refused), every
+// condition vocoded, and takes start_level / practice_level (values on the
+// list; defaults the middle and the top level), large_step_levels and
+// small_step_levels (positions; defaults 2 and 1); the SNR keys are refused.
 AdaptiveProtocol adaptive_protocol(const Protocol& protocol);
 
 }  // namespace avsi::analysis

@@ -69,6 +69,11 @@ struct ConditionFit {
 
 struct SrtAnalysis {
     TrackSettings settings;
+    // The variable's units: "dB" (SNR), or "bands" / "Hz" for a list variable
+    // (whose track steps, levels and thresholds are then in those units).
+    std::string unit = "dB";
+    std::string level_label = "SNR (dB)";     // axis label of a level
+    std::string threshold_label = "dB SNR";   // unit of a threshold in headings
     std::string reference;
     std::vector<TrackResult> tracks;
     std::vector<std::string> conditions;  // report order
@@ -83,9 +88,13 @@ struct SrtAnalysis {
 // orders the report (empty: first appearance); `reference` is the audio-only
 // condition (empty: the first). Throws InputError naming `source` and the
 // line when a stored level is not what the rules give.
+// With `list` (a protocol whose variable is "bands" or "cutoff"), the stored
+// levels are the list's values, the track is replayed on positions, and every
+// level and threshold is reported in the variable's units.
 SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSettings& settings,
                         const std::vector<std::string>& conditions, const std::string& reference,
-                        const std::string& source, double confidence = 0.95);
+                        const std::string& source, double confidence = 0.95,
+                        const AdaptiveProtocol* list = nullptr);
 
 struct SrtReportSettings {
     std::filesystem::path out_dir;

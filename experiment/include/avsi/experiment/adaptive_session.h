@@ -22,6 +22,13 @@
 // before the score counts. The record keeps both (auto_correct, correct,
 // marks, corrected) and the runner logs a "score-corrected" event.
 //
+// List variables (variable = "bands" | "cutoff"): no noise is mixed; the
+// presentation's audio is the builder's pre-rendered variant of the stimulus
+// at the track's level (stimuli::variant_audio_path, a WAV beside the MP4),
+// played sample for sample while the MP4's video is shown. Levels (the
+// track's, the stored ones) are then band counts or cutoffs in Hz, and the
+// record's noise level is kNoNoiseDbfs.
+//
 // Resume: the constructor replays the stored records of the subject through
 // fresh tracks; the next level is then what it was before the interruption.
 #pragma once
@@ -43,12 +50,15 @@ class KeywordScorer;
 
 namespace avsi::experiment {
 
+// The noise level recorded when no noise is mixed (list-variable tracks).
+constexpr double kNoNoiseDbfs = -200.0;
+
 // The audio of one presentation, mixed.
 struct MixedPresentation {
     std::vector<float> samples;
     int sample_rate = 0;
     int attempt = 1;
-    double level_db = 0.0;       // the SNR
+    double level_db = 0.0;       // the SNR (dB), or the band count / cutoff (Hz) of a list variable
     double speech_gain_db = 0.0; // applied to the stimulus audio, limiter included
     double noise_gain_db = 0.0;  // the noise RMS in dBFS after the limiter
     double limit_gain_db = 0.0;
@@ -67,13 +77,25 @@ public:
 
     const analysis::AdaptiveProtocol& settings() const { return m_settings; }
 
-    // The SNR the trial's next presentation gets: its track's level (test
-    // trials) or the fixed practice SNR.
+    // List variables: the stimulus folder the variants are read from (the
+    // planned stimulus paths are relative to it).
+    void set_stimuli_dir(std::filesystem::path dir) { m_stimuli_dir = std::move(dir); }
+    // List variables: every level's variant of every test trial of `plan` is
+    // there (InputError naming the first missing one), so a session does not
+    // stop mid-track on a missing file.
+    void check_variants(const std::vector<PlannedTrial>& plan) const;
+
+    // The level the trial's next presentation gets, in the variable's units:
+    // its track's level (test trials) or the fixed practice level.
     double level_db(const PlannedTrial& trial) const;
+    // The pre-rendered audio variant the trial's next presentation plays (list variables).
+    std::filesystem::path variant_path(const PlannedTrial& trial) const;
     // Presentations of the trial already stored (repeats), + 1.
     int next_attempt(const PlannedTrial& trial) const;
 
-    // Mixes the masking noise into `speech` (mono) at level_db(trial).
+    // Mixes the masking noise into `speech` (mono) at level_db(trial); for a
+    // list variable, returns the variant's samples instead (InputError when it
+    // is missing or at another sample rate than `sample_rate`).
     MixedPresentation mix(const PlannedTrial& trial, const std::vector<float>& speech, int sample_rate);
 
     // The live score of an answer: one mark per keyword of the trial's sentence.
@@ -100,6 +122,7 @@ private:
     std::map<std::string, analysis::AdaptiveTrack> m_tracks;
     std::map<int, int> m_attempts;  // position → presentations stored
     std::map<int, std::vector<double>> m_noise_by_rate;  // a noise recording, per sample rate
+    std::filesystem::path m_stimuli_dir;
 };
 
 }  // namespace avsi::experiment

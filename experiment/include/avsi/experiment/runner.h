@@ -67,6 +67,7 @@ struct ManifestEntry {
     int frames = 0;        // video frames
     double fps = 0.0;
     std::string sha256;    // of the MP4
+    std::map<std::string, std::string> variants;  // adaptive list variable: audio variant path → SHA-256
 };
 
 // A stimulus folder's manifest.json (written by `avsi build-stimuli`).
@@ -82,7 +83,8 @@ StimulusManifest read_stimulus_manifest(const std::filesystem::path& dir);
 
 // Stimuli from a folder built by `avsi build-stimuli`, decoded by the stimuli
 // module. Checks each clip against its manifest entry (listed, SHA-256 and
-// frame count), so a stale or damaged stimulus is refused before it is shown.
+// frame count) and its listed audio variants (SHA-256), so a stale or damaged
+// stimulus is refused before it is shown.
 class StimulusFolderOpener : public StimulusOpener {
 public:
     explicit StimulusFolderOpener(std::filesystem::path dir);

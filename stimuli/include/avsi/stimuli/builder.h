@@ -72,4 +72,15 @@ struct VerifyReport {
 // protocol, or a missing or unreadable manifest.
 VerifyReport verify_stimuli(const BuildSettings& settings);
 
+// The pre-rendered audio of a stimulus at one level of an adaptive list
+// variable ([adaptive] variable = "bands" | "cutoff"): a WAV beside the MP4,
+// "<sentence>/<condition>.<variable>-<level>.wav". The builder writes one per
+// level of `levels` for every vocoded stimulus (the same vocoder settings and
+// seed with that band count or envelope cutoff, at the corpus speech level)
+// and lists them under "variants" of the stimulus's manifest entry with their
+// SHA-256; --verify checks them; the lab runner plays the one of the track's
+// current level while it shows the MP4's video.
+std::filesystem::path variant_audio_path(const std::filesystem::path& video, const std::string& variable,
+                                         double level);
+
 }  // namespace avsi::stimuli
