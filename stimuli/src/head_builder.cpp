@@ -997,7 +997,7 @@ void build_head(const HeadBuildSettings& settings) {
         glm::vec3 lower_lip_lift_positive{0.0f}, lower_lip_lift_negative{0.0f};
         // Bones of the units left out: the corner pulls keep to the corners
         // (their midline lip bones would move the whole lips back and forth).
-        std::set<std::string> without;
+        std::set<std::string> without{};
     };
     const std::set<std::string> midline_lip_bones = {"special04", "oris01", "oris02", "oris05", "oris06"};
     const std::vector<Mapping> mappings = {

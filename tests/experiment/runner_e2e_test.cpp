@@ -925,7 +925,9 @@ TEST_F(RunnerE2E, BandCountTrackPlaysTheLoggedVariantAndResumesMidTrack) {
         for (std::size_t k = 0; k < rows.size(); ++k) {
             const auto& f = rows[k]->fields;
             EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), rules.value_of(replay.level_db()));
-            if (k > 0) EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), *parse_double(rows[k - 1]->fields[c_next]));
+            if (k > 0) {
+                EXPECT_DOUBLE_EQ(*parse_double(f[c_level]), *parse_double(rows[k - 1]->fields[c_next]));
+            }
             replay.record(std::stoi(f[c_keywords]), std::stoi(f[c_correct]));
             EXPECT_DOUBLE_EQ(*parse_double(f[c_next]), rules.value_of(replay.level_db()));
         }

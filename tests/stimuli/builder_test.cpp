@@ -448,7 +448,9 @@ TEST_F(BuilderFixture, BandCountTracksGetAnAudioVariantPerLevelListedAndVerified
             const Audio a = read_audio(s.out_dir / wav);
             EXPECT_EQ(a.sample_rate_hz, main.sample_rate_hz);
             EXPECT_EQ(a.samples.size(), main.samples.size());
-            if (f["level"].get<double>() == 3.0) EXPECT_EQ(a.samples, main.samples);
+            if (f["level"].get<double>() == 3.0) {
+                EXPECT_EQ(a.samples, main.samples);
+            }
             rendered.push_back(a.samples);
             ++files;
         }
