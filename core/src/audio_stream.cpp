@@ -46,6 +46,7 @@ AudioFileReader::AudioFileReader(const std::filesystem::path& path) : m_path(pat
     }
     if (info.samplerate <= 0 || info.channels <= 0 || info.frames < 0)
         throw InputError(path, "audio file has no valid sample rate or channel count");
+    if (info.frames == 0) throw InputError(path, "audio file has no samples");
     // Float reads of float files must not be rescaled; PCM maps to [-1, 1).
     sf_command(m_file->handle, SFC_SET_NORM_FLOAT, nullptr, SF_TRUE);
     m_rate_hz = info.samplerate;
