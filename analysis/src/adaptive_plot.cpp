@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
+#include "plot_axes.h"
 
 namespace avsi::analysis::detail {
 
@@ -19,15 +20,6 @@ struct Rgb {
 };
 constexpr Rgb kPalette[] = {{0.12, 0.40, 0.70}, {0.85, 0.37, 0.01}, {0.11, 0.62, 0.47},
                             {0.46, 0.44, 0.70}, {0.91, 0.16, 0.54}, {0.40, 0.40, 0.40}};
-
-// A "nice" tick step for a range (1, 2 or 5 × 10^k).
-double tick_step(double range, int wanted) {
-    const double raw = range / std::max(1, wanted);
-    const double p = std::pow(10.0, std::floor(std::log10(raw)));
-    for (double m : {1.0, 2.0, 5.0, 10.0})
-        if (raw <= m * p) return m * p;
-    return 10 * p;
-}
 
 std::string tick_label(double v, double step) {
     if (std::fabs(v) < step * 1e-9) v = 0.0;
@@ -67,20 +59,8 @@ void write_xy_plot_png(const std::filesystem::path& path, const XyPlot& plot, in
     cairo_paint(cr);
     cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
     cairo_set_font_size(cr, 12);
-    // Horizontal grid with labels.
-    for (double v = y0; v <= y1 + y_step * 1e-6; v += y_step) {
-        cairo_set_source_rgb(cr, 0.88, 0.88, 0.88);
-        cairo_set_line_width(cr, 1);
-        cairo_move_to(cr, left, Y(v));
-        cairo_line_to(cr, left + pw, Y(v));
-        cairo_stroke(cr);
-        const std::string label = tick_label(v, y_step);
-        cairo_text_extents_t ext;
-        cairo_text_extents(cr, label.c_str(), &ext);
-        cairo_set_source_rgb(cr, 0.2, 0.2, 0.2);
-        cairo_move_to(cr, left - 8 - ext.width, Y(v) + ext.height / 2);
-        cairo_show_text(cr, label.c_str());
-    }
+    const PlotArea area{left, top, pw, ph};
+    draw_y_grid(cr, area, y0, y1, y_step, Y, [y_step](double v) { return tick_label(v, y_step); });
     // x ticks: categories or numbers.
     cairo_set_source_rgb(cr, 0.2, 0.2, 0.2);
     if (!plot.x_categories.empty()) {
@@ -100,12 +80,7 @@ void write_xy_plot_png(const std::filesystem::path& path, const XyPlot& plot, in
             cairo_show_text(cr, label.c_str());
         }
     }
-    cairo_set_source_rgb(cr, 0, 0, 0);
-    cairo_set_line_width(cr, 1.5);
-    cairo_move_to(cr, left, top);
-    cairo_line_to(cr, left, top + ph);
-    cairo_line_to(cr, left + pw, top + ph);
-    cairo_stroke(cr);
+    draw_axes(cr, area);
 
     for (std::size_t si = 0; si < plot.series.size(); ++si) {
         const XySeries& s = plot.series[si];
@@ -160,25 +135,13 @@ void write_xy_plot_png(const std::filesystem::path& path, const XyPlot& plot, in
             cairo_show_text(cr, s.name.c_str());
         }
     }
+    draw_titles(cr, area, plot.title, plot.y_label, plot.caption, height - 14);
     cairo_set_source_rgb(cr, 0, 0, 0);
-    cairo_set_font_size(cr, 16);
-    cairo_move_to(cr, left, 30);
-    cairo_show_text(cr, plot.title.c_str());
     cairo_set_font_size(cr, 13);
     cairo_text_extents_t ext;
     cairo_text_extents(cr, plot.x_label.c_str(), &ext);
     cairo_move_to(cr, left + pw / 2 - ext.width / 2, top + ph + 42);
     cairo_show_text(cr, plot.x_label.c_str());
-    cairo_save(cr);
-    cairo_text_extents(cr, plot.y_label.c_str(), &ext);
-    cairo_move_to(cr, 24, top + ph / 2 + ext.width / 2);
-    cairo_rotate(cr, -M_PI / 2);
-    cairo_show_text(cr, plot.y_label.c_str());
-    cairo_restore(cr);
-    cairo_set_font_size(cr, 11);
-    cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
-    cairo_move_to(cr, left, height - 14);
-    cairo_show_text(cr, plot.caption.c_str());
     cairo_destroy(cr);
     const cairo_status_t status = cairo_surface_write_to_png(surface, path.c_str());
     cairo_surface_destroy(surface);

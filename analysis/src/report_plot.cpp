@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
+#include "plot_axes.h"
 
 namespace avsi::analysis::detail {
 
@@ -20,41 +21,16 @@ void draw(cairo_t* cr, const PlotData& d, double width, double height) {
     const double y_min = d.y_min, y_max = d.y_max > d.y_min ? d.y_max : d.y_min + 1.0;
     auto y_of = [&](double v) { return top + ph * (1.0 - (std::clamp(v, y_min, y_max) - y_min) / (y_max - y_min)); };
 
+    const PlotArea area{left, top, pw, ph};
+
     cairo_set_source_rgb(cr, 1, 1, 1);
     cairo_paint(cr);
     cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
 
     // Grid and y axis labels: 10 steps of a round size (10 % for percent).
-    cairo_set_font_size(cr, 12);
-    const double raw_step = (y_max - y_min) / 10.0;
-    const double magnitude = std::pow(10.0, std::floor(std::log10(raw_step)));
-    double tick = 10.0 * magnitude;
-    for (double m : {1.0, 2.0, 5.0, 10.0})
-        if (raw_step <= m * magnitude) {
-            tick = m * magnitude;
-            break;
-        }
-    for (double v = std::ceil(y_min / tick - 1e-9) * tick; v <= y_max + 1e-9 * tick; v += tick) {
-        const double y = y_of(v);
-        cairo_set_source_rgb(cr, 0.88, 0.88, 0.88);
-        cairo_set_line_width(cr, 1);
-        cairo_move_to(cr, left, y);
-        cairo_line_to(cr, left + pw, y);
-        cairo_stroke(cr);
-        const std::string label = fmt::format("{:g}", std::abs(v) < 1e-12 * tick ? 0.0 : v);
-        cairo_text_extents_t ext;
-        cairo_text_extents(cr, label.c_str(), &ext);
-        cairo_set_source_rgb(cr, 0.2, 0.2, 0.2);
-        cairo_move_to(cr, left - 8 - ext.width, y + ext.height / 2);
-        cairo_show_text(cr, label.c_str());
-    }
-    // Axes.
-    cairo_set_source_rgb(cr, 0, 0, 0);
-    cairo_set_line_width(cr, 1.5);
-    cairo_move_to(cr, left, top);
-    cairo_line_to(cr, left, top + ph);
-    cairo_line_to(cr, left + pw, top + ph);
-    cairo_stroke(cr);
+    draw_y_grid(cr, area, y_min, y_max, tick_step(y_max - y_min, 10), y_of,
+                [](double v) { return fmt::format("{:g}", v); });
+    draw_axes(cr, area);
 
     // Means with CI whiskers.
     const std::size_t k = d.conditions.size();
@@ -90,22 +66,7 @@ void draw(cairo_t* cr, const PlotData& d, double width, double height) {
         cairo_restore(cr);
     }
 
-    // Title, y label, caption.
-    cairo_set_font_size(cr, 16);
-    cairo_move_to(cr, left, 30);
-    cairo_show_text(cr, d.title.c_str());
-    cairo_set_font_size(cr, 13);
-    cairo_save(cr);
-    cairo_text_extents_t ext;
-    cairo_text_extents(cr, d.y_label.c_str(), &ext);
-    cairo_move_to(cr, 24, top + ph / 2 + ext.width / 2);
-    cairo_rotate(cr, -M_PI / 2);
-    cairo_show_text(cr, d.y_label.c_str());
-    cairo_restore(cr);
-    cairo_set_font_size(cr, 11);
-    cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
-    cairo_move_to(cr, left, height - 12);
-    cairo_show_text(cr, d.caption.c_str());
+    draw_titles(cr, area, d.title, d.y_label, d.caption, height - 12);
 }
 
 void check(cairo_status_t status, const std::filesystem::path& path) {

@@ -4,8 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "avsi/core/audio_stream.h"
 #include "avsi/core/error.h"
-#include "avsi/core/files.h"
 
 namespace avsi {
 
@@ -55,37 +55,11 @@ Audio read_audio(const std::filesystem::path& path) {
 void write_audio(const std::filesystem::path& path, const Audio& audio, SampleFormat format) {
     AVSI_ASSERT(audio.channels > 0 && audio.sample_rate_hz > 0);
     AVSI_ASSERT(audio.samples.size() % audio.channels == 0);
-    const std::string ext = path.extension().string();
-    int major = 0;
-    if (ext == ".wav" || ext == ".WAV") {
-        major = SF_FORMAT_WAV;
-    } else if (ext == ".flac" || ext == ".FLAC") {
-        major = SF_FORMAT_FLAC;
-        if (format == SampleFormat::Float32)
-            throw InputError(path, "FLAC holds integer PCM only; use 16- or 24-bit, or write .wav");
-    } else {
-        throw InputError(path, fmt::format("unsupported audio file extension '{}'; supported "
-                                           "extensions are '.wav' and '.flac'", ext));
-    }
-    int subtype = SF_FORMAT_PCM_16;
-    if (format == SampleFormat::Pcm24) subtype = SF_FORMAT_PCM_24;
-    if (format == SampleFormat::Float32) subtype = SF_FORMAT_FLOAT;
-
-    AtomicFile out(path);
-    SF_INFO info{};
-    info.samplerate = audio.sample_rate_hz;
-    info.channels = audio.channels;
-    info.format = major | subtype;
-    SNDFILE* file = sf_open(out.temp_path().c_str(), SFM_WRITE, &info);
-    if (!file) throw InputError(path, fmt::format("cannot write audio file: {}", sf_strerror(nullptr)));
-    // Clip integer output rather than wrapping around on overshoot.
-    sf_command(file, SFC_SET_CLIPPING, nullptr, SF_TRUE);
-    const sf_count_t frames = static_cast<sf_count_t>(audio.frames());
-    const sf_count_t written = sf_writef_float(file, audio.samples.data(), frames);
-    const int close_status = sf_close(file);
-    if (written != frames || close_status != 0)
-        throw InputError(path, "cannot write audio file: short write (disk full?)");
-    out.commit();
+    // One writer for whole files and streams: the same format choice, clipping
+    // and atomic commit (audio_stream.h).
+    AudioFileWriter writer(path, audio.sample_rate_hz, audio.channels, format);
+    writer.write(audio.samples.data(), audio.frames());
+    writer.commit();
 }
 
 }  // namespace avsi

@@ -129,6 +129,28 @@ protected:
     // Responses committed so far.
     static int committed(const fs::path& db) { return count_rows(db, "responses"); }
 
+    // Runs the runner once per target, killing it (SIGKILL) as soon as the
+    // adaptive presentations stored in `db` reach the target; each run must
+    // still have been going (not ended) and stopped mid-track (fewer than
+    // `limit` stored). Adds one to `kills` per kill.
+    static void kill_at_presentations(const std::vector<std::string>& args, const fs::path& log, const fs::path& db,
+                                      std::initializer_list<int> targets, int limit, int& kills) {
+        for (const int target : targets) {
+            const pid_t pid = spawn(args, log);
+            const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+            while (count_rows(db, "adaptive_trials") < target && std::chrono::steady_clock::now() < give_up)
+                std::this_thread::sleep_for(std::chrono::milliseconds(2));
+            ::kill(pid, SIGKILL);
+            int status = 0;
+            ::waitpid(pid, &status, 0);
+            ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill:\n" << read_text_file(log);
+            ++kills;
+            const int stored = count_rows(db, "adaptive_trials");
+            ASSERT_GE(stored, target);
+            ASSERT_LT(stored, limit) << "killed too late to be mid-track";
+        }
+    }
+
     static inline pid_t s_xvfb = -1;
 };
 
@@ -537,25 +559,10 @@ TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
     const fs::path db = dir / "adaptive.sqlite";
     std::vector<std::string> args = run_args(protocol, 1, db, dir / "script.txt");
     args.insert(args.end(), {"--audio-capture", (dir / "audio").string()});
-    // Presentations committed so far (repeats included).
-    auto presentations = [&]() { return count_rows(db, "adaptive_trials"); };
     // Two kills: after the 6th and the 14th committed presentation (both in
     // the tracks), then a run to the end.
     int kills = 0;
-    for (const int target : {6, 14}) {
-        const pid_t pid = spawn(args, dir / "log.txt");
-        const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-        while (presentations() < target && std::chrono::steady_clock::now() < give_up)
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        ::kill(pid, SIGKILL);
-        int status = 0;
-        ::waitpid(pid, &status, 0);
-        ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill:\n" << read_text_file(dir / "log.txt");
-        ++kills;
-        const int stored = presentations();
-        ASSERT_GE(stored, target);
-        ASSERT_LT(stored, 26) << "killed too late to be mid-track";
-    }
+    ASSERT_NO_FATAL_FAILURE(kill_at_presentations(args, dir / "log.txt", db, {6, 14}, 26, kills));
     ASSERT_EQ(run(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
     ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
 
@@ -867,21 +874,8 @@ TEST_F(RunnerE2E, BandCountTrackPlaysTheLoggedVariantAndResumesMidTrack) {
     EXPECT_NE(read_text_file(dir / "refused.txt").find("--stimuli"), std::string::npos) << read_text_file(dir / "refused.txt");
     EXPECT_FALSE(fs::exists(db) && count_rows(db, "adaptive_trials") > 0);
     args.insert(args.end(), {"--stimuli", stimuli.string(), "--audio-capture", (dir / "audio").string()});
-    auto presentations = [&]() { return count_rows(db, "adaptive_trials"); };
     int kills = 0;
-    for (const int target : {6, 14}) {
-        const pid_t pid = spawn(args, dir / "log.txt");
-        const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-        while (presentations() < target && std::chrono::steady_clock::now() < give_up)
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        ::kill(pid, SIGKILL);
-        int status = 0;
-        ::waitpid(pid, &status, 0);
-        ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill:\n" << read_text_file(dir / "log.txt");
-        ++kills;
-        ASSERT_GE(presentations(), target);
-        ASSERT_LT(presentations(), 26) << "killed too late to be mid-track";
-    }
+    ASSERT_NO_FATAL_FAILURE(kill_at_presentations(args, dir / "log.txt", db, {6, 14}, 26, kills));
     ASSERT_EQ(run(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
     ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
     const CsvTable responses = read_csv(dir / "export" / "responses.csv");
