@@ -514,7 +514,10 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
         L.neck_pivot = rig.vec3(lm["neck_pivot"], "landmarks.neck_pivot");
         L.has_neck_pivot = true;
     } else {
-        L.neck_pivot = L.head_center + glm::vec3(0.0f, -0.4f, -0.1f) * L.head_height;
+        // Where the built-in head's pivot lies relative to its landmarks.
+        const glm::vec3 eyes = 0.5f * (L.left_eye + L.right_eye);
+        L.neck_pivot = glm::vec3(eyes.x, L.nose_bottom.y + 0.25f * (eyes.y - L.nose_bottom.y),
+                                 eyes.z - 0.35f * L.head_height);
     }
 
     if (doc.contains("articulation")) {

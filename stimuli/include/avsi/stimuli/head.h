@@ -159,8 +159,9 @@ struct Landmarks {
     float head_height = 0.0f;     // crown to chin, for framing
     // The pivot of head rotation (the top of the neck: the skull's joint on
     // the spine). From the rig's "neck_pivot" landmark; a rig without one
-    // gets head_center moved down by 0.4 and back by 0.1 head heights
-    // (has_neck_pivot false).
+    // (has_neck_pivot false) gets the point 0.35 head heights behind the
+    // eyes' midpoint, a quarter of the way up from the subnasale's height to
+    // the eyes' (where the built-in head's pivot lies; y up, z forward).
     glm::vec3 neck_pivot{0.0f};
     bool has_neck_pivot = false;
 };
