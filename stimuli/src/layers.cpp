@@ -332,23 +332,36 @@ FapPlayer::FapPlayer(const Head& head) {
 }
 
 LayerFrame FapPlayer::frame(const synth::FapFrame& fap) const {
-    LayerFrame out;
-    // Jaw and lips: the least-squares inverse over the mapped FAPs present.
+    synth::FapStream one;
+    one.name = "FAP set";
+    one.frames.push_back(fap);
+    return play(one)[0];
+}
+
+std::vector<LayerFrame> FapPlayer::play(const synth::FapStream& stream) const {
+    std::vector<LayerFrame> out(stream.frames.size());
+    // Jaw and lips: the least-squares inverse over the mapped FAPs present,
+    // once for the stream.
     bool mouth = false;
-    for (int f : synth::mapped_faps()) mouth = mouth || fap_has(fap, f);
+    for (const auto& f : stream.frames)
+        for (int fap : synth::mapped_faps()) mouth = mouth || fap_has(f, fap);
     if (mouth) {
-        synth::FapStream one;
-        one.frames.push_back(fap);
-        const auto t = synth::fap_to_trajectory(one, m_units);
-        // Only the parameters a present FAP depends on are set: the
-        // inverse leaves the others neutral, and a layer that sets only
-        // the lip corners must not hold the jaw at rest.
-        for (std::size_t p = 0; p < synth::param_count; ++p) {
-            bool depends = false;
-            for (int f : m_param_faps[p]) depends = depends || fap_has(fap, f);
-            if (depends) out.set_channel(p, t.frames[0][p]);
-        }
+        const auto t = synth::fap_to_trajectory(stream, m_units);
+        // Only the parameters a present FAP drives are set: the inverse
+        // leaves the others neutral, and a layer that sets only the lip
+        // corners must not hold the jaw at rest.
+        for (std::size_t k = 0; k < stream.frames.size(); ++k)
+            for (std::size_t p = 0; p < synth::param_count; ++p) {
+                bool depends = false;
+                for (int f : m_param_faps[p]) depends = depends || fap_has(stream.frames[k], f);
+                if (depends) out[k].set_channel(p, t.frames[k][p]);
+            }
     }
+    for (std::size_t k = 0; k < stream.frames.size(); ++k) upper_face(stream.frames[k], out[k]);
+    return out;
+}
+
+void FapPlayer::upper_face(const synth::FapFrame& fap, LayerFrame& out) const {
     auto by_reach = [&](std::size_t c, double distance) {
         const double reach = distance >= 0 ? m_reach_positive[c] : m_reach_negative[c];
         if (reach > 0.0) out.set_channel(c, (distance >= 0 ? 1.0 : -1.0) * std::abs(distance) / reach);
@@ -380,7 +393,6 @@ LayerFrame FapPlayer::frame(const synth::FapFrame& fap) const {
         out.set_rotation(head_rotation_from_angles(fap_has(fap, 48) ? fap_value(fap, 48) * au_to_rad : 0.0,
                                                    fap_has(fap, 49) ? fap_value(fap, 49) * au_to_rad : 0.0,
                                                    fap_has(fap, 50) ? fap_value(fap, 50) * au_to_rad : 0.0));
-    return out;
 }
 
 std::vector<std::string> FapPlayer::unplayable_faps(const synth::FapStream& stream) const {
@@ -884,11 +896,10 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                     // Direct mode: a stream layer, the head-rotation FAPs only.
                     l.set = LayerSet::Stream;
                     const auto stream = synth::read_fap(spec.file);
+                    const auto played = fap_player().play(stream);
                     for (std::size_t k = 0; k < frames; ++k)
-                        if (const auto i = stream_frame_at(stream, k, fps)) {
-                            const LayerFrame f = fap_player().frame(stream.frames[*i]);
-                            if (f.sets_rotation) l.frames[k].set_rotation(f.rotation);
-                        }
+                        if (const auto i = stream_frame_at(stream, k, fps))
+                            if (played[*i].sets_rotation) l.frames[k].set_rotation(played[*i].rotation);
                     r["file"] = spec.file.filename().string();
                     r["sha256"] = sha256_file(spec.file);
                 } else {
@@ -915,9 +926,10 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                 l.frames.resize(frames);
                 if (spec.file.empty()) {
                     synth::FapStream one;
+                    one.name = "expression " + spec.source;
                     one.frames.push_back(named_expression(settings.expressions_file, spec.source));
                     warn_stream("expression " + spec.source, one);
-                    const LayerFrame f = fap_player().frame(one.frames[0]);
+                    const LayerFrame f = fap_player().play(one)[0];
                     std::fill(l.frames.begin(), l.frames.end(), f);
                     r["name"] = spec.source;
                     r["file"] = settings.expressions_file.filename().string();
@@ -925,8 +937,9 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                 } else {
                     const auto stream = synth::read_fap(spec.file);
                     warn_stream("expression " + spec.file.filename().string(), stream);
+                    const auto played = fap_player().play(stream);
                     for (std::size_t k = 0; k < frames; ++k)
-                        if (const auto i = stream_frame_at(stream, k, fps)) l.frames[k] = fap_player().frame(stream.frames[*i]);
+                        if (const auto i = stream_frame_at(stream, k, fps)) l.frames[k] = played[*i];
                     r["file"] = spec.file.filename().string();
                     r["sha256"] = sha256_file(spec.file);
                 }
@@ -938,8 +951,9 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                 l.frames.resize(frames);
                 const auto stream = synth::read_fap(spec.file);
                 warn_stream("fap " + spec.file.filename().string(), stream);
+                const auto played = fap_player().play(stream);
                 for (std::size_t k = 0; k < frames; ++k)
-                    if (const auto i = stream_frame_at(stream, k, fps)) l.frames[k] = fap_player().frame(stream.frames[*i]);
+                    if (const auto i = stream_frame_at(stream, k, fps)) l.frames[k] = played[*i];
                 r["file"] = spec.file.filename().string();
                 r["sha256"] = sha256_file(spec.file);
                 break;

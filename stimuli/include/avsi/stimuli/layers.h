@@ -184,15 +184,18 @@ glm::quat head_rotation_from_angles(double pitch_rad, double yaw_rad, double rol
 class FapPlayer {
 public:
     explicit FapPlayer(const Head& head);
-    // The channels (and rotation) one FAP frame sets, in groups of `groups`
-    // only (all groups when empty).
+    // The channels (and rotation) one FAP frame sets.
     LayerFrame frame(const synth::FapFrame& fap) const;
+    // Every frame of a stream (the jaw and lip FAPs decoded in one pass).
+    std::vector<LayerFrame> play(const synth::FapStream& stream) const;
     // The FAPs set in a stream that the head cannot play, "19 close_t_l_eyelid", …
     std::vector<std::string> unplayable_faps(const synth::FapStream& stream) const;
     // Channels the head's rig lacks that the stream would drive.
     std::vector<std::string> missing_channels(const synth::FapStream& stream) const;
 
 private:
+    void upper_face(const synth::FapFrame& fap, LayerFrame& out) const;  // every FAP but the jaw and lips
+
     synth::FapUnits m_units;  // the head's FAPUs, mesh units
     double m_irisd = 0.0, m_ens = 0.0, m_es = 0.0, m_mns = 0.0;
     std::array<double, channel_count> m_reach_positive{}, m_reach_negative{};
