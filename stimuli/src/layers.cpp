@@ -338,11 +338,12 @@ LayerFrame FapPlayer::frame(const synth::FapFrame& fap) const {
     return play(one)[0];
 }
 
-std::vector<LayerFrame> FapPlayer::play(const synth::FapStream& stream) const {
+std::vector<LayerFrame> FapPlayer::play(const synth::FapStream& stream, bool with_mouth) const {
     std::vector<LayerFrame> out(stream.frames.size());
     // Jaw and lips: the least-squares inverse over the mapped FAPs present,
     // once for the stream.
     bool mouth = false;
+    if (with_mouth)
     for (const auto& f : stream.frames)
         for (int fap : synth::mapped_faps()) mouth = mouth || fap_has(f, fap);
     if (mouth) {
@@ -896,7 +897,7 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                     // Direct mode: a stream layer, the head-rotation FAPs only.
                     l.set = LayerSet::Stream;
                     const auto stream = synth::read_fap(spec.file);
-                    const auto played = fap_player().play(stream);
+                    const auto played = fap_player().play(stream, false);
                     for (std::size_t k = 0; k < frames; ++k)
                         if (const auto i = stream_frame_at(stream, k, fps))
                             if (played[*i].sets_rotation) l.frames[k].set_rotation(played[*i].rotation);
@@ -929,7 +930,7 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                     one.name = "expression " + spec.source;
                     one.frames.push_back(named_expression(settings.expressions_file, spec.source));
                     warn_stream("expression " + spec.source, one);
-                    const LayerFrame f = fap_player().play(one)[0];
+                    const LayerFrame f = fap_player().play(one, !settings.speech_owns_mouth)[0];
                     std::fill(l.frames.begin(), l.frames.end(), f);
                     r["name"] = spec.source;
                     r["file"] = settings.expressions_file.filename().string();
@@ -937,7 +938,7 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                 } else {
                     const auto stream = synth::read_fap(spec.file);
                     warn_stream("expression " + spec.file.filename().string(), stream);
-                    const auto played = fap_player().play(stream);
+                    const auto played = fap_player().play(stream, !settings.speech_owns_mouth);
                     for (std::size_t k = 0; k < frames; ++k)
                         if (const auto i = stream_frame_at(stream, k, fps)) l.frames[k] = played[*i];
                     r["file"] = spec.file.filename().string();
@@ -951,7 +952,7 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                 l.frames.resize(frames);
                 const auto stream = synth::read_fap(spec.file);
                 warn_stream("fap " + spec.file.filename().string(), stream);
-                const auto played = fap_player().play(stream);
+                const auto played = fap_player().play(stream, !settings.speech_owns_mouth);
                 for (std::size_t k = 0; k < frames; ++k)
                     if (const auto i = stream_frame_at(stream, k, fps)) l.frames[k] = played[*i];
                 r["file"] = spec.file.filename().string();

@@ -186,8 +186,9 @@ public:
     explicit FapPlayer(const Head& head);
     // The channels (and rotation) one FAP frame sets.
     LayerFrame frame(const synth::FapFrame& fap) const;
-    // Every frame of a stream (the jaw and lip FAPs decoded in one pass).
-    std::vector<LayerFrame> play(const synth::FapStream& stream) const;
+    // Every frame of a stream (the jaw and lip FAPs decoded in one pass;
+    // without `with_mouth` they are left out, as where the speech owns the mouth).
+    std::vector<LayerFrame> play(const synth::FapStream& stream, bool with_mouth = true) const;
     // The FAPs set in a stream that the head cannot play, "19 close_t_l_eyelid", …
     std::vector<std::string> unplayable_faps(const synth::FapStream& stream) const;
     // Channels the head's rig lacks that the stream would drive.
