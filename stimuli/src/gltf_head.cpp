@@ -661,6 +661,7 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
                          {"mouth_right", point(L.mouth_right)},   {"mouth_middle", point(L.mouth_middle)},
                          {"head_center", point(L.head_center)},   {"iris_diameter", L.iris_diameter / mm_per_metre},
                          {"head_height", L.head_height / mm_per_metre}};
+    if (L.has_neck_pivot) avsi["landmarks"]["neck_pivot"] = point(L.neck_pivot);
     if (head.articulation) {
         const auto& a = *head.articulation;
         avsi["articulation"] = {{"upper_lip_contour", a.upper_lip_contour},

@@ -79,6 +79,7 @@ bool is_mouth_group(FeatureGroup g) {
 }
 
 Pose blend_frame(const std::vector<Layer>& layers, std::size_t k, bool speech_owns_mouth) {
+    for (const auto& l : layers) AVSI_ASSERT(k < l.frames.size());
     Pose pose;
     for (std::size_t c = 0; c < channel_count; ++c) {
         const FeatureGroup g = channel_group(c);
@@ -547,7 +548,6 @@ void read_weights(const ConfigSection& t, std::optional<double>& weight,
         for (const auto& key : g->keys()) {
             const auto group = feature_group_from_name(key);
             if (!group) {
-                g->get_choice(key, names, "", problems);  // marks it read; reported below
                 const auto hint = closest_match(key, names);
                 g->report(key, fmt::format("expected a feature-point group ({}), got \"{}\"{}", fmt::join(names, ", "), key,
                                            hint.empty() ? "" : " (did you mean '" + hint + "'?)"),
@@ -564,11 +564,6 @@ void read_weights(const ConfigSection& t, std::optional<double>& weight,
             groups[group_slot(*group)] = w;
         }
     }
-}
-
-std::string setting_where(const ConfigSection& s, std::string_view key) {
-    const ConfigValue* v = s.find(key);
-    return fmt::format("{}:{}", s.path(), v ? v->line : s.line());
 }
 
 void check_layer_file(const ConfigSection& s, std::string_view key, const std::filesystem::path& file, DiagnosticList& problems) {
@@ -603,7 +598,6 @@ LayerSettings parse_layer_settings(const ConfigSection& section, const std::file
         if (!v) return;
         LayerSpec spec;
         spec.kind = kind;
-        spec.where = setting_where(section, key);
         if (v->type == ConfigValue::Type::Boolean) {
             if (!v->boolean) return;
         } else if (v->type == ConfigValue::Type::String) {
@@ -797,7 +791,8 @@ std::vector<std::pair<double, glm::quat>> read_quaternions(const std::filesystem
         for (; col < 5 && std::getline(ss, cell, ','); ++col) {
             char* end = nullptr;
             v[static_cast<std::size_t>(col)] = std::strtod(cell.c_str(), &end);
-            if (end == cell.c_str() || !std::isfinite(v[static_cast<std::size_t>(col)]))
+            while (end && (*end == ' ' || *end == '\t')) ++end;
+            if (end == cell.c_str() || *end != '\0' || !std::isfinite(v[static_cast<std::size_t>(col)]))
                 throw InputError(path.string(), n, col + 1, std::string(std::array<const char*, 5>{"time_s", "w", "x", "y", "z"}[static_cast<std::size_t>(col)]),
                                  fmt::format("expected a number, got \"{}\"", cell));
         }

@@ -233,7 +233,6 @@ struct LayerSpec {
     GazeSettings gaze;           // Gaze (its seed set per stimulus)
     HeadMotionSettings head;     // HeadMotion idle (likewise)
     BlinkSettings blink;         // Blink: the rates (seed per stimulus)
-    std::string where;           // "file:line" of its setting, for messages
 };
 
 struct LayerSettings {
