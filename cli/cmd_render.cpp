@@ -38,6 +38,10 @@ const bool registered_render = register_command({
         sub.add_option("--crf", o->video.crf, "x264 constant rate factor")->capture_default_str();
         sub.add_option("--blink-seed", o->blinks.seed, "Seed of the blink times")->capture_default_str();
         sub.add_flag("!--no-blinks", o->blinks.enabled, "Do not blink");
+        sub.add_option("--layers", o->layers_path,
+                       "Animation layers: a TOML file with a [layers] table (gaze, head motion, expressions, FAP "
+                       "streams; docs/animation-layers.md)");
+        sub.add_option("--layer-seed", o->layer_seed, "Seed of the gaze and idle head-motion layers")->capture_default_str();
         return [o] {
             stimuli::run_render(*o);
             return 0;

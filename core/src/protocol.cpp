@@ -211,6 +211,12 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
             c->report("closure", "the closure mechanism acts on a control model: it needs face = \"model\"", problems);
         if (c->has("closure_transition_s") && !cond.closure_hold)
             c->report("closure_transition_s", "only used with closure = \"hold\"", problems);
+        if (const ConfigSection* layers = c->get_table("layers", problems)) {
+            cond.layers = *layers;
+            if (cond.face != FaceMode::Model)
+                c->report("layers", "animation layers animate a control model's face: they need face = \"model\"",
+                          problems);
+        }
         c->check_unknown_keys(problems);
         p.conditions.push_back(std::move(cond));
     }

@@ -83,6 +83,43 @@ std::size_t render_video(OffscreenRenderer& renderer, const synth::Trajectory& t
     return trajectory.size();
 }
 
+namespace {
+bool same_pose(const Pose& a, const Pose& b) {
+    for (std::size_t c = 0; c < channel_count; ++c)
+        if (a.channel(c) != b.channel(c)) return false;
+    return a.head_rotation == b.head_rotation;
+}
+}  // namespace
+
+std::size_t render_pose_video(OffscreenRenderer& renderer, const std::vector<Pose>& poses, double fps,
+                              const Audio* audio, const std::filesystem::path& path, VideoSettings video) {
+    if (poses.empty()) throw InputError(path, "the animation has no frames");
+    video.fps = fps;
+    const auto& rs = renderer.settings();
+    VideoWriter writer(path, rs.width, rs.height, poses.size(), audio, video);
+    Image frame;
+    for (std::size_t k = 0; k < poses.size(); ++k) {
+        if (k > 0 && same_pose(poses[k], poses[k - 1])) {
+            writer.repeat_last();
+            continue;
+        }
+        renderer.render(poses[k], frame);
+        writer.write(frame);
+    }
+    writer.finish();
+    return poses.size();
+}
+
+std::size_t render_pose_png_sequence(OffscreenRenderer& renderer, const std::vector<Pose>& poses,
+                                     const std::filesystem::path& dir) {
+    Image frame;
+    for (std::size_t k = 0; k < poses.size(); ++k) {
+        renderer.render(poses[k], frame);
+        write_png(dir / fmt::format("frame_{:05}.png", k), frame);
+    }
+    return poses.size();
+}
+
 std::size_t render_png_sequence(OffscreenRenderer& renderer, const synth::Trajectory& trajectory,
                                 const std::filesystem::path& dir, const BlinkSettings& blinks,
                                 const PhoneSequence* phones) {

@@ -28,6 +28,7 @@
 #include "avsi/core/tts.h"
 #include "avsi/stimuli/animation.h"
 #include "avsi/stimuli/articulation.h"
+#include "avsi/stimuli/layers.h"
 #include "avsi/stimuli/video.h"
 #include "avsi/synth/control_model.h"
 #include "avsi/synth/target_hold.h"
@@ -177,6 +178,8 @@ struct Job {
     std::string input_hash;
     std::uint64_t vocoder_seed = 0;
     std::uint64_t blink_seed = 0;
+    std::uint64_t gaze_seed = 0;  // layers: gaze and idle head motion
+    std::uint64_t head_seed = 0;
     json entry;  // the manifest entry once built (or reused)
     std::vector<Variant> variants;  // adaptive list variable: the audio at each level
 };
@@ -266,6 +269,8 @@ struct Plan {
     Head head;
     std::optional<ArticulationMeter> meter;  // when [render] check_articulation
     std::map<std::string, std::shared_ptr<const synth::ControlModel>> models;
+    // Each model condition's animation layers ([condition.layers]; speech and blinks when absent).
+    std::map<std::string, LayerSettings> layers;
     json settings_json;
     std::vector<Job> jobs;
     analysis::AdaptiveProtocol adaptive;  // a list variable's levels are pre-rendered
@@ -275,9 +280,12 @@ struct Plan {
     Plan(const Plan&) = delete;
     // The timed phones of a sentence: from the TTS front end, or its labels.
     PhoneSequence phones(const Sentence& sentence) const;
-    // The articulation of a model stimulus: its trajectory measured on the head and checked.
-    ArticulationSummary articulation(const synth::Trajectory& trajectory, const PhoneSequence& phones,
+    // The articulation of a model stimulus: its trajectory (with the
+    // condition's layers: its blended poses) measured on the head and checked.
+    ArticulationSummary articulation(const Job& job, const synth::Trajectory& trajectory, const PhoneSequence& phones,
                                      std::vector<ArticulationMeasures>* measures = nullptr) const;
+    // The layered animation of a model stimulus whose condition has [condition.layers].
+    Animation animation(const Job& job, const synth::Trajectory& trajectory, const PhoneSequence& phones) const;
     Plan& operator=(const Plan&) = delete;
 };
 
@@ -327,6 +335,14 @@ Plan::Plan(const BuildSettings& settings)
             }
             model_hash[c.name] = sha256_hex(key.dump());
         }
+    // Animation layers, validated all at once.
+    {
+        DiagnosticList problems;
+        for (const auto& c : protocol.conditions)
+            if (c.face == FaceMode::Model)
+                layers[c.name] = parse_layer_settings(c.layers, protocol.path.parent_path(), problems);
+        problems.throw_if_any();
+    }
 
     settings_json = {
         {"builder", builder_version},
@@ -382,6 +398,8 @@ Plan::Plan(const BuildSettings& settings)
             job.wav = std::filesystem::path(s.id) / (c.name + ".wav");
             job.vocoder_seed = derive_seed(vocoder_base.seed, "vocoder/" + s.id);
             job.blink_seed = derive_seed(protocol.seed, "blinks/" + s.id + "/" + c.name);
+            job.gaze_seed = derive_seed(protocol.seed, "gaze/" + s.id + "/" + c.name);
+            job.head_seed = derive_seed(protocol.seed, "head-motion/" + s.id + "/" + c.name);
             json variants_key = nullptr;
             if (adaptive.list_variable() && c.audio == ConditionAudio::Vocoded) {
                 const std::string variable = analysis::to_string(adaptive.variable);
@@ -395,6 +413,10 @@ Plan::Plan(const BuildSettings& settings)
                                              {"model", model_hash.count(c.name) ? model_hash[c.name] : ""}}},
                               {"seeds", {{"vocoder", job.vocoder_seed}, {"blinks", job.blink_seed}}}};
             if (!variants_key.is_null()) key["variants"] = variants_key;
+            // Layers (only when the condition has them, so speech-only stimuli keep their hashes).
+            if (layers.count(c.name) && layers.at(c.name).configured)
+                key["layers"] = {{"stack", json::parse(layer_settings_json(layers.at(c.name)))},
+                                 {"seeds", {job.blink_seed, job.gaze_seed, job.head_seed}}};
             job.input_hash = sha256_hex(key.dump());
             jobs.push_back(std::move(job));
         }
@@ -406,10 +428,25 @@ PhoneSequence Plan::phones(const Sentence& sentence) const {
     return synthesize_speech(sentence.text, tts_settings(protocol)).phones;
 }
 
-ArticulationSummary Plan::articulation(const synth::Trajectory& trajectory, const PhoneSequence& phones,
+Animation Plan::animation(const Job& job, const synth::Trajectory& trajectory, const PhoneSequence& phones) const {
+    LayerSeeds seeds;
+    seeds.blink = job.blink_seed;
+    seeds.gaze = job.gaze_seed;
+    seeds.head = job.head_seed;
+    return animate(head, trajectory, &phones, layers.at(job.condition->name), seeds);
+}
+
+ArticulationSummary Plan::articulation(const Job& job, const synth::Trajectory& trajectory, const PhoneSequence& phones,
                                        std::vector<ArticulationMeasures>* measures) const {
     AVSI_ASSERT(meter);
-    auto m = meter->measure(trajectory);
+    std::vector<ArticulationMeasures> m;
+    if (layers.at(job.condition->name).configured) {
+        // The blended poses: every layer's channels on the head (the head's
+        // rotation is rigid and does not change the measures).
+        for (const auto& pose : animation(job, trajectory, phones).poses) m.push_back(meter->measure(pose));
+    } else {
+        m = meter->measure(trajectory);
+    }
     auto summary = check_articulation(phones, trajectory.fps, m);
     if (measures) *measures = std::move(m);
     return summary;
@@ -525,7 +562,7 @@ std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures,
         q.sentence = s.id;
         q.text = s.text;
         const auto trajectory = plan.models.at(c.name)->synthesize(phones[s.id], plan.fps);
-        q.summary = plan.articulation(trajectory, phones[s.id], keep_measures ? &q.measures : nullptr);
+        q.summary = plan.articulation(job, trajectory, phones[s.id], keep_measures ? &q.measures : nullptr);
         if (keep_measures) q.phones = phones[s.id];
         out.push_back(std::move(q));
     }
@@ -749,7 +786,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                 json articulation = nullptr;
                 if (c.face == FaceMode::Model) {
                     trajectory = models.at(c.name)->synthesize(sp.phones, fps);
-                    if (plan.meter) articulation = articulation_json(plan.articulation(trajectory, sp.phones));
+                    if (plan.meter) articulation = articulation_json(plan.articulation(job, trajectory, sp.phones));
                 } else {
                     trajectory.fps = fps;
                     trajectory.frames.assign(synth::frame_count(audio.duration_s(), fps), synth::Frame{});
@@ -792,7 +829,13 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                 blinks.enabled = c.face == FaceMode::Model;
                 VideoSettings video;
                 video.fps = fps;
-                if (c.face == FaceMode::Model) {
+                json layers_record = nullptr;
+                if (c.face == FaceMode::Model && plan.layers.at(c.name).configured) {
+                    const Animation animation = plan.animation(job, trajectory, sp.phones);
+                    for (const auto& w : animation.warnings) log_warning("build-stimuli: {}: {}", c.name, w);
+                    render_pose_video(renderer, animation.poses, fps, &audio, video_path, video);
+                    layers_record = json::parse(animation.record_json);
+                } else if (c.face == FaceMode::Model) {
                     render_video(renderer, trajectory, &audio, video_path, blinks, video, &sp.phones);
                 } else {
                     // A still face (or a blank screen) is one frame repeated.
@@ -831,6 +874,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                              {"input_sha256", job.input_hash},
                              {"sha256", sha256_file(video_path)},
                              {"wav_sha256", sha256_file(settings.out_dir / job.wav)}};
+                if (!layers_record.is_null()) job.entry["layers"] = layers_record;
                 if (!variants.is_null())
                     job.entry["variants"] = {{"variable", analysis::to_string(plan.adaptive.variable)},
                                              {"unit", plan.adaptive.unit()},

@@ -5,6 +5,7 @@
 #include "avsi/core/labels.h"
 #include "avsi/core/tts.h"
 #include "avsi/core/log.h"
+#include "avsi/core/rng.h"
 #include "avsi/stimuli/gltf_head.h"
 #include "avsi/stimuli/image_io.h"
 #include "avsi/synth/control_model.h"
@@ -47,7 +48,23 @@ void run_render(const RenderJobSettings& s) {
     if (!video && !folder)
         throw InputError(s.out_path, "expected an .mp4 file or a folder for PNG frames, got extension '" +
                                          s.out_path.extension().string() + "'");
-    if (video) {
+    if (!s.layers_path.empty()) {
+        LayerSettings layers = read_layer_settings(s.layers_path);
+        // --no-blinks drops the blink layer; --blink-seed seeds it.
+        if (!s.blinks.enabled)
+            std::erase_if(layers.layers, [](const LayerSpec& l) { return l.kind == LayerKind::Blink; });
+        LayerSeeds seeds;
+        seeds.blink = s.blinks.seed;
+        seeds.gaze = derive_seed(s.layer_seed, "gaze");
+        seeds.head = derive_seed(s.layer_seed, "head-motion");
+        const Animation animation = animate(head, trajectory, tongue, layers, seeds);
+        for (const auto& w : animation.warnings) log_warning("{}: {}", s.layers_path.string(), w);
+        const auto n = video ? render_pose_video(renderer, animation.poses, trajectory.fps,
+                                                 s.audio_path.empty() ? nullptr : &audio, s.out_path, s.video)
+                             : render_pose_png_sequence(renderer, animation.poses, s.out_path);
+        log_info("wrote {} ({} frames at {} fps, layers {})", s.out_path.string(), n, trajectory.fps,
+                 animation.record_json);
+    } else if (video) {
         const auto n = render_video(renderer, trajectory, s.audio_path.empty() ? nullptr : &audio, s.out_path,
                                     s.blinks, s.video, tongue);
         log_info("wrote {} ({} frames at {} fps)", s.out_path.string(), n, trajectory.fps);

@@ -33,7 +33,7 @@ namespace {
 
 constexpr float mm_per_metre = 1000.0f;
 
-std::vector<std::string> channel_names() {
+std::vector<std::string> gltf_channel_names() {
     std::vector<std::string> names;
     for (const auto& info : synth::params()) names.emplace_back(info.name);
     names.emplace_back("blink");
@@ -233,7 +233,7 @@ BlendshapeMapping read_blendshape_mapping(const std::filesystem::path& path) {
         problem("format", "expected \"avsi-blendshape-mapping\", got " + doc.value("format", json()).dump());
     BlendshapeMapping m;
     m.path = path;
-    const auto channels = channel_names();
+    const auto channels = gltf_channel_names();
     const json& rows = doc.value("parameters", json());
     if (!rows.is_object()) problem("parameters", "expected an object with one row per parameter");
     else
@@ -661,6 +661,7 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
                          {"mouth_right", point(L.mouth_right)},   {"mouth_middle", point(L.mouth_middle)},
                          {"head_center", point(L.head_center)},   {"iris_diameter", L.iris_diameter / mm_per_metre},
                          {"head_height", L.head_height / mm_per_metre}};
+    if (L.has_neck_pivot) avsi["landmarks"]["neck_pivot"] = point(L.neck_pivot);
     if (head.articulation) {
         const auto& a = *head.articulation;
         avsi["articulation"] = {{"upper_lip_contour", a.upper_lip_contour},

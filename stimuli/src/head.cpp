@@ -510,6 +510,15 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
     L.head_center = rig.vec3(lm.value("head_center", json()), "landmarks.head_center");
     L.iris_diameter = rig.number(lm.value("iris_diameter", json()), "landmarks.iris_diameter");
     L.head_height = rig.number(lm.value("head_height", json()), "landmarks.head_height");
+    if (lm.contains("neck_pivot")) {
+        L.neck_pivot = rig.vec3(lm["neck_pivot"], "landmarks.neck_pivot");
+        L.has_neck_pivot = true;
+    } else {
+        // Where the built-in head's pivot lies relative to its landmarks.
+        const glm::vec3 eyes = 0.5f * (L.left_eye + L.right_eye);
+        L.neck_pivot = glm::vec3(eyes.x, L.nose_bottom.y + 0.25f * (eyes.y - L.nose_bottom.y),
+                                 eyes.z - 0.35f * L.head_height);
+    }
 
     if (doc.contains("articulation")) {
         if (!doc["articulation"].is_object()) rig.problem("articulation", "expected an object of landmark vertex indices");
@@ -569,13 +578,7 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
             }
     }
 
-    std::vector<std::string> channels;
-    for (const auto& info : synth::params()) channels.emplace_back(info.name);
-    channels.emplace_back("blink");
-    channels.emplace_back("tongue_tip");
-    channels.emplace_back("gaze_left");
-    channels.emplace_back("gaze_up");
-    AVSI_ASSERT(channels.size() == channel_count);
+    const std::vector<std::string>& channels = channel_names();
 
     int k = 0;
     for (const auto& t : doc.value("transforms", json::array())) {
@@ -585,7 +588,7 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
         const auto it = std::find(channels.begin(), channels.end(), rt.channel);
         if (it == channels.end()) {
             const auto hint = closest_match(rt.channel, channels);
-            rig.problem(field + ".channel", "expected a parameter name, \"blink\", \"tongue_tip\", \"gaze_left\" or \"gaze_up\", got \"" +
+            rig.problem(field + ".channel", "expected a parameter name, \"blink\", \"tongue_tip\", \"gaze_left\", \"gaze_up\", \"brow_inner_raise\", \"brow_outer_raise\" or \"cheek_raise\", got \"" +
                                                 rt.channel + "\"" +
                                                 (hint.empty() ? "" : " (did you mean '" + hint + "'?)"));
             continue;
@@ -717,13 +720,60 @@ void compute_normals(const std::vector<glm::vec3>& positions, const std::vector<
     }
 }
 
+const std::vector<std::string>& channel_names() {
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> out;
+        for (const auto& info : synth::params()) out.emplace_back(info.name);
+        for (const char* n : {"blink", "tongue_tip", "gaze_left", "gaze_up", "brow_inner_raise", "brow_outer_raise",
+                              "cheek_raise"})
+            out.emplace_back(n);
+        AVSI_ASSERT(out.size() == channel_count);
+        return out;
+    }();
+    return names;
+}
+
+double Pose::channel(std::size_t c) const {
+    AVSI_ASSERT(c < channel_count);
+    if (c < synth::param_count) return params[c];
+    switch (c) {
+        case blink_channel: return blink;
+        case tongue_tip_channel: return tongue_tip;
+        case gaze_left_channel: return gaze_left;
+        case gaze_up_channel: return gaze_up;
+        case brow_inner_raise_channel: return brow_inner_raise;
+        case brow_outer_raise_channel: return brow_outer_raise;
+        default: return cheek_raise;
+    }
+}
+
+void Pose::set_channel(std::size_t c, double value) {
+    AVSI_ASSERT(c < channel_count);
+    if (c < synth::param_count) {
+        params[c] = value;
+        return;
+    }
+    switch (c) {
+        case blink_channel: blink = value; break;
+        case tongue_tip_channel: tongue_tip = value; break;
+        case gaze_left_channel: gaze_left = value; break;
+        case gaze_up_channel: gaze_up = value; break;
+        case brow_inner_raise_channel: brow_inner_raise = value; break;
+        case brow_outer_raise_channel: brow_outer_raise = value; break;
+        default: cheek_raise = value; break;
+    }
+}
+
+void apply_head_rotation(const Head& head, const glm::quat& rotation, PosedMesh& posed) {
+    if (rotation == glm::quat(1.0f, 0.0f, 0.0f, 0.0f)) return;
+    const glm::mat3 r = glm::mat3_cast(glm::normalize(rotation));
+    const glm::vec3 pivot = head.landmarks.neck_pivot;
+    for (auto& p : posed.positions) p = pivot + r * (p - pivot);
+    for (auto& n : posed.normals) n = r * n;
+}
+
 double channel_amount(const RigTransform& t, const Pose& pose) {
-    const auto c = static_cast<std::size_t>(t.channel_index);
-    const double value = c < synth::param_count     ? pose.params[c]
-                         : c == blink_channel       ? pose.blink
-                         : c == tongue_tip_channel  ? pose.tongue_tip
-                         : c == gaze_left_channel   ? pose.gaze_left
-                                                    : pose.gaze_up;
+    const double value = pose.channel(static_cast<std::size_t>(t.channel_index));
     switch (t.side) {
         case ChannelSide::Positive: return std::max(value, 0.0);
         case ChannelSide::Negative: return std::min(value, 0.0);

@@ -890,12 +890,30 @@ void build_head(const HeadBuildSettings& settings) {
                              ? 0.0f
                              : (1.0f - smoothstep(-40.0f, -25.0f, rest_pos[i].y)) * (1.0f - smoothstep(0.75f, 1.0f, reach));
     }
+    // The expression channels (brows, cheeks) move the upper face only:
+    // they fade out round the lips (an ellipsoid about the mouth), so no
+    // expression can open a lip closure; the eyeballs, teeth and tongue
+    // keep still.
+    std::vector<float> expression_mask(n, 1.0f);
+    const glm::vec3 lips_radii(34.0f, 16.0f, 30.0f);
+    for (std::size_t i = 0; i < n; ++i) {
+        const int proxy = out.vertices[i].proxy;
+        const float reach = glm::length((rest_pos[i] - mouth_rest) / lips_radii);
+        const bool still = proxy == 0 || proxy == teeth_proxy ||
+                           (proxy > 0 && proxies[static_cast<std::size_t>(proxy)].group == "tongue");
+        expression_mask[i] = still ? 0.0f : smoothstep(1.0f, 1.5f, reach);
+    }
+    auto is_expression = [](const std::string& channel) {
+        return channel == "brow_inner_raise" || channel == "brow_outer_raise" || channel == "cheek_raise";
+    };
     auto blendshape = [&](const std::string& channel, const std::vector<glm::vec3>& d, float per_unit,
                           const char* side, const std::string& note) {
         json vertices = json::array(), offsets = json::array();
-        const bool speech = channel != "blink" && channel.rfind("gaze", 0) != 0;
+        const bool expression = is_expression(channel);
+        const bool speech = channel != "blink" && channel.rfind("gaze", 0) != 0 && !expression;
         for (std::size_t i = 0; i < n; ++i) {
-            const glm::vec3 o = d[i] * per_unit * (speech ? speech_mask[i] : 1.0f);
+            const glm::vec3 o =
+                d[i] * per_unit * (speech ? speech_mask[i] : expression ? expression_mask[i] : 1.0f);
             if (glm::length(o) < keep_offset_mm) continue;
             vertices.push_back(i);
             for (int c = 0; c < 3; ++c) offsets.push_back(round_to(o[c], offset_step));
@@ -1058,6 +1076,15 @@ void build_head(const HeadBuildSettings& settings) {
     rotation_and_rest("gaze_up", "RightEyeUp", "eye.R", 1.0f, "RightEyeUp");
     blendshape("tongue_tip", displacement(pose_of({{"TonguePointUp", 0.6f}, {"TongueOut", 0.6f}})), 1.0f, nullptr,
                "TonguePointUp and a little TongueOut: the tip raised and forward to the upper teeth and alveolar ridge");
+    // Expressions (animation layers): brows and cheeks, both sides together.
+    blendshape("brow_inner_raise", displacement(pose_of({{"LeftInnerBrowUp", 1.0f}, {"RightInnerBrowUp", 1.0f}})), 1.0f,
+               "positive", "Left/RightInnerBrowUp: the inner brows raised");
+    blendshape("brow_inner_raise", displacement(pose_of({{"LeftBrowDown", 1.0f}, {"RightBrowDown", 1.0f}})), -1.0f,
+               "negative", "Left/RightBrowDown: the brows lowered and drawn together (a frown)");
+    blendshape("brow_outer_raise", displacement(pose_of({{"LeftOuterBrowUp", 1.0f}, {"RightOuterBrowUp", 1.0f}})), 1.0f,
+               nullptr, "Left/RightOuterBrowUp: the outer brows raised (negative: the shape reversed)");
+    blendshape("cheek_raise", displacement(pose_of({{"LeftCheekUp", 1.0f}, {"RightCheekUp", 1.0f}})), 1.0f, nullptr,
+               "Left/RightCheekUp: the cheeks raised (negative: the shape reversed); kept off the lips");
 
     // 8. Vertex colours: ambient occlusion of the mouth's interior (darker
     // the deeper behind the lips), on the texture.
@@ -1136,6 +1163,8 @@ void build_head(const HeadBuildSettings& settings) {
         // the crown 20 mm below the top of a 340 mm-high view.
         {"head_center", vec3_json(glm::vec3(0.0f, head_top - 170.0f, 0.0f))},
         {"head_height", round_to(crown - chin.y, 0.001)},
+        // The head's rotation pivot (animation layers): the head bone's joint on the neck.
+        {"neck_pivot", vec3_json(pivot_of("head"))},
     };
     auto ids = [](const std::vector<std::uint32_t>& v) { return json(v); };
     rig["articulation"] = {

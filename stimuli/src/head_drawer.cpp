@@ -342,7 +342,11 @@ HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make
     // vertices moves or changes normal.
     // moves: bit 1 = moved by a speech channel, bit 2 = moved by the blink.
     std::vector<char> moves(d.vertex_count, 0), reshaded(d.vertex_count, 0), moving_triangle(triangle_count, 0);
+    // The expression channels (brows, cheeks) are left out: the renderer
+    // draws a frame with an expression uncached, so the cached split stays
+    // the speech-only head's.
     for (const auto& t : head.transforms) {
+        if (is_expression_channel(static_cast<std::size_t>(t.channel_index))) continue;
         const char bit = is_eye_channel(static_cast<std::size_t>(t.channel_index)) ? 2 : 1;
         for (std::size_t k = 0; k < t.vertices.size(); ++k)
             if (t.weights[k] != 0.0f) moves[t.vertices[k]] |= bit;

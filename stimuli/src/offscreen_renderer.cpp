@@ -206,7 +206,11 @@ void OffscreenRenderer::render(const Pose& pose, Image& out, RenderMode mode) {
     const int w = m_settings.width, h = m_settings.height;
     d.context.make_current();
     pose_head(m_head, pose, m_posed);
-    if (d.cached && mode == RenderMode::Shaded) {
+    // The head's rotation is a rigid model transform after the rig; with it
+    // (or an expression) every triangle may change, so the static caches
+    // do not apply to the frame (they stay valid for the frames at rest).
+    apply_head_rotation(m_head, pose.head_rotation, m_posed);
+    if (d.cached && mode == RenderMode::Shaded && pose.head_at_rest() && pose.expression_at_rest()) {
         render_cached(out, d.has_lids && pose.eyes_at_rest());  // pose_head leaves a zero channel at rest
         return;
     }

@@ -53,6 +53,9 @@ struct ProtocolCondition {
     // condition's model; "off" (default) leaves the model as published.
     bool closure_hold = false;
     double closure_transition_s = 0.025;  // the hold's fall-off outside the segment
+    // [condition.layers]: the animation layers over the speech (stimuli/layers.h
+    // validates it; absent: speech and blinks only). Needs face = "model".
+    ConfigSection layers;
     int line = 0;                 // where its [[condition]] table starts
 };
 

@@ -47,6 +47,14 @@ std::size_t render_video(OffscreenRenderer& renderer, const synth::Trajectory& t
                          const std::filesystem::path& path, const BlinkSettings& blinks = {},
                          VideoSettings video = {}, const PhoneSequence* phones = nullptr);
 
+// Renders one frame per pose (an animation's poses, layers.h) and writes an
+// MP4 at `fps`, muxed with `audio` (nullptr: silent). Returns the frame count.
+std::size_t render_pose_video(OffscreenRenderer& renderer, const std::vector<Pose>& poses, double fps,
+                              const Audio* audio, const std::filesystem::path& path, VideoSettings video = {});
+// Renders one PNG per pose as DIR/frame_00000.png …
+std::size_t render_pose_png_sequence(OffscreenRenderer& renderer, const std::vector<Pose>& poses,
+                                     const std::filesystem::path& dir);
+
 // Renders every frame as DIR/frame_00000.png …
 std::size_t render_png_sequence(OffscreenRenderer& renderer, const synth::Trajectory& trajectory,
                                 const std::filesystem::path& dir, const BlinkSettings& blinks = {},

@@ -9,6 +9,7 @@
 #include "avsi/stimuli/animation.h"
 #include "avsi/stimuli/articulation.h"
 #include "avsi/stimuli/contact_sheet.h"
+#include "avsi/stimuli/layers.h"
 
 namespace avsi::stimuli {
 
@@ -41,9 +42,14 @@ struct RenderJobSettings {
     std::string camera = "front";
     VideoSettings video;
     BlinkSettings blinks;
+    // Animation layers: a TOML file with a [layers] table (the protocol's
+    // [condition.layers] syntax, docs/animation-layers.md); empty: speech and blinks.
+    std::filesystem::path layers_path;
+    std::uint64_t layer_seed = 1;  // seed of the gaze and idle head motion layers
 };
 
-// Renders a trajectory (or FAP stream) to an MP4 or a PNG sequence.
+// Renders a trajectory (or FAP stream) to an MP4 or a PNG sequence, with
+// the layers of `layers_path` when given.
 void run_render(const RenderJobSettings& settings);
 
 struct MeasureJobSettings {

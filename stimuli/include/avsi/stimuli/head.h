@@ -57,6 +57,7 @@
 #include <string>
 #include <vector>
 
+#include <glm/gtc/quaternion.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -104,12 +105,28 @@ inline constexpr std::size_t blink_channel = synth::param_count;
 inline constexpr std::size_t tongue_tip_channel = synth::param_count + 1;
 inline constexpr std::size_t gaze_left_channel = synth::param_count + 2;
 inline constexpr std::size_t gaze_up_channel = synth::param_count + 3;
-inline constexpr std::size_t channel_count = synth::param_count + 4;
+// The expression channels (animation layers, layers.h): the inner brows
+// raised (negative: lowered and drawn together, a frown), the outer brows
+// raised (negative: lowered), the cheeks raised. A head whose rig has no
+// transforms for them loads and renders; the channels then move nothing.
+inline constexpr std::size_t brow_inner_raise_channel = synth::param_count + 4;
+inline constexpr std::size_t brow_outer_raise_channel = synth::param_count + 5;
+inline constexpr std::size_t cheek_raise_channel = synth::param_count + 6;
+inline constexpr std::size_t channel_count = synth::param_count + 7;
 // Whether a channel moves the eyes and lids only (blink, gaze): the renderer
 // caches those parts at rest.
 inline constexpr bool is_eye_channel(std::size_t c) {
     return c == blink_channel || c == gaze_left_channel || c == gaze_up_channel;
 }
+// Whether a channel is an expression channel (brows, cheeks): at rest in
+// speech-only stimuli, so the renderer caches what they move at rest.
+inline constexpr bool is_expression_channel(std::size_t c) {
+    return c == brow_inner_raise_channel || c == brow_outer_raise_channel || c == cheek_raise_channel;
+}
+// The rig names of the channels, in channel-index order: the 10 parameter
+// names, then "blink", "tongue_tip", "gaze_left", "gaze_up",
+// "brow_inner_raise", "brow_outer_raise", "cheek_raise".
+const std::vector<std::string>& channel_names();
 
 // One weighted transform of the rig, driven by one channel (a parameter name,
 // "blink" or "tongue_tip") at `amount` per unit of the channel.
@@ -140,6 +157,13 @@ struct Landmarks {
     float iris_diameter = 0.0f;
     glm::vec3 head_center{0.0f};  // camera target
     float head_height = 0.0f;     // crown to chin, for framing
+    // The pivot of head rotation (the top of the neck: the skull's joint on
+    // the spine). From the rig's "neck_pivot" landmark; a rig without one
+    // (has_neck_pivot false) gets the point 0.35 head heights behind the
+    // eyes' midpoint, a quarter of the way up from the subnasale's height to
+    // the eyes' (where the built-in head's pivot lies; y up, z forward).
+    glm::vec3 neck_pivot{0.0f};
+    bool has_neck_pivot = false;
 };
 
 // MPEG-4 facial animation parameter units: the neutral-face distances in mesh
@@ -217,16 +241,31 @@ struct Head {
     std::filesystem::path texture_path;  // empty without a texture
 };
 
-// The channels a pose sets: the 10 parameters, the eyelid closure and the
-// tongue tip.
+// The channels a pose sets: the 10 parameters, the eyelid closure, the
+// tongue tip, the gaze, the expression channels, and the head's rotation.
 struct Pose {
     synth::Frame params{};   // normalised units, 0 = rest
     double blink = 0.0;      // 0 = eyes open, 1 = closed
     double tongue_tip = 0.0; // 0 = at rest, 1 = raised to the teeth / alveolar ridge
     double gaze_left = 0.0;  // 0 = at the camera; 1 = the eyes turned to the speaker's left by their pose unit (about 19°), −1 right
     double gaze_up = 0.0;    // 0 = at the camera; 1 = up by the pose unit, −1 down
+    double brow_inner_raise = 0.0;  // 1 = inner brows fully raised, −1 lowered and drawn together
+    double brow_outer_raise = 0.0;  // 1 = outer brows fully raised, −1 lowered
+    double cheek_raise = 0.0;       // 1 = cheeks fully raised (as in a smile), −1 the reverse
+    // The head's rotation about the neck pivot (Landmarks::neck_pivot), a
+    // rigid model transform applied after the rig (apply_head_rotation): the
+    // articulation measures, in head coordinates, do not see it.
+    glm::quat head_rotation{1.0f, 0.0f, 0.0f, 0.0f};
     // Whether the eyes and lids are at rest (no blink, no gaze).
     bool eyes_at_rest() const { return blink == 0.0 && gaze_left == 0.0 && gaze_up == 0.0; }
+    // Whether the expression channels are at rest.
+    bool expression_at_rest() const { return brow_inner_raise == 0.0 && brow_outer_raise == 0.0 && cheek_raise == 0.0; }
+    // Whether the head is unrotated.
+    bool head_at_rest() const { return head_rotation == glm::quat(1.0f, 0.0f, 0.0f, 0.0f); }
+    // The value of channel c (an index below channel_count).
+    double channel(std::size_t c) const;
+    // Sets channel c.
+    void set_channel(std::size_t c, double value);
 };
 
 // The value of a transform's channel in a pose, with its side applied (the
@@ -263,6 +302,11 @@ void pose_positions(const Head& head, const Pose& pose, std::vector<glm::vec3>& 
 // Deforms the neutral mesh by the rig for `pose` and recomputes smooth normals.
 // `out` is reused between calls to avoid reallocation.
 void pose_head(const Head& head, const Pose& pose, PosedMesh& out);
+
+// Turns a posed mesh rigidly by `rotation` about the head's neck pivot
+// (positions and normals): the renderer's model transform for the head's
+// rotation (Pose::head_rotation). The identity leaves `posed` untouched.
+void apply_head_rotation(const Head& head, const glm::quat& rotation, PosedMesh& posed);
 
 // Smooth vertex normals (area-weighted face normals) of a triangle mesh.
 void compute_normals(const std::vector<glm::vec3>& positions,
