@@ -1,0 +1,307 @@
+// `avsi play` end to end under a private Xvfb server with the null audio
+// device (simulated clock): a stimulus definition played at 1× and 0.5× is
+// frame-accurate against the stimulus (every frame in order, frame k shown
+// while the audio time is in [k/fps, (k+1)/fps), the pose shown is frame k's,
+// the audio samples played are duration/speed), frame steps both ways, a
+// recording, and the viseme editor's scripted change saved to a set that the
+// MPEG-4 Cohen-Massaro model then uses.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "avsi/core/audio.h"
+#include "avsi/core/files.h"
+#include "avsi/core/phones.h"
+#include "avsi/stimuli/builder.h"
+#include "avsi/stimuli/video.h"
+#include "avsi/synth/cohen_massaro.h"
+#include "avsi/synth/mpeg4_cohen_massaro.h"
+#include "test_support.h"
+
+namespace avsi::experiment {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build" / "protocol.toml";
+
+// One Xvfb server for the suite; DISPLAY points at it.
+class PlayE2E : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        if (::access("/usr/bin/Xvfb", X_OK) != 0) return;
+        int fds[2];
+        ASSERT_EQ(::pipe(fds), 0);
+        s_xvfb = ::fork();
+        if (s_xvfb == 0) {
+            ::close(fds[0]);
+            const int null = ::open("/dev/null", O_WRONLY);
+            ::dup2(null, 1);
+            ::dup2(null, 2);
+            const std::string fd = std::to_string(fds[1]);
+            ::execl("/usr/bin/Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "1024x768x24", "-nolisten",
+                    "tcp", static_cast<char*>(nullptr));
+            ::_exit(127);
+        }
+        ::close(fds[1]);
+        std::string number;
+        char c = 0;
+        while (::read(fds[0], &c, 1) == 1 && c != '\n') number += c;
+        ::close(fds[0]);
+        if (!number.empty()) ::setenv("DISPLAY", (":" + number).c_str(), 1);
+        else s_xvfb = -1;
+    }
+    static void TearDownTestSuite() {
+        if (s_xvfb > 0) {
+            ::kill(s_xvfb, SIGTERM);
+            ::waitpid(s_xvfb, nullptr, 0);
+        }
+    }
+    void SetUp() override {
+        if (s_xvfb <= 0) GTEST_SKIP() << "Xvfb is not available";
+    }
+    // Runs avsi with `args`; stdout and stderr to `log`; returns the exit code.
+    static int run(const std::vector<std::string>& args, const fs::path& log) {
+        const pid_t pid = ::fork();
+        if (pid == 0) {
+            const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+            ::dup2(out, 1);
+            ::dup2(out, 2);
+            std::vector<char*> argv;
+            argv.push_back(const_cast<char*>(AVSI_CLI_PATH));
+            for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+            argv.push_back(nullptr);
+            ::execv(AVSI_CLI_PATH, argv.data());
+            ::_exit(127);
+        }
+        int status = 0;
+        ::waitpid(pid, &status, 0);
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    }
+    static inline pid_t s_xvfb = -1;
+};
+
+struct LogRow {
+    int frame = 0;
+    long long sent = 0;
+    long long played = 0;
+    double speed = 1.0;
+    double offset_ms = 0.0;
+    bool playing = false;
+    synth::Frame params{};
+};
+
+std::vector<LogRow> read_log(const fs::path& path) {
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);
+    EXPECT_EQ(line.rfind("refresh\twall_s\tframe\tsamples_sent\tsamples_played\tmedia_s\tspeed\toffset_ms\tplaying", 0), 0u);
+    std::vector<LogRow> rows;
+    while (std::getline(in, line)) {
+        std::istringstream s(line);
+        LogRow r;
+        int refresh = 0, playing = 0;
+        double wall = 0, media = 0;
+        s >> refresh >> wall >> r.frame >> r.sent >> r.played >> media >> r.speed >> r.offset_ms >> playing;
+        r.playing = playing != 0;
+        for (auto& v : r.params) s >> v;
+        EXPECT_TRUE(s) << line;
+        rows.push_back(r);
+    }
+    return rows;
+}
+
+// The stimulus as the player must show it: trajectory frames and the audio
+// fitted to the video's length.
+struct Reference {
+    synth::Trajectory trajectory;
+    std::size_t audio_samples = 0;
+    int rate = 0;
+};
+
+const Reference& reference() {
+    static const Reference r = [] {
+        const auto d = stimuli::stimulus_definition(protocol, "s1", "rule");
+        Reference out;
+        out.trajectory = d.trajectory;
+        out.rate = d.audio.sample_rate_hz;
+        out.audio_samples =
+            static_cast<std::size_t>(std::llround(d.trajectory.size() / d.trajectory.fps * d.audio.sample_rate_hz));
+        return out;
+    }();
+    return r;
+}
+
+TEST_F(PlayE2E, PlaysAStimulusFrameAccurateAtFullAndHalfSpeed) {
+    const fs::path dir = testing::temp_dir("play_speeds");
+    const Reference& ref = reference();
+    const int frames = static_cast<int>(ref.trajectory.size());
+    const double fps = ref.trajectory.fps;
+    ASSERT_GT(frames, 20);
+    for (const double speed : {1.0, 0.5}) {
+        SCOPED_TRACE(speed);
+        const std::string tag = speed == 1.0 ? "full" : "half";
+        write_text_file(dir / (tag + ".txt"), fmt::format("speed {}\nplay\nwait-end\nwait 2\nquit\n", speed));
+        std::vector<std::string> args = {"play", "--protocol", protocol.string(), "--sentence", "s1", "--condition",
+                                         "rule", "--audio", "null", "--size", "640x400", "--script",
+                                         (dir / (tag + ".txt")).string(), "--log", (dir / (tag + ".tsv")).string(),
+                                         "--audio-out", (dir / (tag + ".wav")).string()};
+        if (speed == 1.0) {
+            args.push_back("--record");
+            args.push_back((dir / "full.mp4").string());
+        }
+        ASSERT_EQ(run(args, dir / (tag + ".log")), 0) << read_text_file(dir / (tag + ".log"));
+        const auto rows = read_log(dir / (tag + ".tsv"));
+        ASSERT_FALSE(rows.empty());
+        int last = -1;
+        std::vector<int> seen(static_cast<std::size_t>(frames), 0);
+        for (const auto& r : rows) {
+            if (!r.playing) continue;
+            EXPECT_EQ(r.speed, speed);
+            // Frame k while the audio time is in [k/fps, (k+1)/fps).
+            const double t = static_cast<double>(r.played) * speed / ref.rate;
+            EXPECT_LE(r.frame / fps, t + 1e-9);
+            EXPECT_LT(t, (r.frame + 1) / fps + 1e-9);
+            // In order, none skipped.
+            EXPECT_GE(r.frame, last);
+            EXPECT_LE(r.frame - last, 1);
+            last = r.frame;
+            seen[static_cast<std::size_t>(r.frame)] = 1;
+            // The pose shown is that frame of the stimulus's trajectory.
+            for (std::size_t q = 0; q < synth::param_count; ++q)
+                ASSERT_NEAR(r.params[q], ref.trajectory.frames[static_cast<std::size_t>(r.frame)][q], 1e-7)
+                    << "frame " << r.frame << " parameter " << q;
+        }
+        for (int k = 0; k < frames; ++k) EXPECT_TRUE(seen[static_cast<std::size_t>(k)]) << "frame " << k << " never shown";
+        // The audio played lasts duration / speed; what was sent is that plus
+        // the silence of the refreshes after the end.
+        const auto expected = std::llround(static_cast<double>(ref.audio_samples) / speed);
+        EXPECT_EQ(rows.back().played, expected);
+        const Audio sent = read_audio(dir / (tag + ".wav"));
+        EXPECT_EQ(sent.sample_rate_hz, ref.rate);
+        EXPECT_GE(static_cast<long long>(sent.frames()), expected);
+        EXPECT_LE(static_cast<long long>(sent.frames()), expected + 4 * ref.rate / 60 + 1);
+        double energy = 0.0;
+        for (float v : sent.samples) energy += static_cast<double>(v) * v;
+        EXPECT_GT(energy, 0.0);
+    }
+    // The recording: the window at the stimulus's frame rate with the audio sent.
+    const auto video = stimuli::decode_video(dir / "full.mp4");
+    EXPECT_GE(static_cast<int>(video.frame_count), frames);
+    EXPECT_LE(static_cast<int>(video.frame_count), frames + 3);
+    EXPECT_TRUE(video.has_audio);
+}
+
+TEST_F(PlayE2E, StepsFramesBothWaysAndAppliesTheOffset) {
+    const fs::path dir = testing::temp_dir("play_steps");
+    write_text_file(dir / "steps.txt",
+                    "seek 10\nwait 1\nstep 1\nwait 1\nstep -3\nwait 1\noffset 100\nseek 12\nplay\nwait 3\nquit\n");
+    ASSERT_EQ(run({"play", "--protocol", protocol.string(), "--sentence", "s1", "--condition", "rule", "--audio", "null",
+                   "--size", "640x400", "--script", (dir / "steps.txt").string(), "--log", (dir / "log.tsv").string()},
+                  dir / "out.log"),
+              0)
+        << read_text_file(dir / "out.log");
+    const auto rows = read_log(dir / "log.tsv");
+    ASSERT_GE(rows.size(), 6u);
+    EXPECT_EQ(rows[0].frame, 10);
+    EXPECT_EQ(rows[1].frame, 11);
+    EXPECT_EQ(rows[2].frame, 8);
+    // seek 12 puts the audio at frame 12's middle; with the video 100 ms
+    // later the frame shown is 3 frames earlier at 30 fps.
+    EXPECT_EQ(rows[3].offset_ms, 100.0);
+    EXPECT_EQ(rows[3].frame, 9);
+}
+
+TEST_F(PlayE2E, RefusesBadInputsWithFileAndField) {
+    const fs::path dir = testing::temp_dir("play_bad");
+    write_text_file(dir / "bad.txt", "play\nsped 0.5\n");
+    EXPECT_EQ(run({"play", "--protocol", protocol.string(), "--sentence", "s1", "--condition", "rule", "--audio", "null",
+                   "--script", (dir / "bad.txt").string()},
+                  dir / "script.log"),
+              1);
+    EXPECT_NE(read_text_file(dir / "script.log").find("bad.txt:2:1: error: command"), std::string::npos)
+        << read_text_file(dir / "script.log");
+    EXPECT_EQ(run({"play", "--protocol", protocol.string(), "--sentence", "s9", "--condition", "rule", "--audio", "null"},
+                  dir / "sentence.log"),
+              1);
+    EXPECT_NE(read_text_file(dir / "sentence.log").find("error: id: expected a sentence id"), std::string::npos)
+        << read_text_file(dir / "sentence.log");
+    write_text_file(dir / "set.json", "{\"name\": \"x\", \"visemes\": [}\n");
+    EXPECT_EQ(run({"play", "--edit-visemes", (dir / "set.json").string(), "--audio", "null"}, dir / "set.log"), 1);
+    EXPECT_NE(read_text_file(dir / "set.log").find("set.json:1:"), std::string::npos) << read_text_file(dir / "set.log");
+    EXPECT_EQ(run({"play", "--traj", (dir / "missing.csv").string(), "--audio", "null"}, dir / "missing.log"), 2);
+}
+
+// Σ_{i∈v} D_i(t) / Σ_i D_i(t): the share of viseme v's segments in eq. 7 at t.
+double share_of(const std::vector<synth::CmSegment>& segments, const std::vector<bool>& of_viseme, double t) {
+    double all = 0.0, mine = 0.0;
+    for (std::size_t i = 0; i < segments.size(); ++i) {
+        const double d = synth::dominance(segments[i], t);
+        all += d;
+        if (of_viseme[i]) mine += d;
+    }
+    return mine / all;
+}
+
+TEST_F(PlayE2E, EditorChangeIsWhatTheMpeg4ModelThenUses) {
+    const fs::path dir = testing::temp_dir("play_editor");
+    const fs::path original = fs::path(AVSI_PROTOCOLS_DIR) / "visemes" / "mpeg4_14.json";
+    fs::copy_file(original, dir / "set.json");
+    write_text_file(dir / "edit.txt", "select p_b_m\nset jaw_rotation 0.35\nwait 1\nsave\nquit\n");
+    ASSERT_EQ(run({"play", "--edit-visemes", (dir / "set.json").string(), "--audio", "null", "--size", "800x560",
+                   "--script", (dir / "edit.txt").string()},
+                  dir / "edit.log"),
+              0)
+        << read_text_file(dir / "edit.log");
+    const synth::VisemeSet before = synth::load_viseme_set(original);
+    const synth::VisemeSet after = synth::load_viseme_set(dir / "set.json");
+    std::size_t v = 0;
+    while (before.visemes[v].name != "p_b_m") ++v;
+    const auto jaw = synth::index(synth::Param::JawRotation);
+    EXPECT_EQ(after.visemes[v].targets[jaw], 0.35);
+    const double delta = 0.35 - before.visemes[v].targets[jaw];
+    ASSERT_NE(delta, 0.0);
+
+    // "Bob wore a blue wool coat": B twice, as a bilabial viseme.
+    const PhoneSequence phones = {{"sil", 0.0, 0.10},  {"B", 0.10, 0.18},  {"AA", 0.18, 0.30}, {"B", 0.30, 0.38},
+                                  {"W", 0.38, 0.46},   {"AO", 0.46, 0.60}, {"R", 0.60, 0.68}, {"sil", 0.68, 1.00}};
+    const synth::Mpeg4CohenMassaroModel model_before(before, "before.json", {});
+    const synth::Mpeg4CohenMassaroModel model_after(after, "set.json", {});
+    const double fps = 100.0;
+    const auto a = model_before.synthesize(phones, fps);
+    const auto b = model_after.synthesize(phones, fps);
+    ASSERT_EQ(a.size(), b.size());
+    const auto segments = model_after.segments_all(phones)[jaw];
+    std::vector<bool> of_viseme;
+    for (const auto& p : phones) of_viseme.push_back(after.phone_to_viseme.at(p.symbol) == v);
+    ASSERT_EQ(segments.size(), phones.size());
+    double largest_share = 0.0;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+        const double t = a.time_s(k);
+        // Only the jaw changes, by Δ·(p_b_m's share of the dominance): where
+        // the viseme is used it moves to the new target, elsewhere it hardly does.
+        for (std::size_t q = 0; q < synth::param_count; ++q) {
+            if (q != jaw) {
+                ASSERT_EQ(a.frames[k][q], b.frames[k][q]) << "frame " << k << " parameter " << q;
+            }
+        }
+        const double share = share_of(segments, of_viseme, t);
+        EXPECT_NEAR(b.frames[k][jaw] - a.frames[k][jaw], delta * share, 1e-6) << "frame " << k;
+        largest_share = std::max(largest_share, share);
+        const bool inside_b = (t >= 0.10 && t < 0.18) || (t >= 0.30 && t < 0.38);
+        if (!inside_b && (t < 0.05 || t > 0.55)) {
+            EXPECT_LT(std::fabs(b.frames[k][jaw] - a.frames[k][jaw]), 0.25 * std::fabs(delta)) << "frame " << k;
+        }
+    }
+    EXPECT_GT(largest_share, 0.5);  // at the B centres the edited target dominates
+}
+
+}  // namespace
+}  // namespace avsi::experiment
