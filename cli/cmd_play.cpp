@@ -1,6 +1,7 @@
 // `avsi play`: play a trajectory, FAP stream or stimulus definition in a
 // window with its audio (checking lip sync, slowed down, frame by frame), or
 // edit a viseme set (`--edit-visemes set.json`).
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -17,18 +18,26 @@ namespace {
 
 struct PlayOptions {
     experiment::PlaySettings settings;
-    std::string size = "1024x720";
+    std::string size;  // default: 1100x560, the editor 1240x800
     bool paused = false;
 };
 
 int run_play(PlayOptions& o) {
     auto& s = o.settings;
+    if (o.size.empty()) o.size = s.edit_visemes.empty() ? "1100x560" : "1240x800";
     int w = 0, h = 0;
     char x = 0;
     if (std::sscanf(o.size.c_str(), "%d%c%d", &w, &x, &h) != 3 || x != 'x' || w < 320 || h < 240 || w > 8192 || h > 8192)
         throw UsageError("--size: expected WIDTHxHEIGHT (320x240 to 8192x8192), got \"" + o.size + "\"");
     s.window_width = w;
     s.window_height = h;
+    if (!s.edit_visemes.empty()) {
+        s.face_width = 480;
+        s.face_height = 360;
+    }
+    // The face fits the window beside the controls (and above the strip).
+    s.face_width = std::min(s.face_width, std::max(160, w - 460) & ~1);
+    s.face_height = std::min(s.face_height, std::max(120, h - 80) & ~1);
     s.start_playing = !o.paused;
     if (!s.edit_visemes.empty()) {
         const auto& src = s.source;
@@ -94,7 +103,7 @@ const bool registered_play = register_command({
         sub.add_option("--record", s.record, "Record the window and the audio as played to this MP4");
         sub.add_option("--script", s.script, "Scripted events, one a line (see below)")->check(CLI::ExistingFile);
         sub.add_option("--log", s.log, "Write one TSV row per screen refresh (frame shown, audio samples sent, …)");
-        sub.add_option("--size", o->size, "Window size, WIDTHxHEIGHT")->capture_default_str();
+        sub.add_option("--size", o->size, "Window size, WIDTHxHEIGHT (default 1100x560; the editor 1240x800)");
         sub.footer(experiment::play_help_text());
         return [o] { return run_play(*o); };
     }});

@@ -361,30 +361,35 @@ private:
 
 constexpr std::array<double, 4> speed_steps{0.25, 0.5, 0.75, 1.0};
 
-// The phone/viseme strip: every phone over the whole stimulus, the current one highlighted.
+// The phone/viseme strip: the phones of a 2 s span around the play head (the
+// whole utterance when shorter), phone above its viseme, the current one highlighted.
 void draw_strip(const PlayMedia& media, double t_s, float width) {
     const ImVec2 origin = ImGui::GetCursorScreenPos();
     const float height = 46.0f;
     ImDrawList* draw = ImGui::GetWindowDrawList();
     const double duration = media.frame_count() / media.fps();
+    const double span = std::min(duration, 2.0);
+    const double t0 = std::clamp(t_s - span / 2.0, 0.0, duration - span);
+    const auto x_of = [&](double t) { return origin.x + static_cast<float>((t - t0) / span) * width; };
     draw->AddRectFilled(origin, ImVec2(origin.x + width, origin.y + height), IM_COL32(40, 40, 44, 255));
+    draw->PushClipRect(origin, ImVec2(origin.x + width, origin.y + height), true);
     for (std::size_t i = 0; i < media.phones.size(); ++i) {
         const auto& p = media.phones[i];
-        const float x0 = origin.x + static_cast<float>(p.start_s / duration) * width;
-        const float x1 = origin.x + static_cast<float>(p.end_s / duration) * width;
+        if (p.end_s < t0 || p.start_s > t0 + span) continue;
+        const float x0 = x_of(p.start_s), x1 = x_of(p.end_s);
         const bool current = t_s >= p.start_s && t_s < p.end_s;
         draw->AddRectFilled(ImVec2(x0, origin.y), ImVec2(x1, origin.y + height),
                             current ? IM_COL32(200, 140, 40, 255) : IM_COL32(70, 74, 84, 255));
         draw->AddRect(ImVec2(x0, origin.y), ImVec2(x1, origin.y + height), IM_COL32(20, 20, 20, 255));
-        const char* phone = p.symbol.c_str();
         const std::string& viseme = i < media.visemes.size() ? media.visemes[i] : std::string();
         draw->PushClipRect(ImVec2(x0 + 1, origin.y), ImVec2(x1 - 1, origin.y + height), true);
-        draw->AddText(ImVec2(x0 + 2, origin.y + 3), IM_COL32(255, 255, 255, 255), phone);
-        draw->AddText(ImVec2(x0 + 2, origin.y + 24), IM_COL32(200, 200, 210, 255), viseme.c_str());
+        draw->AddText(ImVec2(x0 + 3, origin.y + 3), IM_COL32(255, 255, 255, 255), p.symbol.c_str());
+        draw->AddText(ImVec2(x0 + 3, origin.y + 24), IM_COL32(200, 200, 210, 255), viseme.c_str());
         draw->PopClipRect();
     }
-    const float xt = origin.x + static_cast<float>(std::clamp(t_s / duration, 0.0, 1.0)) * width;
-    draw->AddLine(ImVec2(xt, origin.y - 2), ImVec2(xt, origin.y + height + 2), IM_COL32(255, 80, 60, 255), 2.0f);
+    const float xt = x_of(std::clamp(t_s, 0.0, duration));
+    draw->AddLine(ImVec2(xt, origin.y), ImVec2(xt, origin.y + height), IM_COL32(255, 80, 60, 255), 2.0f);
+    draw->PopClipRect();
     ImGui::Dummy(ImVec2(width, height + 4));
 }
 
@@ -429,8 +434,8 @@ PlayResult run_player(const PlaySettings& s) {
     const bool keep = !s.audio_out.empty() || !s.record.empty();
     transport.keep_sent(keep);
 
-    PlayerWindow window(s.window_width, s.window_height, "avsi play — " + media.title, head, s.face_width, s.face_height);
     Sink sink(s, transport, media.sample_rate_hz);
+    PlayerWindow window(s.window_width, s.window_height, "avsi play — " + media.title, head, s.face_width, s.face_height);
     log_info("play: {} ({} frames at {:g} fps, {:.2f} s), audio {}", media.title, media.frame_count(), media.fps(),
              media.frame_count() / media.fps(), sink.name());
     std::ofstream log;
@@ -488,8 +493,7 @@ PlayResult run_player(const PlaySettings& s) {
             else if (e.command == "screenshot") screenshots.emplace_back(e.args[0]);
             else if (e.command == "quit") quit = true;
         }
-        if (quit) break;
-
+        // A quitting refresh is still drawn (its screenshots saved), then the loop ends.
         window.begin_frame();
         const ImGuiIO& io = ImGui::GetIO();
         if (!io.WantTextInput) {
@@ -548,6 +552,10 @@ PlayResult run_player(const PlaySettings& s) {
         ImGui::TextUnformatted(media.title.c_str());
         ImGui::Text("frame %d / %d   t = %.3f s", frame, media.frame_count() - 1, media_s);
         ImGui::Text("%s  %.2fx%s", playing ? "playing" : "paused", transport.speed(), transport.muted() ? "  muted" : "");
+        for (std::size_t i = 0; i < media.phones.size(); ++i)
+            if (media_s >= media.phones[i].start_s && media_s < media.phones[i].end_s)
+                ImGui::Text("phone %s, viseme %s", media.phones[i].symbol.c_str(),
+                            i < media.visemes.size() ? media.visemes[i].c_str() : "?");
         if (ImGui::Button(playing ? "Pause" : "Play")) playing ? transport.pause() : transport.play();
         ImGui::SameLine();
         if (ImGui::Button("< frame")) {
@@ -663,8 +671,7 @@ PlayResult run_editor(const PlaySettings& s) {
             }
             changed = true;
         }
-        if (quit) break;
-
+        // A quitting refresh is still drawn (its screenshots saved), then the loop ends.
         window.begin_frame();
         const ImGuiIO& io = ImGui::GetIO();
         if (!io.WantTextInput) {
@@ -733,6 +740,10 @@ PlayResult run_editor(const PlaySettings& s) {
         }
         ImGui::SameLine();
         ImGui::Text("%s  %s", editor.modified() ? "modified" : "unchanged", status.c_str());
+        ImGui::Text("differences from %s on disk: %zu", editor.path().filename().string().c_str(), diff.size());
+        ImGui::BeginChild("diff", ImVec2(static_cast<float>(window.face_width()), 0), true);
+        for (const auto& line : diff) ImGui::BulletText("%s", line.c_str());
+        ImGui::EndChild();
         ImGui::EndGroup();
         ImGui::SameLine();
         ImGui::BeginGroup();
@@ -762,6 +773,7 @@ PlayResult run_editor(const PlaySettings& s) {
         // The FAP values of the targets (MPEG-4, FAPU), editable: a change is
         // mapped back to the 10 parameters by the FAP decoder's least squares.
         ImGui::TextUnformatted("FAP values (FAPU)");
+        ImGui::BeginChild("faps", ImVec2(0, 0), true);
         synth::Trajectory one;
         one.fps = 25.0;
         one.frames = {before.visemes[editor.selected()].targets};
@@ -780,11 +792,9 @@ PlayResult run_editor(const PlaySettings& s) {
             }
             after_slider();
         }
+        ImGui::EndChild();
         ImGui::EndGroup();
         if (changed) diff = editor.diff_with_disk();
-        ImGui::Separator();
-        ImGui::Text("differences from %s on disk: %zu", editor.path().filename().string().c_str(), diff.size());
-        for (const auto& line : diff) ImGui::BulletText("%s", line.c_str());
         ImGui::End();
         window.end_frame();
         for (const auto& path : screenshots) stimuli::write_png(path, window.read_window());

@@ -132,10 +132,10 @@ struct PlaySettings {
     std::filesystem::path script;           // scripted events (read_play_script)
     std::filesystem::path log;              // one TSV row per screen refresh
     std::filesystem::path record;           // record the window and the audio sent (MP4)
-    int window_width = 1024;
-    int window_height = 720;
-    int face_width = 480;                   // the face's drawing size in the window
-    int face_height = 360;
+    int window_width = 1100;                // the player's; the editor's default is 1240x800
+    int window_height = 560;
+    int face_width = 640;                   // the face's drawing size in the window (the editor: 480x360)
+    int face_height = 480;
 };
 
 struct PlayResult {
