@@ -456,6 +456,7 @@ PlayResult run_player(const PlaySettings& s) {
     bool waiting_end = false;
     bool quit = false;
     int shown = -1;
+    stimuli::Pose drawn;  // the pose on screen (logged)
     float speed_slider = static_cast<float>(s.speed);
     const auto start = std::chrono::steady_clock::now();
     std::vector<fs::path> screenshots;
@@ -530,7 +531,8 @@ PlayResult run_player(const PlaySettings& s) {
         const int frame = transport.frame(offset_ms, sink.latency_s());
         const bool playing = transport.playing();
         if (frame != shown) {
-            window.draw_face(media.poses[static_cast<std::size_t>(frame)]);
+            drawn = media.poses[static_cast<std::size_t>(frame)];
+            window.draw_face(drawn);
             shown = frame;
             ++result.frames_shown;
         }
@@ -576,7 +578,7 @@ PlayResult run_player(const PlaySettings& s) {
         ImGui::SetNextItemWidth(200);
         if (ImGui::SliderFloat("A/V offset (ms)", &offset, -500.0f, 500.0f, "%.0f")) offset_ms = offset;
         ImGui::Separator();
-        draw_parameter_bars(media.poses[static_cast<std::size_t>(frame)].params);
+        draw_parameter_bars(drawn.params);
         ImGui::Separator();
         ImGui::TextWrapped("%s", sink.name().c_str());
         ImGui::EndGroup();
@@ -588,7 +590,7 @@ PlayResult run_player(const PlaySettings& s) {
             log << result.refreshes << '\t' << fmt::format("{:.6f}", wall) << '\t' << frame << '\t' << sent << '\t'
                 << played << '\t' << fmt::format("{:.6f}", media_s) << '\t' << transport.speed() << '\t' << offset_ms
                 << '\t' << (playing ? 1 : 0);
-            for (double v : media.poses[static_cast<std::size_t>(frame)].params) log << '\t' << fmt::format("{:.9g}", v);
+            for (double v : drawn.params) log << '\t' << fmt::format("{:.9g}", v);
             log << '\n';
         }
         for (const auto& path : screenshots) stimuli::write_png(path, window.read_window());

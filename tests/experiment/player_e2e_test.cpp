@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -124,6 +125,7 @@ struct Reference {
     synth::Trajectory trajectory;
     std::size_t audio_samples = 0;
     int rate = 0;
+    std::vector<float> audio;  // the stimulus's audio (mono)
 };
 
 const Reference& reference() {
@@ -132,6 +134,7 @@ const Reference& reference() {
         Reference out;
         out.trajectory = d.trajectory;
         out.rate = d.audio.sample_rate_hz;
+        out.audio = d.audio.mono();
         out.audio_samples =
             static_cast<std::size_t>(std::llround(d.trajectory.size() / d.trajectory.fps * d.audio.sample_rate_hz));
         return out;
@@ -191,6 +194,13 @@ TEST_F(PlayE2E, PlaysAStimulusFrameAccurateAtFullAndHalfSpeed) {
         double energy = 0.0;
         for (float v : sent.samples) energy += static_cast<double>(v) * v;
         EXPECT_GT(energy, 0.0);
+        if (speed == 1.0) {
+            // At 1x the device got the stimulus's own samples (through a 16-bit WAV).
+            const std::size_t n = std::min(ref.audio.size(), ref.audio_samples);
+            ASSERT_GE(sent.samples.size(), n);
+            for (std::size_t i = 0; i < n; ++i)
+                ASSERT_NEAR(sent.samples[i], ref.audio[i], 1.0 / 32767.0) << "sample " << i;
+        }
     }
     // The recording: the window at the stimulus's frame rate with the audio sent.
     const auto video = stimuli::decode_video(dir / "full.mp4");
@@ -237,6 +247,29 @@ TEST_F(PlayE2E, RefusesBadInputsWithFileAndField) {
     EXPECT_EQ(run({"play", "--edit-visemes", (dir / "set.json").string(), "--audio", "null"}, dir / "set.log"), 1);
     EXPECT_NE(read_text_file(dir / "set.log").find("set.json:1:"), std::string::npos) << read_text_file(dir / "set.log");
     EXPECT_EQ(run({"play", "--traj", (dir / "missing.csv").string(), "--audio", "null"}, dir / "missing.log"), 2);
+}
+
+TEST_F(PlayE2E, PlaysABuiltStimulusWithItsWavAndRefusesAChangedOne) {
+    const fs::path dir = testing::temp_dir("play_built");
+    ASSERT_EQ(run({"build-stimuli", protocol.string(), "--out", (dir / "built").string()}, dir / "build.log"), 0)
+        << read_text_file(dir / "build.log");
+    write_text_file(dir / "play.txt", "play\nwait-end\nquit\n");
+    const std::vector<std::string> args = {"play", "--protocol", protocol.string(), "--stimuli", (dir / "built").string(),
+                                           "--stimulus", "s2/rule.mp4", "--audio", "null", "--size", "640x400",
+                                           "--script", (dir / "play.txt").string(), "--audio-out",
+                                           (dir / "sent.wav").string()};
+    ASSERT_EQ(run(args, dir / "play.log"), 0) << read_text_file(dir / "play.log");
+    const Audio built = read_audio(dir / "built" / "s2" / "rule.wav");
+    const Audio sent = read_audio(dir / "sent.wav");
+    ASSERT_GE(sent.samples.size(), built.samples.size());
+    for (std::size_t i = 0; i < built.samples.size(); ++i) ASSERT_EQ(sent.samples[i], built.samples[i]) << i;
+    // A WAV changed after the build is refused, naming it and the manifest's hash.
+    Audio changed = built;
+    changed.samples[100] += 0.25f;
+    write_audio(dir / "built" / "s2" / "rule.wav", changed);
+    EXPECT_EQ(run(args, dir / "changed.log"), 1);
+    EXPECT_NE(read_text_file(dir / "changed.log").find("rule.wav: error: wav_sha256: expected"), std::string::npos)
+        << read_text_file(dir / "changed.log");
 }
 
 // Σ_{i∈v} D_i(t) / Σ_i D_i(t): the share of viseme v's segments in eq. 7 at t.
