@@ -463,8 +463,8 @@ Script (--script FILE), one command a line, '#' comments:
   editor: select VISEME | set PARAMETER VALUE | width MM | height MM |
           map PHONE VISEME | undo | save [PATH] | wait N | screenshot PATH | quit
 Log (--log FILE.tsv): one row per screen refresh: refresh, wall_s, frame,
-  samples_sent, media_s, speed, offset_ms, playing, and the shown pose's
-  10 parameters.
+  samples_sent, samples_played, media_s, speed, offset_ms, playing, and the
+  shown pose's 10 parameters.
 The frame shown is floor((t_audio - offset) * fps), t_audio the media time of
 the audio at the output: samples consumed x speed / rate (less the device
 latency). With --audio null the clock is simulated: each refresh consumes

@@ -634,12 +634,26 @@ PlayResult run_editor(const PlaySettings& s) {
     std::vector<std::string> all_phones;
     for (const auto& [phone, index] : editor.set().phone_to_viseme) all_phones.push_back(phone);
     const auto& mapped = synth::mapped_faps();
+    bool changed = false;
+    // Saving from the window: a failure (read-only file, full disk) is shown
+    // and the edits stay in the editor, so nothing is lost.
+    const auto save_from_ui = [&] {
+        try {
+            editor.save();
+            result.saved = true;
+            status = "saved " + editor.path().string();
+        } catch (const std::exception& e) {
+            status = std::string("NOT saved: ") + e.what();
+            log_warning("viseme editor: {}", status);
+        }
+        changed = true;
+    };
 
     while (!quit) {
         glfwPollEvents();
         if (glfwWindowShouldClose(window.handle())) break;
         screenshots.clear();
-        bool changed = false;
+        changed = false;
         while (!quit && next_event < script.size()) {
             if (wait_refreshes > 0) {
                 --wait_refreshes;
@@ -680,12 +694,7 @@ PlayResult run_editor(const PlaySettings& s) {
             if (key(GLFW_KEY_UP) && editor.selected() > 0) editor.select(editor.selected() - 1);
             if (key(GLFW_KEY_DOWN) && editor.selected() + 1 < editor.set().visemes.size()) editor.select(editor.selected() + 1);
             if (io.KeyCtrl && key(GLFW_KEY_Z)) changed |= editor.undo();
-            if (io.KeyCtrl && key(GLFW_KEY_S)) {
-                editor.save();
-                result.saved = true;
-                changed = true;
-                status = "saved " + editor.path().string();
-            }
+            if (io.KeyCtrl && key(GLFW_KEY_S)) save_from_ui();
             if (key(GLFW_KEY_Q) || key(GLFW_KEY_ESCAPE)) quit = true;
         }
         const synth::Viseme viseme = editor.selected_viseme();
@@ -734,12 +743,7 @@ PlayResult run_editor(const PlaySettings& s) {
         }
         if (ImGui::Button("Undo")) changed |= editor.undo();
         ImGui::SameLine();
-        if (ImGui::Button("Save")) {
-            editor.save();
-            result.saved = true;
-            changed = true;
-            status = "saved " + editor.path().string();
-        }
+        if (ImGui::Button("Save")) save_from_ui();
         ImGui::SameLine();
         ImGui::Text("%s  %s", editor.modified() ? "modified" : "unchanged", status.c_str());
         ImGui::Text("differences from %s on disk: %zu", editor.path().filename().string().c_str(), diff.size());

@@ -105,6 +105,27 @@ PaDeviceIndex find_device(const std::string& wanted) {
                                  matches.size(), device_list_text()));
 }
 
+// Opens and starts a mono float32 output stream at the device's low latency;
+// throws InputError naming the device if it cannot.
+PaStream* open_mono_stream(PaDeviceIndex device, int rate, PaStreamCallback* callback, void* user) {
+    const PaDeviceInfo* info = Pa_GetDeviceInfo(device);
+    PaStreamParameters out{};
+    out.device = device;
+    out.channelCount = 1;
+    out.sampleFormat = paFloat32;
+    out.suggestedLatency = info->defaultLowOutputLatency;
+    PaStream* stream = nullptr;
+    PaError e = Pa_OpenStream(&stream, nullptr, &out, rate, paFramesPerBufferUnspecified, paClipOff, callback, user);
+    if (e == paNoError) e = Pa_StartStream(stream);
+    if (e != paNoError) {
+        if (stream) Pa_CloseStream(stream);
+        throw InputError("portaudio", 0, 0, "audio-device",
+                         fmt::format("cannot open audio output device \"{}\" at {} Hz: {}", info->name, rate,
+                                     Pa_GetErrorText(e)));
+    }
+    return stream;
+}
+
 class PortAudioOutput : public AudioOutput {
 public:
     explicit PortAudioOutput(const std::string& device) {
@@ -180,21 +201,7 @@ private:
     void ensure_stream(int rate) {
         if (m_stream && rate == m_rate) return;
         close();
-        PaStreamParameters out{};
-        out.device = m_device_index;
-        out.channelCount = 1;
-        out.sampleFormat = paFloat32;
-        out.suggestedLatency = m_device->defaultLowOutputLatency;
-        PaError e = Pa_OpenStream(&m_stream, nullptr, &out, rate, paFramesPerBufferUnspecified, paClipOff,
-                                  &PortAudioOutput::callback, this);
-        if (e == paNoError) e = Pa_StartStream(m_stream);
-        if (e != paNoError) {
-            if (m_stream) Pa_CloseStream(m_stream);
-            m_stream = nullptr;
-            throw InputError("portaudio", 0, 0, "audio-device",
-                             fmt::format("cannot open audio output device \"{}\" at {} Hz: {}", m_device->name, rate,
-                                         Pa_GetErrorText(e)));
-        }
+        m_stream = open_mono_stream(m_device_index, rate, &PortAudioOutput::callback, this);
         m_rate = rate;
         const PaStreamInfo* info = Pa_GetStreamInfo(m_stream);
         m_latency_s = info ? info->outputLatency : 0.0;
@@ -256,21 +263,7 @@ public:
         try {
             const PaDeviceIndex index = find_device(device);
             m_device = Pa_GetDeviceInfo(index);
-            PaStreamParameters out{};
-            out.device = index;
-            out.channelCount = 1;
-            out.sampleFormat = paFloat32;
-            out.suggestedLatency = m_device->defaultLowOutputLatency;
-            PaError e = Pa_OpenStream(&m_stream, nullptr, &out, rate, paFramesPerBufferUnspecified, paClipOff,
-                                      &PortAudioPullStream::callback, this);
-            if (e == paNoError) e = Pa_StartStream(m_stream);
-            if (e != paNoError) {
-                if (m_stream) Pa_CloseStream(m_stream);
-                m_stream = nullptr;
-                throw InputError("portaudio", 0, 0, "audio-device",
-                                 fmt::format("cannot open audio output device \"{}\" at {} Hz: {}", m_device->name,
-                                             rate, Pa_GetErrorText(e)));
-            }
+            m_stream = open_mono_stream(index, rate, &PortAudioPullStream::callback, this);
             const PaStreamInfo* info = Pa_GetStreamInfo(m_stream);
             m_latency_s = info ? info->outputLatency : 0.0;
         } catch (...) {

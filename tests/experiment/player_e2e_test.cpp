@@ -19,6 +19,7 @@
 
 #include "avsi/core/audio.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/core/phones.h"
 #include "avsi/stimuli/builder.h"
 #include "avsi/stimuli/video.h"
@@ -36,35 +37,8 @@ const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build" / "
 // One Xvfb server for the suite; DISPLAY points at it.
 class PlayE2E : public ::testing::Test {
 protected:
-    static void SetUpTestSuite() {
-        if (::access("/usr/bin/Xvfb", X_OK) != 0) return;
-        int fds[2];
-        ASSERT_EQ(::pipe(fds), 0);
-        s_xvfb = ::fork();
-        if (s_xvfb == 0) {
-            ::close(fds[0]);
-            const int null = ::open("/dev/null", O_WRONLY);
-            ::dup2(null, 1);
-            ::dup2(null, 2);
-            const std::string fd = std::to_string(fds[1]);
-            ::execl("/usr/bin/Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "1024x768x24", "-nolisten",
-                    "tcp", static_cast<char*>(nullptr));
-            ::_exit(127);
-        }
-        ::close(fds[1]);
-        std::string number;
-        char c = 0;
-        while (::read(fds[0], &c, 1) == 1 && c != '\n') number += c;
-        ::close(fds[0]);
-        if (!number.empty()) ::setenv("DISPLAY", (":" + number).c_str(), 1);
-        else s_xvfb = -1;
-    }
-    static void TearDownTestSuite() {
-        if (s_xvfb > 0) {
-            ::kill(s_xvfb, SIGTERM);
-            ::waitpid(s_xvfb, nullptr, 0);
-        }
-    }
+    static void SetUpTestSuite() { s_xvfb = testing::start_xvfb(); }
+    static void TearDownTestSuite() { testing::stop_xvfb(s_xvfb); }
     void SetUp() override {
         if (s_xvfb <= 0) GTEST_SKIP() << "Xvfb is not available";
     }
@@ -263,6 +237,20 @@ TEST_F(PlayE2E, PlaysABuiltStimulusWithItsWavAndRefusesAChangedOne) {
     const Audio sent = read_audio(dir / "sent.wav");
     ASSERT_GE(sent.samples.size(), built.samples.size());
     for (std::size_t i = 0; i < built.samples.size(); ++i) ASSERT_EQ(sent.samples[i], built.samples[i]) << i;
+    // The stimulus definition is what the builder built: the same audio (up
+    // to the WAV's 16 bits) and the manifest's frame count.
+    const auto definition = stimuli::stimulus_definition(protocol, "s2", "rule");
+    ASSERT_EQ(definition.audio.samples.size(), built.samples.size());
+    for (std::size_t i = 0; i < built.samples.size(); ++i)
+        ASSERT_NEAR(definition.audio.samples[i], built.samples[i], 1.0 / 32767.0) << i;
+    const auto manifest = read_json_file(dir / "built" / "manifest.json");
+    int entries = 0;
+    for (const auto& e : manifest.at("stimuli"))
+        if (e.at("path") == "s2/rule.mp4") {
+            ++entries;
+            EXPECT_EQ(e.at("frames").get<std::size_t>(), definition.trajectory.size());
+        }
+    EXPECT_EQ(entries, 1);
     // A WAV changed after the build is refused, naming it and the manifest's hash.
     Audio changed = built;
     changed.samples[100] += 0.25f;
