@@ -280,10 +280,11 @@ bool Transport::muted() const {
     return m_muted;
 }
 
-void Transport::seek_frame(int frame) {
+void Transport::seek_frame(int frame, double offset_ms) {
     std::lock_guard lock(m_mutex);
     frame = std::clamp(frame, 0, m_frames - 1);
-    m_pos = (frame + 0.5) / m_fps * m_rate / m_speed;
+    const double media_s = (frame + 0.5) / m_fps + offset_ms / 1000.0;
+    m_pos = std::clamp(media_s * m_rate / m_speed, 0.0, static_cast<double>(m_stretched.size()));
     m_at_end = false;
 }
 

@@ -481,9 +481,9 @@ PlayResult run_player(const PlaySettings& s) {
             else if (e.command == "toggle") transport.playing() ? transport.pause() : transport.play();
             else if (e.command == "step") {
                 transport.pause();
-                transport.seek_frame(transport.frame(offset_ms, 0.0) + static_cast<int>(script_number(e, 0)));
+                transport.seek_frame(transport.frame(offset_ms, 0.0) + static_cast<int>(script_number(e, 0)), offset_ms);
             } else if (e.command == "seek") {
-                transport.seek_frame(static_cast<int>(script_number(e, 0)));
+                transport.seek_frame(static_cast<int>(script_number(e, 0)), offset_ms);
             } else if (e.command == "speed") {
                 transport.set_speed(script_number(e, 0));
                 speed_slider = static_cast<float>(script_number(e, 0));
@@ -501,10 +501,10 @@ PlayResult run_player(const PlaySettings& s) {
             if (key(GLFW_KEY_SPACE)) transport.playing() ? transport.pause() : transport.play();
             if (key(GLFW_KEY_RIGHT) || key(GLFW_KEY_LEFT)) {
                 transport.pause();
-                transport.seek_frame(transport.frame(offset_ms, 0.0) + (key(GLFW_KEY_RIGHT) ? 1 : -1));
+                transport.seek_frame(transport.frame(offset_ms, 0.0) + (key(GLFW_KEY_RIGHT) ? 1 : -1), offset_ms);
             }
-            if (key(GLFW_KEY_HOME)) transport.seek_frame(0);
-            if (key(GLFW_KEY_END)) transport.seek_frame(media.frame_count() - 1);
+            if (key(GLFW_KEY_HOME)) transport.seek_frame(0, offset_ms);
+            if (key(GLFW_KEY_END)) transport.seek_frame(media.frame_count() - 1, offset_ms);
             if (key(GLFW_KEY_UP) || key(GLFW_KEY_DOWN)) {
                 const double now = transport.speed();
                 double next = now;
@@ -562,12 +562,12 @@ PlayResult run_player(const PlaySettings& s) {
         ImGui::SameLine();
         if (ImGui::Button("< frame")) {
             transport.pause();
-            transport.seek_frame(frame - 1);
+            transport.seek_frame(frame - 1, offset_ms);
         }
         ImGui::SameLine();
         if (ImGui::Button("frame >")) {
             transport.pause();
-            transport.seek_frame(frame + 1);
+            transport.seek_frame(frame + 1, offset_ms);
         }
         ImGui::SetNextItemWidth(200);
         ImGui::SliderFloat("speed", &speed_slider, 0.25f, 1.0f, "%.2fx");

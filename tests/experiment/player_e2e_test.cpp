@@ -69,6 +69,7 @@ struct LogRow {
     long long played = 0;
     double speed = 1.0;
     double offset_ms = 0.0;
+    double media_s = 0.0;
     bool playing = false;
     synth::Frame params{};
 };
@@ -83,8 +84,8 @@ std::vector<LogRow> read_log(const fs::path& path) {
         std::istringstream s(line);
         LogRow r;
         int refresh = 0, playing = 0;
-        double wall = 0, media = 0;
-        s >> refresh >> wall >> r.frame >> r.sent >> r.played >> media >> r.speed >> r.offset_ms >> playing;
+        double wall = 0;
+        s >> refresh >> wall >> r.frame >> r.sent >> r.played >> r.media_s >> r.speed >> r.offset_ms >> playing;
         r.playing = playing != 0;
         for (auto& v : r.params) s >> v;
         EXPECT_TRUE(s) << line;
@@ -185,22 +186,32 @@ TEST_F(PlayE2E, PlaysAStimulusFrameAccurateAtFullAndHalfSpeed) {
 
 TEST_F(PlayE2E, StepsFramesBothWaysAndAppliesTheOffset) {
     const fs::path dir = testing::temp_dir("play_steps");
-    write_text_file(dir / "steps.txt",
-                    "seek 10\nwait 1\nstep 1\nwait 1\nstep -3\nwait 1\noffset 100\nseek 12\nplay\nwait 3\nquit\n");
+    write_text_file(dir / "steps.txt", "seek 10\nwait 1\nstep 1\nwait 1\nstep -3\nwait 1\noffset 100\nseek 12\nwait 1\n"
+                                       "step 1\nwait 1\nplay\nwait 3\nquit\n");
     ASSERT_EQ(run({"play", "--protocol", protocol.string(), "--sentence", "s1", "--condition", "rule", "--audio", "null",
                    "--size", "640x400", "--script", (dir / "steps.txt").string(), "--log", (dir / "log.tsv").string()},
                   dir / "out.log"),
               0)
         << read_text_file(dir / "out.log");
     const auto rows = read_log(dir / "log.tsv");
-    ASSERT_GE(rows.size(), 6u);
+    ASSERT_GE(rows.size(), 8u);
     EXPECT_EQ(rows[0].frame, 10);
     EXPECT_EQ(rows[1].frame, 11);
     EXPECT_EQ(rows[2].frame, 8);
-    // seek 12 puts the audio at frame 12's middle; with the video 100 ms
-    // later the frame shown is 3 frames earlier at 30 fps.
+    // With the video 100 ms later, seek 12 shows frame 12 with the audio
+    // 100 ms further on (frame 12's middle + 0.1 s), and a step goes forward.
     EXPECT_EQ(rows[3].offset_ms, 100.0);
-    EXPECT_EQ(rows[3].frame, 9);
+    EXPECT_EQ(rows[3].frame, 12);
+    EXPECT_NEAR(rows[3].media_s, 12.5 / 30.0 + 0.1, 1e-5);
+    EXPECT_EQ(rows[4].frame, 13);
+    // Playing on from there: the frame follows the audio clock less the offset.
+    for (std::size_t i = 5; i < rows.size(); ++i) {
+        if (!rows[i].playing) continue;
+        const double x = (rows[i].media_s - 0.1) * 30.0;  // media_s is logged to 1 µs
+        EXPECT_TRUE(rows[i].frame == static_cast<int>(std::floor(x + 1e-4)) ||
+                    rows[i].frame == static_cast<int>(std::floor(x - 1e-4)))
+            << "row " << i << ": frame " << rows[i].frame << " at media time " << rows[i].media_s;
+    }
 }
 
 TEST_F(PlayE2E, RefusesBadInputsWithFileAndField) {

@@ -88,6 +88,14 @@ TEST(Transport, StepsLandOnTheFrameBothWays) {
     EXPECT_EQ(t.frame(0.0), 0);
     t.seek_frame(500);
     EXPECT_EQ(t.frame(0.0), 29);
+    // With an A/V offset a step still lands on the frame asked for (the audio
+    // is moved by the offset): the video 100 ms = 3 frames later.
+    t.seek_frame(10, 100.0);
+    EXPECT_EQ(t.frame(100.0), 10);
+    EXPECT_EQ(t.frame(0.0), 13);
+    t.seek_frame(t.frame(100.0) + 1, 100.0);
+    EXPECT_EQ(t.frame(100.0), 11);
+    EXPECT_NEAR(t.media_time_s(), 11.5 / 30.0 + 0.1, 1e-9);
 }
 
 TEST(Transport, PlaysTheAudioUnchangedAtFullSpeed) {

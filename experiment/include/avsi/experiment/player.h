@@ -69,9 +69,10 @@ public:
     double speed() const;
     void set_muted(bool muted);
     bool muted() const;
-    // Moves to the middle of frame k's interval on the media clock (paused
-    // steps land on the frame, not on its edge).
-    void seek_frame(int frame);
+    // Moves the audio so that frame k is shown with A/V offset `offset_ms`:
+    // to the middle of its interval, (k + 0.5)/fps + offset (steps land on
+    // the frame, not on its edge); k is clamped to the frames.
+    void seek_frame(int frame, double offset_ms = 0.0);
     // Media time of the audio at the output (s), given the device latency.
     double media_time_s(double latency_s = 0.0) const;
     // The frame for the current audio time: floor((t − offset)·fps) clamped to [0, frames − 1].
