@@ -8,6 +8,7 @@
 
 #include <cstdarg>
 #include <cstdio>
+#include <functional>
 
 #include <algorithm>
 #include <atomic>
@@ -104,6 +105,27 @@ PaDeviceIndex find_device(const std::string& wanted) {
                                  matches.size(), device_list_text()));
 }
 
+// Opens and starts a mono float32 output stream at the device's low latency;
+// throws InputError naming the device if it cannot.
+PaStream* open_mono_stream(PaDeviceIndex device, int rate, PaStreamCallback* callback, void* user) {
+    const PaDeviceInfo* info = Pa_GetDeviceInfo(device);
+    PaStreamParameters out{};
+    out.device = device;
+    out.channelCount = 1;
+    out.sampleFormat = paFloat32;
+    out.suggestedLatency = info->defaultLowOutputLatency;
+    PaStream* stream = nullptr;
+    PaError e = Pa_OpenStream(&stream, nullptr, &out, rate, paFramesPerBufferUnspecified, paClipOff, callback, user);
+    if (e == paNoError) e = Pa_StartStream(stream);
+    if (e != paNoError) {
+        if (stream) Pa_CloseStream(stream);
+        throw InputError("portaudio", 0, 0, "audio-device",
+                         fmt::format("cannot open audio output device \"{}\" at {} Hz: {}", info->name, rate,
+                                     Pa_GetErrorText(e)));
+    }
+    return stream;
+}
+
 class PortAudioOutput : public AudioOutput {
 public:
     explicit PortAudioOutput(const std::string& device) {
@@ -179,21 +201,7 @@ private:
     void ensure_stream(int rate) {
         if (m_stream && rate == m_rate) return;
         close();
-        PaStreamParameters out{};
-        out.device = m_device_index;
-        out.channelCount = 1;
-        out.sampleFormat = paFloat32;
-        out.suggestedLatency = m_device->defaultLowOutputLatency;
-        PaError e = Pa_OpenStream(&m_stream, nullptr, &out, rate, paFramesPerBufferUnspecified, paClipOff,
-                                  &PortAudioOutput::callback, this);
-        if (e == paNoError) e = Pa_StartStream(m_stream);
-        if (e != paNoError) {
-            if (m_stream) Pa_CloseStream(m_stream);
-            m_stream = nullptr;
-            throw InputError("portaudio", 0, 0, "audio-device",
-                             fmt::format("cannot open audio output device \"{}\" at {} Hz: {}", m_device->name, rate,
-                                         Pa_GetErrorText(e)));
-        }
+        m_stream = open_mono_stream(m_device_index, rate, &PortAudioOutput::callback, this);
         m_rate = rate;
         const PaStreamInfo* info = Pa_GetStreamInfo(m_stream);
         m_latency_s = info ? info->outputLatency : 0.0;
@@ -246,7 +254,54 @@ private:
     std::atomic<double> m_onset{-1.0};
 };
 
+// A stream whose callback pulls every buffer from the caller (the player).
+class PortAudioPullStream : public PullAudioStream {
+public:
+    PortAudioPullStream(const std::string& device, int rate, std::function<void(float*, std::size_t)> pull)
+        : m_pull(std::move(pull)) {
+        initialise();
+        try {
+            const PaDeviceIndex index = find_device(device);
+            m_device = Pa_GetDeviceInfo(index);
+            m_stream = open_mono_stream(index, rate, &PortAudioPullStream::callback, this);
+            const PaStreamInfo* info = Pa_GetStreamInfo(m_stream);
+            m_latency_s = info ? info->outputLatency : 0.0;
+        } catch (...) {
+            Pa_Terminate();
+            throw;
+        }
+    }
+    ~PortAudioPullStream() override {
+        if (m_stream) {
+            Pa_StopStream(m_stream);
+            Pa_CloseStream(m_stream);
+        }
+        Pa_Terminate();
+    }
+    std::string name() const override {
+        return fmt::format("portaudio: {} (latency {:.1f} ms)", m_device ? m_device->name : "?", m_latency_s * 1000.0);
+    }
+    double latency_s() const override { return m_latency_s; }
+
+private:
+    static int callback(const void*, void* output, unsigned long frames, const PaStreamCallbackTimeInfo*,
+                        PaStreamCallbackFlags, void* user) {
+        auto* self = static_cast<PortAudioPullStream*>(user);
+        self->m_pull(static_cast<float*>(output), frames);
+        return paContinue;
+    }
+    std::function<void(float*, std::size_t)> m_pull;
+    const PaDeviceInfo* m_device = nullptr;
+    PaStream* m_stream = nullptr;
+    double m_latency_s = 0.0;
+};
+
 }  // namespace
+
+std::unique_ptr<PullAudioStream> open_portaudio_pull_stream(const std::string& device, int sample_rate_hz,
+                                                            std::function<void(float*, std::size_t)> pull) {
+    return std::make_unique<PortAudioPullStream>(device, sample_rate_hz, std::move(pull));
+}
 
 std::unique_ptr<AudioOutput> make_portaudio_output(const std::string& device) {
     return std::make_unique<PortAudioOutput>(device);

@@ -966,4 +966,80 @@ VerifyReport verify_stimuli(const BuildSettings& settings) {
     return report;
 }
 
+namespace {
+
+// " (did you mean \"x\"?)" for a near miss, else the choices.
+std::string suggestion(const std::string& word, const std::vector<std::string>& candidates) {
+    const std::string close = closest_match(word, candidates);
+    if (!close.empty()) return fmt::format(" (did you mean \"{}\"?)", close);
+    std::string list;
+    for (const auto& c : candidates) list += (list.empty() ? "" : ", ") + c;
+    return " (" + list + ")";
+}
+
+}  // namespace
+
+StimulusDefinition stimulus_definition(const std::filesystem::path& protocol_path, const std::string& sentence,
+                                       const std::string& condition) {
+    BuildSettings settings;
+    settings.protocol_path = protocol_path;
+    settings.all_sentences = true;
+    Plan plan(settings);
+    const Job* job = nullptr;
+    std::vector<std::string> sentences, conditions;
+    for (const auto& s : plan.corpus.sentences) sentences.push_back(s.id);
+    for (const auto& c : plan.protocol.conditions) conditions.push_back(c.name);
+    if (std::find(sentences.begin(), sentences.end(), sentence) == sentences.end())
+        throw InputError(plan.protocol.corpus.sentences.string(), 0, 0, "id",
+                         fmt::format("expected a sentence id of the corpus{}, got \"{}\"",
+                                     suggestion(sentence, sentences), sentence));
+    if (std::find(conditions.begin(), conditions.end(), condition) == conditions.end())
+        throw InputError(protocol_path.string(), 0, 0, "condition",
+                         fmt::format("expected a condition of the protocol{}, got \"{}\"",
+                                     suggestion(condition, conditions), condition));
+    for (const auto& j : plan.jobs)
+        if (j.sentence->id == sentence && j.condition->name == condition) job = &j;
+    AVSI_ASSERT(job);
+    const ProtocolCondition& c = *job->condition;
+    StimulusDefinition d;
+    d.sentence = sentence;
+    d.condition = condition;
+    d.face = to_string(c.face);
+    Audio speech;
+    if (plan.protocol.corpus.audio == CorpusAudio::Tts) {
+        try {
+            auto r = synthesize_speech(job->sentence->text, tts_settings(plan.protocol));
+            speech = std::move(r.audio);
+            d.phones = std::move(r.phones);
+        } catch (const InputError& e) {
+            throw at_tts_key(plan.protocol, e);
+        }
+    } else {
+        speech = read_audio(job->sentence->audio);
+        d.phones = read_phones(job->sentence->labels);
+    }
+    if (c.audio == ConditionAudio::Vocoded) {
+        vocoder::VocoderSettings v = plan.vocoder_base;
+        v.seed = job->vocoder_seed;
+        d.audio = vocoder::vocode(speech, v).audio;
+    } else {
+        d.audio = std::move(speech);
+    }
+    set_speech_level(d.audio, plan.protocol.corpus.level_dbfs);
+    if (c.face == FaceMode::Model) {
+        d.trajectory = plan.models.at(c.name)->synthesize(d.phones, plan.fps);
+    } else {
+        d.trajectory.fps = plan.fps;
+        d.trajectory.frames.assign(synth::frame_count(d.audio.duration_s(), plan.fps), synth::Frame{});
+    }
+    d.blinks.seed = job->blink_seed;
+    d.blinks.enabled = c.face == FaceMode::Model;
+    const auto& pr = plan.protocol.render;
+    d.head_gltf = pr.head_gltf;
+    d.head_mapping = pr.head_mapping;
+    d.head_mesh = pr.head_mesh;
+    d.head_rig = pr.head_rig;
+    return d;
+}
+
 }  // namespace avsi::stimuli

@@ -101,6 +101,26 @@ VisemeSet load_viseme_set(const std::filesystem::path& path) {
     return set;
 }
 
+std::string viseme_set_json_text(const VisemeSet& set) {
+    nlohmann::ordered_json root;
+    root["name"] = set.name;
+    root["source"] = set.source;
+    root["visemes"] = nlohmann::ordered_json::array();
+    for (const auto& v : set.visemes) {
+        nlohmann::ordered_json targets = nlohmann::ordered_json::object();
+        for (const auto& info : params()) targets[std::string(info.name)] = v.targets[index(info.param)];
+        nlohmann::ordered_json item;
+        item["id"] = v.id;
+        item["name"] = v.name;
+        item["phones"] = v.phones;
+        item["width_mm"] = v.width_mm;
+        item["height_mm"] = v.height_mm;
+        item["targets"] = std::move(targets);
+        root["visemes"].push_back(std::move(item));
+    }
+    return root.dump(2) + "\n";
+}
+
 CmSegment mpeg4_segment(double centre_s, double t0_s, double target, double alpha,
                         double theta_anticipatory_per_s, double theta_carryover_per_s) {
     // Eq. 6: the peak at the segment centre plus t0; eq. 5: c = 1.

@@ -43,35 +43,8 @@ namespace fs = std::filesystem;
 // One Xvfb server for the whole suite; DISPLAY points at it.
 class RunnerE2E : public ::testing::Test {
 protected:
-    static void SetUpTestSuite() {
-        if (::access("/usr/bin/Xvfb", X_OK) != 0) return;
-        int fds[2];
-        ASSERT_EQ(::pipe(fds), 0);
-        s_xvfb = ::fork();
-        if (s_xvfb == 0) {
-            ::close(fds[0]);
-            const int null = ::open("/dev/null", O_WRONLY);
-            ::dup2(null, 1);
-            ::dup2(null, 2);
-            const std::string fd = std::to_string(fds[1]);
-            ::execl("/usr/bin/Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "1024x768x24", "-nolisten",
-                    "tcp", static_cast<char*>(nullptr));
-            ::_exit(127);
-        }
-        ::close(fds[1]);
-        std::string number;
-        char c = 0;
-        while (::read(fds[0], &c, 1) == 1 && c != '\n') number += c;
-        ::close(fds[0]);
-        if (!number.empty()) ::setenv("DISPLAY", (":" + number).c_str(), 1);
-        else s_xvfb = -1;
-    }
-    static void TearDownTestSuite() {
-        if (s_xvfb > 0) {
-            ::kill(s_xvfb, SIGTERM);
-            ::waitpid(s_xvfb, nullptr, 0);
-        }
-    }
+    static void SetUpTestSuite() { s_xvfb = testing::start_xvfb(); }
+    static void TearDownTestSuite() { testing::stop_xvfb(s_xvfb); }
     void SetUp() override {
         if (s_xvfb <= 0) GTEST_SKIP() << "Xvfb is not available";
     }

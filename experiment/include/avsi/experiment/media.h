@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -119,6 +120,21 @@ private:
 // device name (see list_audio_devices); "" is the default output device.
 // Throws InputError naming the device if it cannot be found or opened.
 std::unique_ptr<AudioOutput> make_portaudio_output(const std::string& device = "");
+
+// A PortAudio output stream whose callback asks `pull` for each buffer of
+// mono samples (the player's transport keeps the clock).
+class PullAudioStream {
+public:
+    virtual ~PullAudioStream() = default;
+    virtual std::string name() const = 0;
+    // The stream's output latency (s): how long a pulled sample takes to reach the DAC.
+    virtual double latency_s() const = 0;
+};
+
+// Opens and starts a pull stream on `device` (as make_portaudio_output).
+// Throws InputError naming the device if it cannot be found or opened.
+std::unique_ptr<PullAudioStream> open_portaudio_pull_stream(const std::string& device, int sample_rate_hz,
+                                                            std::function<void(float*, std::size_t)> pull);
 
 // The PortAudio output devices, one line each: "index: name (host API,
 // channels, default rate, low latency)", the default marked. Throws

@@ -21,6 +21,11 @@
 #include <string>
 #include <vector>
 
+#include "avsi/core/audio.h"
+#include "avsi/core/phones.h"
+#include "avsi/stimuli/animation.h"
+#include "avsi/synth/trajectory.h"
+
 namespace avsi::stimuli {
 
 struct BuildSettings {
@@ -82,5 +87,30 @@ VerifyReport verify_stimuli(const BuildSettings& settings);
 // current level while it shows the MP4's video.
 std::filesystem::path variant_audio_path(const std::filesystem::path& video, const std::string& variable,
                                          double level);
+
+// One stimulus definition (a protocol's sentence × condition) as the builder
+// makes it, without rendering: the condition's trajectory (the still face's
+// neutral frames for face = "still" or "none"), the sentence's timed phones,
+// the presented audio (clean or vocoded with the stimulus's seed, at the
+// speech level) and the blink settings of the stimulus (its seed).
+struct StimulusDefinition {
+    std::string sentence;
+    std::string condition;
+    std::string face;                    // "model", "still" or "none"
+    synth::Trajectory trajectory;
+    PhoneSequence phones;
+    Audio audio;
+    BlinkSettings blinks;
+    std::filesystem::path head_gltf;     // the protocol's own head, if any ([render])
+    std::filesystem::path head_mapping;
+    std::filesystem::path head_mesh;
+    std::filesystem::path head_rig;
+};
+
+// Makes one stimulus definition of a protocol (for `avsi play`). Throws
+// InputError naming the protocol and field if the sentence or condition is
+// not in it, and for the same bad inputs as build_stimuli.
+StimulusDefinition stimulus_definition(const std::filesystem::path& protocol_path, const std::string& sentence,
+                                       const std::string& condition);
 
 }  // namespace avsi::stimuli

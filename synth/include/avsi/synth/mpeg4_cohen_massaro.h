@@ -64,6 +64,10 @@ struct VisemeSet {
 // widths/heights positive, targets in range). Errors name file and field.
 VisemeSet load_viseme_set(const std::filesystem::path& path);
 
+// The set as the JSON load_viseme_set reads (the keys in the file's order,
+// 2-space indent): load_viseme_set of the text gives the set back.
+std::string viseme_set_json_text(const VisemeSet& set);
+
 // One segment of eq. 5–6 for one parameter: the dominance peak at the
 // segment centre plus t0, θ← before it and θ→ after it, c = 1; T and α from
 // the viseme (α by eq. 8). The model builds its segments with this, and
