@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <complex>
+#include <cstring>
 #include <memory>
 #include <cmath>
 #include <numbers>
@@ -415,33 +416,48 @@ struct Pipeline {
 // by a copy of the pipeline taken at frame `stored`, which gives the same
 // values (the pipeline is deterministic and block-length independent). With
 // everything stored, the pipeline runs once, as it always did.
+// Pass 2 can keep its sums for pass 3 in the same memory (`keep_sums`): a
+// frame's sum (8 bytes) takes less room than its band outputs (4 bytes per
+// band) from 3 bands on, so the sums of the first `summed` frames fit
+// (summed > stored) and pass 3 computes again only the frames past them,
+// with a copy of the pipeline taken at frame `summed`.
 class ChannelEngine {
 public:
     ChannelEngine(const VocoderSettings& s, double rate, const std::vector<Sos>& band_filters,
-                  const std::vector<double>& centres, int channel, std::size_t stored_frames)
+                  const std::vector<double>& centres, int channel, std::size_t stored_frames, std::size_t frames,
+                  bool keep_sums)
         : m_settings(s), m_centres(centres), m_pipeline(s, rate, band_filters, channel),
           m_lanes(band_filters.size()), m_stride(m_pipeline.bands.stride()), m_stored(stored_frames),
-          m_store(new float[stored_frames * m_lanes]), m_out_sum_sq(m_stride, 0.0) {}
+          m_summed(m_stored), m_store(new unsigned char[stored_frames * m_lanes * sizeof(float)]),
+          m_out_sum_sq(m_stride, 0.0) {
+        const std::size_t sum_room = stored_frames * m_lanes * sizeof(float) / sizeof(double);
+        if (keep_sums && m_stored < frames && sum_room > m_stored) m_summed = std::min(frames, sum_room);
+    }
 
     std::size_t lanes() const { return m_lanes; }
     std::size_t stride() const { return m_stride; }
+    // The first frame the next replay computes again (and so reads the input from).
+    std::size_t replay_from() const { return m_sums_kept ? m_summed : m_stored; }
 
     // Pass 1 over frames [first, first + count) (x[0] is frame `first`);
     // `work` and `carrier` are scratch of count × stride.
     void measure(const double* x, std::size_t first, std::size_t count, std::vector<double>& work,
                  std::vector<double>& carrier) {
-        // Split at the end of the store: the replay pipeline starts there.
-        if (first < m_stored && first + count > m_stored) {
-            const std::size_t head = m_stored - first;
-            measure(x, first, head, work, carrier);
-            measure(x + head, m_stored, count - head, work, carrier);
-            return;
+        // Split at the end of the store and of the sums: replay pipelines start there.
+        for (std::size_t edge : {m_stored, m_summed}) {
+            if (first < edge && first + count > edge) {
+                const std::size_t head = edge - first;
+                measure(x, first, head, work, carrier);
+                measure(x + head, edge, count - head, work, carrier);
+                return;
+            }
         }
         if (first == m_stored) m_replay_start.emplace(m_pipeline);
+        if (first == m_summed && m_summed > m_stored) m_final_start.emplace(m_pipeline);
         detail::FusedBlock rows;
         rows.out_sum_sq = m_out_sum_sq.data();
         rows.in_sum_sq = &m_in_sq;
-        if (first < m_stored) rows.rows = m_store.get() + first * m_lanes;
+        if (first < m_stored) rows.rows = rows_at(first);
         rows.lanes = m_lanes;
         m_pipeline.run(x, first, count, work, carrier, m_centres, rows);
     }
@@ -462,57 +478,106 @@ public:
 
     // Starts a replay (pass 2 or 3) from frame 0.
     void begin_replay() {
-        if (m_replay_start) m_replay.emplace(*m_replay_start);
+        if (m_summed > m_stored && m_sums_written == m_summed) m_sums_kept = true;
+        if (m_sums_kept) {
+            if (m_final_start) m_replay.emplace(*m_final_start);
+        } else if (m_replay_start) {
+            m_replay.emplace(*m_replay_start);
+        }
     }
 
     // The level-matched band sum of frames [first, first + count) into `sum`
-    // (x[0] is frame `first`; read only past the store), in order from 0.
-    // With `band_signals`, also each band's level-matched output.
+    // (x[0] is frame `first`; read only from replay_from() on), in order
+    // from 0. With `band_signals`, also each band's level-matched output.
+    // With `keep`, the sums of frames before `summed` are kept for the next
+    // replay (which then reads them); only in one replay over all frames.
     void replay(const double* x, std::size_t first, std::size_t count, double* sum, std::vector<double>& work,
-                std::vector<double>& carrier, std::vector<std::vector<double>>* band_signals = nullptr) {
-        if (first < m_stored && first + count > m_stored) {
-            const std::size_t head = m_stored - first;
-            replay(x, first, head, sum, work, carrier, band_signals);
-            replay(x + head, m_stored, count - head, sum + head, work, carrier, band_signals);
+                std::vector<double>& carrier, std::vector<std::vector<double>>* band_signals = nullptr,
+                bool keep = false) {
+        const std::size_t from = replay_from();
+        if (first < from && first + count > from) {
+            const std::size_t head = from - first;
+            replay(x, first, head, sum, work, carrier, band_signals, keep);
+            replay(x + head, from, count - head, sum + head, work, carrier, band_signals, keep);
+            return;
+        }
+        if (keep && m_summed > m_stored && first < m_summed && first + count > m_summed) {
+            const std::size_t head = m_summed - first;
+            replay(x, first, head, sum, work, carrier, band_signals, keep);
+            replay(x + head, m_summed, count - head, sum + head, work, carrier, band_signals, keep);
+            return;
+        }
+        if (m_sums_kept && first < m_summed) {
+            std::memcpy(sum, m_store.get() + first * sizeof(double), count * sizeof(double));
             return;
         }
         if (first < m_stored) {
             // The sum as the pipeline's rows give it: over the stride's
             // lanes, whose padding lanes hold +0 with gain 0 and so add
             // +0.0 (which turns a -0 sum into +0).
-            const float* rows = m_store.get() + first * m_lanes;
+            const float* rows = rows_at(first);
             const bool padded = m_stride > m_lanes;
-            for (std::size_t n = 0; n < count; ++n) {
-                double s = 0.0;
-                for (std::size_t b = 0; b < m_lanes; ++b) s += m_gains[b] * rows[n * m_lanes + b];
-                if (padded) s += 0.0;
-                sum[n] = s;
-            }
+            sum_rows(rows, count, padded, sum);
             if (band_signals)
                 for (std::size_t b = 0; b < m_lanes; ++b)
                     for (std::size_t n = 0; n < count; ++n)
                         (*band_signals)[b][first + n] = m_gains[b] * rows[n * m_lanes + b];
-            return;
+        } else {
+            AVSI_ASSERT(m_replay && !band_signals);
+            detail::FusedBlock rows;
+            rows.gains = m_gains.data();
+            rows.sum = sum;
+            m_replay->run(x, first, count, work, carrier, m_centres, rows);
         }
-        AVSI_ASSERT(m_replay && !band_signals);
-        detail::FusedBlock rows;
-        rows.gains = m_gains.data();
-        rows.sum = sum;
-        m_replay->run(x, first, count, work, carrier, m_centres, rows);
+        // Frame n's sum goes to bytes [8n, 8n + 8), which hold band outputs
+        // of frames before n·8/(4·lanes) ≤ n only: read already.
+        if (keep && m_summed > m_stored && first < m_summed) {
+            AVSI_ASSERT(first == m_sums_written);
+            std::memcpy(m_store.get() + first * sizeof(double), sum, count * sizeof(double));
+            m_sums_written += count;
+        }
     }
 
     double in_sq() const { return m_in_sq; }
 
 private:
+    float* rows_at(std::size_t frame) {
+        return reinterpret_cast<float*>(m_store.get()) + frame * m_lanes;
+    }
+    // sum[n] = Σ_b gains[b]·rows[n][b] in band order from 0.0 (+ 0.0 when padded).
+    void sum_rows(const float* rows, std::size_t count, bool padded, double* sum) const {
+        auto run = [&](auto lanes_constant) {
+            constexpr std::size_t L = decltype(lanes_constant)::value;
+            const std::size_t lanes = L ? L : m_lanes;
+            for (std::size_t n = 0; n < count; ++n) {
+                double s = 0.0;
+                for (std::size_t b = 0; b < lanes; ++b) s += m_gains[b] * rows[n * lanes + b];
+                if (padded) s += 0.0;
+                sum[n] = s;
+            }
+        };
+        switch (m_lanes) {
+            case 1: run(std::integral_constant<std::size_t, 1>{}); break;
+            case 2: run(std::integral_constant<std::size_t, 2>{}); break;
+            case 3: run(std::integral_constant<std::size_t, 3>{}); break;
+            case 4: run(std::integral_constant<std::size_t, 4>{}); break;
+            default: run(std::integral_constant<std::size_t, 0>{}); break;
+        }
+    }
+
     const VocoderSettings& m_settings;
     const std::vector<double>& m_centres;
     Pipeline m_pipeline;
-    std::size_t m_lanes, m_stride, m_stored;
-    std::unique_ptr<float[]> m_store;  // [frame][band], the first m_stored frames
+    std::size_t m_lanes, m_stride, m_stored, m_summed;
+    // [frame][band] floats of the first m_stored frames; after a replay
+    // with `keep`, the doubles of the first m_summed frames' sums.
+    std::unique_ptr<unsigned char[]> m_store;
+    std::size_t m_sums_written = 0;  // by the replay with `keep`
+    bool m_sums_kept = false;         // the next replays read them
     std::vector<double> m_out_sum_sq;
     double m_in_sq = 0.0;
     std::vector<double> m_gains;
-    std::optional<Pipeline> m_replay_start, m_replay;
+    std::optional<Pipeline> m_replay_start, m_final_start, m_replay;
 };
 
 // Zero-phase filtering, Hilbert envelopes and low-noise carriers need the
@@ -557,7 +622,7 @@ ChannelResult vocode_channel_in_blocks(std::span<const double> x, double rate, c
     if (frames == 0) return result;
     const std::size_t block =
         whole_signal_only(s) ? frames : std::max<std::size_t>(1, std::min(block_frames, frames));
-    ChannelEngine engine(s, rate, setup.filters, setup.centres, channel, frames);
+    ChannelEngine engine(s, rate, setup.filters, setup.centres, channel, frames, frames, false);
     std::vector<double> work(block * engine.stride()), carrier(block * engine.stride());
     for (std::size_t first = 0; first < frames; first += block)
         engine.measure(x.data() + first, first, std::min(block, frames - first), work, carrier);
@@ -610,7 +675,7 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // Every channel gets channel 0's noise carrier: a dual-mono input stays
     // dual-mono (independent carriers would make it dichotic).
     for (int c = 0; c < channels; ++c)
-        engines.push_back(std::make_unique<ChannelEngine>(s, rate, setup.filters, setup.centres, 0, stored));
+        engines.push_back(std::make_unique<ChannelEngine>(s, rate, setup.filters, setup.centres, 0, stored, frames, true));
     const std::size_t stride = engines.front()->stride();
     std::vector<float> interleaved(block * nc);
     std::vector<double> x(block), work(block * stride), carrier(block * stride), sum(block);
@@ -644,8 +709,10 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     report.bands = bands[0];
 
     // Replays (passes 2 and 3): the input is read only past the store.
-    auto replay = [&](auto&& consume) {
+    // With `keep`, the engines keep what sums fit for the next replay.
+    auto replay = [&](auto&& consume, bool keep) {
         for (auto& engine : engines) engine->begin_replay();
+        const std::size_t stored = engines.front()->replay_from();  // the same for every channel
         if (stored < frames) input.seek(stored);
         for (std::size_t first = 0; first < frames; first += block) {
             const std::size_t count = std::min(block, frames - first);
@@ -665,7 +732,7 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
             }
             for (std::size_t c = 0; c < nc; ++c) {
                 if (from_input > 0) deinterleave(count, c);
-                engines[c]->replay(x.data(), first, count, sum.data(), work, carrier);
+                engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep);
                 consume(c, first, count);
             }
         }
@@ -673,12 +740,17 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
 
     // Pass 2: the sum's energy and peak per channel, then the gains.
     std::vector<double> out_sq(nc, 0.0), max_abs(nc, 0.0);
-    replay([&](std::size_t c, std::size_t, std::size_t count) {
-        for (std::size_t n = 0; n < count; ++n) {
-            out_sq[c] += sum[n] * sum[n];
-            max_abs[c] = std::max(max_abs[c], std::abs(sum[n]));
-        }
-    });
+    replay(
+        [&](std::size_t c, std::size_t, std::size_t count) {
+            double sq = out_sq[c], top = max_abs[c];
+            for (std::size_t n = 0; n < count; ++n) {
+                sq += sum[n] * sum[n];
+                top = std::max(top, std::abs(sum[n]));
+            }
+            out_sq[c] = sq;
+            max_abs[c] = top;
+        },
+        true);
     std::vector<double> gain(nc, 1.0);
     std::vector<bool> apply_gain(nc, false);
     double peak = 0.0;
@@ -707,13 +779,16 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
 
     // Pass 3: the output.
     std::vector<float> out(block * nc);
-    replay([&](std::size_t c, std::size_t, std::size_t count) {
-        for (std::size_t n = 0; n < count; ++n) {
-            const double v = apply_gain[c] ? sum[n] * gain[c] : sum[n];
-            out[n * nc + c] = static_cast<float>(v * scale);
-        }
-        if (c + 1 == nc) output.write(out.data(), count);
-    });
+    replay(
+        [&](std::size_t c, std::size_t, std::size_t count) {
+            const double g = gain[c];
+            if (apply_gain[c])
+                for (std::size_t n = 0; n < count; ++n) out[n * nc + c] = static_cast<float>(sum[n] * g * scale);
+            else
+                for (std::size_t n = 0; n < count; ++n) out[n * nc + c] = static_cast<float>(sum[n] * scale);
+            if (c + 1 == nc) output.write(out.data(), count);
+        },
+        false);
     return report;
 }
 

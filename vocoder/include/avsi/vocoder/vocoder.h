@@ -153,7 +153,7 @@ ChannelResult vocode_channel_in_blocks(std::span<const double> samples, double s
 // 4 bytes per band, channel and frame; past it they are computed again).
 struct StreamLimits {
     std::size_t block_frames = 4096;
-    std::size_t store_bytes = std::size_t{64} << 20;
+    std::size_t store_bytes = std::size_t{96} << 20;
 };
 // vocode_stream with the limits given (for tests: any limits must give the
 // same output).
