@@ -122,7 +122,10 @@ void process_file_streaming(const fs::path& input, const fs::path& output, const
         source = &*mixed;
     }
     if (s.vocode) {
-        report.vocoder_limit_gain_db = vocode_stream(*source, out, s.vocoder).limit_gain_db;
+        // One thread per file: the batch spreads the files over the cores.
+        detail::StreamLimits limits;
+        limits.threads = 1;
+        report.vocoder_limit_gain_db = detail::vocode_stream(*source, out, s.vocoder, limits).limit_gain_db;
     } else {
         std::vector<float> block(8192 * static_cast<std::size_t>(in.channels()));
         source->seek(0);

@@ -17,6 +17,11 @@
 #include <numbers>
 #include <numeric>
 #include <optional>
+#include <exception>
+#include <functional>
+#include <utility>
+#include <semaphore>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -250,6 +255,51 @@ std::vector<double> band_edges_hz(const VocoderSettings& s) {
 
 namespace {
 
+// A second thread that runs one job at a time beside the caller: the back
+// of the fused pipeline (steps 3–4) for one piece of a block while the
+// caller runs the front (steps 1–2) of the next piece.
+class PairWorker {
+public:
+    PairWorker() : m_thread([this] { loop(); }) {}
+    ~PairWorker() {
+        m_stop = true;
+        m_go.release();
+        m_thread.join();
+    }
+    PairWorker(const PairWorker&) = delete;
+    PairWorker& operator=(const PairWorker&) = delete;
+
+    // Starts `job` on the worker; wait() before the next start.
+    void start(std::function<void()> job) {
+        m_job = std::move(job);
+        m_go.release();
+    }
+    // Waits for the job started last; rethrows what it threw.
+    void wait() {
+        m_done.acquire();
+        if (m_error) std::rethrow_exception(std::exchange(m_error, nullptr));
+    }
+
+private:
+    void loop() {
+        for (;;) {
+            m_go.acquire();
+            if (m_stop) return;
+            try {
+                m_job();
+            } catch (...) {
+                m_error = std::current_exception();
+            }
+            m_done.release();
+        }
+    }
+    std::function<void()> m_job;
+    std::exception_ptr m_error;
+    bool m_stop = false;
+    std::binary_semaphore m_go{0}, m_done{0};
+    std::thread m_thread;
+};
+
 // The band-pass and envelope filters of one channel and their memory, so the
 // signal can run through the pipeline block by block.
 struct Pipeline {
@@ -266,6 +316,10 @@ struct Pipeline {
     std::vector<std::uint64_t> noise_draw;
     std::vector<double> analysis_sum_sq;
     bool fused;  // steps 1–4 in one loop (fused_pipeline.h)
+    // With the fused loop: a block of more than one piece runs front and
+    // back on two threads (the back a piece behind); null: one thread.
+    PairWorker* worker = nullptr;
+    static constexpr std::size_t kPieceFrames = 4096;
 
     Pipeline(const VocoderSettings& s, double rate_hz, const std::vector<Sos>& band_filters, int channel)
         : settings(s), rate(rate_hz), lanes(band_filters.size()), bands(band_filters),
@@ -351,12 +405,49 @@ struct Pipeline {
         rows.frames = frames;
         rows.analysis_sum_sq = analysis_sum_sq.data();
         if (fused) {
-            make_carrier(carrier.data(), first, frames, centres_hz);
             detail::FusedBanks banks{&bands, &envelope_lowpass, &analysis_state, &envelope_state,
                                      settings.prefilter_carrier ? &prefilter_state : nullptr,
                                      settings.refilter_carrier ? &refilter_state : nullptr,
                                      settings.envelope == EnvelopeMethod::FullWaveRectify};
-            detail::run_fused(banks, rows);
+            if (!worker || frames <= kPieceFrames) {
+                make_carrier(carrier.data(), first, frames, centres_hz);
+                detail::run_fused(banks, rows);
+                return;
+            }
+            // Piece i's front beside piece i − 1's back (which makes its
+            // carriers first); each piece in its own part of work/carrier.
+            auto piece = [&](std::size_t i) {
+                detail::FusedBlock p = rows;
+                const std::size_t start = i * kPieceFrames;
+                p.frames = std::min(kPieceFrames, frames - start);
+                p.x += start;
+                p.carrier += start * stride;
+                p.work += start * stride;
+                if (p.rows) p.rows += start * p.lanes;
+                if (p.sum) p.sum += start;
+                return p;
+            };
+            const std::size_t pieces = (frames + kPieceFrames - 1) / kPieceFrames;
+            for (std::size_t i = 0; i <= pieces; ++i) {
+                if (i > 0) {
+                    const detail::FusedBlock back = piece(i - 1);
+                    double* c = carrier.data() + (i - 1) * kPieceFrames * stride;
+                    const std::size_t at = first + (i - 1) * kPieceFrames;
+                    worker->start([this, back, banks, c, at, &centres_hz] {
+                        make_carrier(c, at, back.frames, centres_hz);
+                        detail::run_fused_back(banks, back);
+                    });
+                }
+                if (i < pieces) {
+                    try {
+                        detail::run_fused_front(banks, piece(i));
+                    } catch (...) {
+                        if (i > 0) worker->wait();
+                        throw;
+                    }
+                }
+                if (i > 0) worker->wait();
+            }
             return;
         }
         if (rows.in_sum_sq)
@@ -436,6 +527,9 @@ public:
 
     std::size_t lanes() const { return m_lanes; }
     std::size_t stride() const { return m_stride; }
+    bool fused() const { return m_pipeline.fused; }
+    // Runs the pipeline (and its copies) with a second thread (see Pipeline::worker).
+    void use_worker(PairWorker* worker) { m_pipeline.worker = worker; }
     // The first frame the next replay computes again (and so reads the input from).
     std::size_t replay_from() const { return m_sums_kept ? m_summed : m_stored; }
 
@@ -544,16 +638,24 @@ private:
     float* rows_at(std::size_t frame) {
         return reinterpret_cast<float*>(m_store.get()) + frame * m_lanes;
     }
-    // sum[n] = Σ_b gains[b]·rows[n][b] in band order from 0.0 (+ 0.0 when padded).
+    // sum[n] = Σ_b gains[b]·rows[n][b] in band order from 0.0 (+ 0.0 when
+    // padded); four frames at a time, each frame's operations in that order.
     void sum_rows(const float* rows, std::size_t count, bool padded, double* sum) const {
         auto run = [&](auto lanes_constant) {
             constexpr std::size_t L = decltype(lanes_constant)::value;
             const std::size_t lanes = L ? L : m_lanes;
-            for (std::size_t n = 0; n < count; ++n) {
+            std::size_t n = 0;
+            for (; n + 4 <= count; n += 4) {
+                double s[4] = {0.0, 0.0, 0.0, 0.0};
+                for (std::size_t b = 0; b < lanes; ++b)
+                    for (std::size_t j = 0; j < 4; ++j)
+                        s[j] += m_gains[b] * static_cast<double>(rows[(n + j) * lanes + b]);
+                for (std::size_t j = 0; j < 4; ++j) sum[n + j] = padded ? s[j] + 0.0 : s[j];
+            }
+            for (; n < count; ++n) {
                 double s = 0.0;
-                for (std::size_t b = 0; b < lanes; ++b) s += m_gains[b] * rows[n * lanes + b];
-                if (padded) s += 0.0;
-                sum[n] = s;
+                for (std::size_t b = 0; b < lanes; ++b) s += m_gains[b] * static_cast<double>(rows[n * lanes + b]);
+                sum[n] = padded ? s + 0.0 : s;
             }
         };
         switch (m_lanes) {
@@ -677,6 +779,13 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     for (int c = 0; c < channels; ++c)
         engines.push_back(std::make_unique<ChannelEngine>(s, rate, setup.filters, setup.centres, 0, stored, frames, true));
     const std::size_t stride = engines.front()->stride();
+    // Declared after the engines so it stops before they go.
+    std::optional<PairWorker> worker;
+    if (limits.threads >= 2 && engines.front()->fused() && block > Pipeline::kPieceFrames &&
+        frames > Pipeline::kPieceFrames) {
+        worker.emplace();
+        for (auto& engine : engines) engine->use_worker(&*worker);
+    }
     std::vector<float> interleaved(block * nc);
     std::vector<double> x(block), work(block * stride), carrier(block * stride), sum(block);
     // Reads frames [first, first + count) of channel c into x.
