@@ -661,6 +661,13 @@ public:
         }
     }
 
+    // The kept sums of frames [first, first + count) when the next replay
+    // reads them all from the store, else null.
+    const double* kept_sums(std::size_t first, std::size_t count) const {
+        if (!m_sums_kept || first + count > m_summed) return nullptr;
+        return reinterpret_cast<const double*>(m_store.get()) + first;
+    }
+
     double in_sq() const { return m_in_sq; }
 
 private:
@@ -848,6 +855,8 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
 
     // Replays (passes 2 and 3): the input is read only past the store.
     // With `keep`, the engines keep what sums fit for the next replay.
+    // `sums`: the block's sums for `consume` (`sum`, or the engine's store).
+    const double* sums = nullptr;
     auto replay = [&](auto&& consume, bool keep) {
         for (auto& engine : engines) engine->begin_replay();
         const std::size_t stored = engines.front()->replay_from();  // the same for every channel
@@ -870,7 +879,11 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
             }
             for (std::size_t c = 0; c < nc; ++c) {
                 if (from_input > 0) deinterleave(count, c);
-                engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep);
+                sums = engines[c]->kept_sums(first, count);
+                if (!sums) {
+                    engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep);
+                    sums = sum.data();
+                }
                 consume(c, first, count);
             }
         }
@@ -882,8 +895,8 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
         [&](std::size_t c, std::size_t, std::size_t count) {
             double sq = out_sq[c], top = max_abs[c];
             for (std::size_t n = 0; n < count; ++n) {
-                sq += sum[n] * sum[n];
-                top = std::max(top, std::abs(sum[n]));
+                sq += sums[n] * sums[n];
+                top = std::max(top, std::abs(sums[n]));
             }
             out_sq[c] = sq;
             max_abs[c] = top;
@@ -921,9 +934,9 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
         [&](std::size_t c, std::size_t, std::size_t count) {
             const double g = gain[c];
             if (apply_gain[c])
-                for (std::size_t n = 0; n < count; ++n) out[n * nc + c] = static_cast<float>(sum[n] * g * scale);
+                for (std::size_t n = 0; n < count; ++n) out[n * nc + c] = static_cast<float>(sums[n] * g * scale);
             else
-                for (std::size_t n = 0; n < count; ++n) out[n * nc + c] = static_cast<float>(sum[n] * scale);
+                for (std::size_t n = 0; n < count; ++n) out[n * nc + c] = static_cast<float>(sums[n] * scale);
             if (c + 1 == nc) output.write(out.data(), count);
         },
         false);
