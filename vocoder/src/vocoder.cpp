@@ -815,6 +815,10 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     for (int c = 0; c < channels; ++c)
         engines.push_back(std::make_unique<ChannelEngine>(s, rate, setup.filters, setup.centres, 0, stored, frames, true));
     const std::size_t stride = engines.front()->stride();
+    // Pass 3's output blocks, two so that the worker writes one while the
+    // next is filled (declared before the worker, which may still be
+    // writing one when an exception unwinds: it finishes before they go).
+    std::vector<float> out[2] = {std::vector<float>(block * nc), std::vector<float>(block * nc)};
     // Declared after the engines so it stops before they go.
     std::optional<PairWorker> worker;
     if (limits.threads >= 2 && engines.front()->fused() && block > Pipeline::kPieceFrames &&
@@ -857,6 +861,14 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // With `keep`, the engines keep what sums fit for the next replay.
     // `sums`: the block's sums for `consume` (`sum`, or the engine's store).
     const double* sums = nullptr;
+    // Pass 3 writes its blocks on the worker, when there is one.
+    bool write_pending = false;
+    auto finish_write = [&] {
+        if (write_pending) {
+            write_pending = false;
+            worker->wait();
+        }
+    };
     auto replay = [&](auto&& consume, bool keep) {
         for (auto& engine : engines) engine->begin_replay();
         const std::size_t stored = engines.front()->replay_from();  // the same for every channel
@@ -881,6 +893,7 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
                 if (from_input > 0) deinterleave(count, c);
                 sums = engines[c]->kept_sums(first, count);
                 if (!sums) {
+                    finish_write();  // the pipeline may need the worker
                     engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep);
                     sums = sum.data();
                 }
@@ -928,18 +941,29 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
                     peak, report.limit_gain_db);
     }
 
-    // Pass 3: the output.
-    std::vector<float> out(block * nc);
+    // Pass 3: the output (block k written on the worker while block k + 1
+    // is filled, into the other buffer).
+    std::size_t current = 0;
     replay(
         [&](std::size_t c, std::size_t, std::size_t count) {
+            float* o = out[current].data();
             const double g = gain[c];
             if (apply_gain[c])
-                for (std::size_t n = 0; n < count; ++n) out[n * nc + c] = static_cast<float>(sums[n] * g * scale);
+                for (std::size_t n = 0; n < count; ++n) o[n * nc + c] = static_cast<float>(sums[n] * g * scale);
             else
-                for (std::size_t n = 0; n < count; ++n) out[n * nc + c] = static_cast<float>(sums[n] * scale);
-            if (c + 1 == nc) output.write(out.data(), count);
+                for (std::size_t n = 0; n < count; ++n) o[n * nc + c] = static_cast<float>(sums[n] * scale);
+            if (c + 1 < nc) return;
+            if (!worker) {
+                output.write(o, count);
+                return;
+            }
+            finish_write();
+            worker->start([&output, o, count] { output.write(o, count); });
+            write_pending = true;
+            current = 1 - current;
         },
         false);
+    finish_write();
     return report;
 }
 
