@@ -974,8 +974,12 @@ ChannelResult vocode_channel(std::span<const double> x, double rate, const Vocod
     return detail::vocode_channel_in_blocks(x, rate, s, channel, keep_band_signals, 512);
 }
 
+// One thread: these are called by code that runs several at once (stimulus
+// builds, batches); `avsi vocode` of one file asks for two (batch.cpp).
 VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const VocoderSettings& settings) {
-    return detail::vocode_stream(input, output, settings, detail::StreamLimits{});
+    detail::StreamLimits limits;
+    limits.threads = 1;
+    return detail::vocode_stream(input, output, settings, limits);
 }
 
 VocoderResult vocode(const Audio& input, const VocoderSettings& settings) {
@@ -985,7 +989,9 @@ VocoderResult vocode(const Audio& input, const VocoderSettings& settings) {
     result.audio.channels = input.channels;
     result.audio.samples.reserve(input.samples.size());
     AudioBufferSink sink(result.audio);
-    VocoderReport report = detail::vocode_stream(source, sink, settings, detail::StreamLimits{});
+    detail::StreamLimits limits;
+    limits.threads = 1;
+    VocoderReport report = detail::vocode_stream(source, sink, settings, limits);
     result.bands = std::move(report.bands);
     result.output_gain_db = report.output_gain_db;
     result.peak_before_limit = report.peak_before_limit;

@@ -153,7 +153,8 @@ ChannelResult vocode_channel_in_blocks(std::span<const double> samples, double s
 // 4 bytes per band, channel and frame; past it they are computed again) and
 // the threads of the filter pipeline (2: steps 1–2 and 3–4 of the channel
 // vocoder on two threads, a piece of 4096 frames apart, when a block holds
-// more than one piece; the output is the same with 1).
+// more than one piece, and pass 3's writing beside its sums; the output is
+// the same with 1, which vocode() and the vocode_stream above use).
 struct StreamLimits {
     std::size_t block_frames = 32768;
     std::size_t store_bytes = std::size_t{96} << 20;
