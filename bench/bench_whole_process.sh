@@ -15,6 +15,7 @@
 #
 #   bench/bench_whole_process.sh [BUILD_DIR]       (default build)
 #   RUNS=9 OUT=out/bench-whole AVSI_BEFORE=/path/to/older/avsi bench/bench_whole_process.sh build
+#   ONLY='vocode|sox' bench/bench_whole_process.sh build   (only the tasks whose names match)
 #
 # AVSI_BEFORE: another avsi executable timed on the same tasks (e.g. one
 # built from an older commit) for a before/after column.
@@ -28,6 +29,7 @@ build_dir="${1:-build}"
 runs="${RUNS:-7}"
 out="${OUT:-out/bench-whole}"
 before="${AVSI_BEFORE:-}"
+only="${ONLY:-}"  # extended regular expression on the task names; empty: all
 if [[ -n "$before" ]]; then
   [[ -x "$before" ]] || { echo "bench_whole_process: AVSI_BEFORE=$before is not an executable" >&2; exit 1; }
   before="$(cd "$(dirname "$before")" && pwd)/$(basename "$before")"  # before the cd below
@@ -48,10 +50,18 @@ work="$out/work"
 mkdir -p "$work"
 cd "$work"
 
-echo "load before: $(uptime)"
+load_before="$(uptime)"
+echo "load before: $load_before"
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
 
 # --- Inputs -----------------------------------------------------------------
+# wanted NAME...: whether any of these tasks is selected by ONLY.
+wanted() {
+  [[ -z "$only" ]] && return 0
+  local name
+  for name in "$@"; do grep -Eq -- "$only" <<<"$name" && return 0; done
+  return 1
+}
 sentence="The boy fell from the window."
 if [[ ! -f speech9.wav ]]; then
   # 9 minutes of espeak-ng speech (22.05 kHz mono): the corpus sentences read
@@ -61,12 +71,14 @@ if [[ ! -f speech9.wav ]]; then
   sox part.wav part.wav part.wav part.wav speech9.wav trim 0 540
   rm -f part.wav
 fi
-"$avsi" phones --text "$sentence" --wav sentence.wav --out sentence.tsv 2>/dev/null
-"$avsi" synth --phones sentence.tsv --out sentence.csv 2>/dev/null
-if [[ ! -f lists.csv ]]; then
+if wanted "synth, phones of a sentence" "render a sentence (MP4)" "encode its frames: ffmpeg"; then
+  "$avsi" phones --text "$sentence" --wav sentence.wav --out sentence.tsv 2>/dev/null
+  "$avsi" synth --phones sentence.tsv --out sentence.csv 2>/dev/null
+fi
+if wanted "score 25 subjects" && [[ ! -f lists.csv ]]; then
   "$avsi" design "$repo/protocols/beskow2004-en.toml" --subjects 25 --out lists.csv >/dev/null 2>&1
 fi
-if [[ ! -f responses.csv ]]; then
+if wanted "score 25 subjects" && [[ ! -f responses.csv ]]; then
   # Every test trial of the 25 subjects answered with each word of the
   # sentence kept with probability 0.7 (seeded), as scripts/dry-run-responses does.
   "$python" - "$repo/protocols/corpus/sentences.csv" lists.csv responses.csv <<'EOF'
@@ -83,11 +95,16 @@ with open(sys.argv[3], "w", newline="") as f:
 EOF
 fi
 # The frames of the sentence as PNGs, for ffmpeg to encode.
-rm -rf frames && "$avsi" render --traj sentence.csv --out frames/ 2>/dev/null
-fps=$(awk -F, 'NR==2{t0=$1} NR==3{printf "%.0f", 1/($1-t0)}' sentence.csv)
+fps=60
 pattern="frames/frame_%05d.png"
-[[ -f frames/frame_00000.png ]] || { echo "bench_whole_process: expected frames/frame_00000.png from avsi render" >&2; exit 1; }
-"$avsi" vocode speech9.wav vocoded9.wav 2>/dev/null
+if wanted "encode its frames: ffmpeg"; then
+  rm -rf frames && "$avsi" render --traj sentence.csv --out frames/ 2>/dev/null
+  fps=$(awk -F, 'NR==2{t0=$1} NR==3{printf "%.0f", 1/($1-t0)}' sentence.csv)
+  [[ -f frames/frame_00000.png ]] || { echo "bench_whole_process: expected frames/frame_00000.png from avsi render" >&2; exit 1; }
+fi
+if wanted "stoi 9 min"; then
+  "$avsi" vocode speech9.wav vocoded9.wav 2>/dev/null
+fi
 
 # --- Timing -----------------------------------------------------------------
 # name|command (hyperfine -N: no shell; quotes group words)
@@ -124,6 +141,7 @@ declare -A median cpu
 for task in "${tasks[@]}"; do
   name="${task%%|*}"
   command="${task#*|}"
+  [[ -z "$only" ]] || grep -Eq -- "$only" <<<"$name" || continue
   json="$out/$(echo "$name" | tr -c 'A-Za-z0-9' '_').json"
   if ! hyperfine -N --warmup 1 --runs "$runs" --export-json "$json" "$command" >/dev/null 2>&1; then
     # An older executable may not read today's data files: its row says so.
@@ -146,8 +164,10 @@ ratios() {
 }
 {
   echo
-  echo "vocode 9 min, numpy/scipy / avsi: $(ratios 'vocode 9 min: numpy/scipy' 'vocode 9 min');" \
-       "avsi at $(ratio 540000 "${median['vocode 9 min']}")x real time wall, $(ratio 540000 "${cpu['vocode 9 min']}")x on CPU time"
+  if [[ -n "${median['vocode 9 min']:-}" ]]; then
+    echo "vocode 9 min, numpy/scipy / avsi: $(ratios 'vocode 9 min: numpy/scipy' 'vocode 9 min');" \
+         "avsi at $(ratio 540000 "${median['vocode 9 min']}")x real time wall, $(ratio 540000 "${cpu['vocode 9 min']}")x on CPU time"
+  fi
   echo "sox read + write 9 min / avsi vocode: $(ratios 'read + write 9 min: sox' 'vocode 9 min')"
   echo "ffmpeg encoding the frames / avsi render (render + encode + mux): $(ratios 'encode its frames: ffmpeg' 'render a sentence (MP4)')"
   if [[ -n "$before" ]]; then
@@ -157,5 +177,5 @@ ratios() {
     done
   fi
 } | tee -a "$table"
-echo "load after: $(uptime)"
+echo "load before: $load_before; after: $(uptime)" | tee -a "$table"
 echo "table: $table"

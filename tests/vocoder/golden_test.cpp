@@ -119,10 +119,15 @@ TEST(VocoderGolden, EveryChannelIsVocodedWithChannel0sCarrier) {
 }
 
 // The streaming path with short odd blocks and a store of nothing, of a
-// few frames (its end inside a block) and of everything: the passes that
-// compute the band outputs again must give the same samples.
+// few frames (its end inside a block), of most frames (the sums of pass 2
+// then fit for all frames, or for some, in the same memory) and of
+// everything, on one thread or two (blocks of several 4096-frame pieces):
+// the passes that compute the band outputs again must give the same samples.
 TEST(VocoderGolden, StreamingWithAnyBlockAndStoreGivesTheRecordedHashes) {
-    const std::vector<detail::StreamLimits> limits = {{333, 0}, {1000, 12345}, {4096, std::size_t{1} << 30}, {1, 64}};
+    const std::vector<detail::StreamLimits> limits = {
+        {333, 0, 2},         {1000, 12345, 2}, {700, 200000, 2},   {4096, std::size_t{1} << 30, 2},
+        {1, 64, 2},          {20000, 0, 2},    {9000, 100000, 2},  {32768, std::size_t{1} << 30, 2},
+        {32768, 150000, 1}};
     for (const Case& c : cases()) {
         SCOPED_TRACE(c.name);
         const Audio in = input(c.channels, c.gain, c.settings.bands > 8 ? 0.4 : 1.3);
@@ -132,7 +137,8 @@ TEST(VocoderGolden, StreamingWithAnyBlockAndStoreGivesTheRecordedHashes) {
         }
         for (const detail::StreamLimits& l : limits) {
             if (l.block_frames == 1 && c.settings.bands > 3) continue;  // slow and adds nothing
-            SCOPED_TRACE(::testing::Message() << "block " << l.block_frames << ", store " << l.store_bytes);
+            SCOPED_TRACE(::testing::Message() << "block " << l.block_frames << ", store " << l.store_bytes
+                                               << ", threads " << l.threads);
             AudioBufferSource source(in);
             Audio out;
             out.sample_rate_hz = in.sample_rate_hz;

@@ -105,9 +105,9 @@ bool streamable(const ProcessSettings& s, const fs::path& input) {
 }
 
 // File to file in blocks (streamable() holds): memory bounded whatever the
-// files' lengths.
+// files' lengths; the vocoder's filters on `threads` threads (1 or 2).
 void process_file_streaming(const fs::path& input, const fs::path& output, const ProcessSettings& s,
-                            FileReport& report) {
+                            FileReport& report, unsigned threads) {
     AudioFileReader in(input);
     AudioFileWriter out(output, in.sample_rate_hz(), in.channels());
     std::optional<NoiseFile> noise;
@@ -122,7 +122,9 @@ void process_file_streaming(const fs::path& input, const fs::path& output, const
         source = &*mixed;
     }
     if (s.vocode) {
-        report.vocoder_limit_gain_db = vocode_stream(*source, out, s.vocoder).limit_gain_db;
+        detail::StreamLimits limits;
+        limits.threads = threads;
+        report.vocoder_limit_gain_db = detail::vocode_stream(*source, out, s.vocoder, limits).limit_gain_db;
     } else {
         std::vector<float> block(8192 * static_cast<std::size_t>(in.channels()));
         source->seek(0);
@@ -146,7 +148,7 @@ FileReport process_file(const fs::path& input, const fs::path& output, const Pro
     FileReport report{input, output};
     try {
         if (streamable(s, input)) {
-            process_file_streaming(input, output, s, report);
+            process_file_streaming(input, output, s, report, 2);
             return report;
         }
     } catch (const InputError& e) {
@@ -197,7 +199,9 @@ std::vector<FileReport> process_folder(const fs::path& input_folder, const fs::p
             try {
                 FileReport report{files[i], output};
                 if (streamable(s, files[i])) {
-                    process_file_streaming(files[i], output, s, report);
+                    // Two threads for a file only when the files do not
+                    // already run side by side.
+                    process_file_streaming(files[i], output, s, report, threads >= 2 ? 1 : 2);
                 } else {
                     const Audio audio = read_audio(files[i]);
                     const std::vector<double>* noise = nullptr;

@@ -98,45 +98,54 @@ struct Cascade {
 };
 
 // Two loops over the block, each with the state of at most eight sections
-// in registers: steps 1–2 (analysis, rectification, envelope; the envelope
-// into `work`), then steps 3–4 (carrier, modulation, re-filter) and the rows.
-template <bool FullWave, bool Prefilter, bool Refilter, bool Replay>
-[[gnu::always_inline]] inline void run_chunk(const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
+// in registers: the front, steps 1–2 (analysis, rectification, envelope;
+// the envelope into `work`), and the back, steps 3–4 (carrier, modulation,
+// re-filter) and the rows. They share nothing but `work`, so the front of
+// one block can run beside the back of the block before it (run_fused_front
+// and run_fused_back, on two threads).
+template <bool FullWave>
+[[gnu::always_inline]] inline void front_chunk(const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
     const std::size_t stride = banks.bands->stride();
     const std::size_t lane0 = chunk * kChunk;
     const std::size_t frames = block.frames;
     const double* x = block.x;
-    const double* carrier = block.carrier + lane0;
     double* work = block.work + lane0;
-    {
-        Cascade<kBandSections> analysis;
-        Cascade<kEnvelopeSections> envelope;
-        analysis.open(*banks.bands, *banks.analysis, chunk);
-        envelope.open(*banks.envelope, *banks.envelope_state, chunk);
-        Lanes analysis_sq;
-        load(analysis_sq, block.analysis_sum_sq + lane0);
-        double in_sq = block.in_sum_sq ? *block.in_sum_sq : 0.0;
-        const bool input_energy = block.in_sum_sq && chunk == 0;
-        for (std::size_t n = 0; n < frames; ++n) {
-            const double xn = x[n];
-            if (input_energy) in_sq += xn * xn;
-            // 1. Analysis, and its energy.
-            Lanes v = {xn, xn, xn, xn};
-            analysis.band_pass(v);
-            analysis_sq += v * v;
-            // 2. Envelope.
-            if constexpr (FullWave)
-                abs(v);
-            else
-                max0(v);
-            envelope.low_pass(v);
-            store(work + n * stride, v);
-        }
-        if (input_energy) *block.in_sum_sq = in_sq;
-        store(block.analysis_sum_sq + lane0, analysis_sq);
-        analysis.close();
-        envelope.close();
+    Cascade<kBandSections> analysis;
+    Cascade<kEnvelopeSections> envelope;
+    analysis.open(*banks.bands, *banks.analysis, chunk);
+    envelope.open(*banks.envelope, *banks.envelope_state, chunk);
+    Lanes analysis_sq;
+    load(analysis_sq, block.analysis_sum_sq + lane0);
+    double in_sq = block.in_sum_sq ? *block.in_sum_sq : 0.0;
+    const bool input_energy = block.in_sum_sq && chunk == 0;
+    for (std::size_t n = 0; n < frames; ++n) {
+        const double xn = x[n];
+        if (input_energy) in_sq += xn * xn;
+        // 1. Analysis, and its energy.
+        Lanes v = {xn, xn, xn, xn};
+        analysis.band_pass(v);
+        analysis_sq += v * v;
+        // 2. Envelope.
+        if constexpr (FullWave)
+            abs(v);
+        else
+            max0(v);
+        envelope.low_pass(v);
+        store(work + n * stride, v);
     }
+    if (input_energy) *block.in_sum_sq = in_sq;
+    store(block.analysis_sum_sq + lane0, analysis_sq);
+    analysis.close();
+    envelope.close();
+}
+
+template <bool Prefilter, bool Refilter, bool Replay>
+[[gnu::always_inline]] inline void back_chunk(const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
+    const std::size_t stride = banks.bands->stride();
+    const std::size_t lane0 = chunk * kChunk;
+    const std::size_t frames = block.frames;
+    const double* carrier = block.carrier + lane0;
+    const double* work = block.work + lane0;
     Cascade<kBandSections> prefilter, refilter;
     if constexpr (Prefilter) prefilter.open(*banks.bands, *banks.prefilter, chunk);
     if constexpr (Refilter) refilter.open(*banks.bands, *banks.refilter, chunk);
@@ -174,33 +183,31 @@ template <bool FullWave, bool Prefilter, bool Refilter, bool Replay>
     if constexpr (Refilter) refilter.close();
 }
 
-template <bool FullWave, bool Prefilter, bool Refilter>
-[[gnu::always_inline]] inline void run_chunk_squares(const FusedBanks& banks, const FusedBlock& block,
-                                                     std::size_t chunk) {
+template <bool Prefilter, bool Refilter>
+[[gnu::always_inline]] inline void back_chunk_squares(const FusedBanks& banks, const FusedBlock& block,
+                                                      std::size_t chunk) {
     if (block.sum)
-        run_chunk<FullWave, Prefilter, Refilter, true>(banks, block, chunk);
+        back_chunk<Prefilter, Refilter, true>(banks, block, chunk);
     else
-        run_chunk<FullWave, Prefilter, Refilter, false>(banks, block, chunk);
+        back_chunk<Prefilter, Refilter, false>(banks, block, chunk);
 }
 
-template <bool FullWave>
-[[gnu::always_inline]] inline void run_chunk_carrier(const FusedBanks& banks, const FusedBlock& block,
-                                                     std::size_t chunk) {
-    const bool pre = banks.prefilter != nullptr, re = banks.refilter != nullptr;
-    if (pre && re) return run_chunk_squares<FullWave, true, true>(banks, block, chunk);
-    if (pre) return run_chunk_squares<FullWave, true, false>(banks, block, chunk);
-    if (re) return run_chunk_squares<FullWave, false, true>(banks, block, chunk);
-    return run_chunk_squares<FullWave, false, false>(banks, block, chunk);
-}
-
-// AVX-512 (32 vector registers: the ten sections' state and coefficients
-// stay in registers), AVX2, and the baseline, picked at load time.
-__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void run_chunk_dispatch(
+// AVX-512 (32 vector registers), AVX2, and the baseline, picked at load time.
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void front_dispatch(
     const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
     if (banks.full_wave)
-        run_chunk_carrier<true>(banks, block, chunk);
+        front_chunk<true>(banks, block, chunk);
     else
-        run_chunk_carrier<false>(banks, block, chunk);
+        front_chunk<false>(banks, block, chunk);
+}
+
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void back_dispatch(
+    const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
+    const bool pre = banks.prefilter != nullptr, re = banks.refilter != nullptr;
+    if (pre && re) return back_chunk_squares<true, true>(banks, block, chunk);
+    if (pre) return back_chunk_squares<true, false>(banks, block, chunk);
+    if (re) return back_chunk_squares<false, true>(banks, block, chunk);
+    return back_chunk_squares<false, false>(banks, block, chunk);
 }
 
 // x = rotl(x, k) per lane.
@@ -266,9 +273,19 @@ bool fused_supported(const SosBank& bands, const SosBank& envelope) {
            envelope.stride() == bands.stride();
 }
 
-void run_fused(const FusedBanks& banks, const FusedBlock& block) {
+void run_fused_front(const FusedBanks& banks, const FusedBlock& block) {
     AVSI_ASSERT(fused_supported(*banks.bands, *banks.envelope));
-    for (std::size_t chunk = 0; chunk < banks.bands->stride() / kChunk; ++chunk) run_chunk_dispatch(banks, block, chunk);
+    for (std::size_t chunk = 0; chunk < banks.bands->stride() / kChunk; ++chunk) front_dispatch(banks, block, chunk);
+}
+
+void run_fused_back(const FusedBanks& banks, const FusedBlock& block) {
+    AVSI_ASSERT(fused_supported(*banks.bands, *banks.envelope));
+    for (std::size_t chunk = 0; chunk < banks.bands->stride() / kChunk; ++chunk) back_dispatch(banks, block, chunk);
+}
+
+void run_fused(const FusedBanks& banks, const FusedBlock& block) {
+    run_fused_front(banks, block);
+    run_fused_back(banks, block);
 }
 
 void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t stride,

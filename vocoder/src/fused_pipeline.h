@@ -50,8 +50,15 @@ struct FusedBanks {
 // True when the fused loop handles these banks (kinds and section counts).
 bool fused_supported(const SosBank& bands, const SosBank& envelope);
 
-// Runs the block (fused_supported must hold).
+// Runs the block (fused_supported must hold): the front (steps 1–2: x,
+// analysis and envelope states, analysis_sum_sq, in_sum_sq; the envelopes
+// into `work`), then the back (steps 3–4: carrier, work, prefilter and
+// refilter states, the rest). The front of one block and the back of an
+// earlier one touch nothing in common but their own `work`, so they can run
+// on two threads at once; each alone gives what run_fused gives.
 void run_fused(const FusedBanks& banks, const FusedBlock& block);
+void run_fused_front(const FusedBanks& banks, const FusedBlock& block);
+void run_fused_back(const FusedBanks& banks, const FusedBlock& block);
 
 // Noise carriers for lanes [0, lanes) of `stride`: at absolute frame t,
 // lane l gets (bits · 2^-31 − 1) with bits the low (t even) or high (t odd)

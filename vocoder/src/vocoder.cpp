@@ -11,13 +11,21 @@
 
 #include <algorithm>
 #include <complex>
+#include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <cmath>
 #include <numbers>
 #include <numeric>
 #include <optional>
+#include <exception>
+#include <functional>
+#include <utility>
+#include <semaphore>
+#include <thread>
 
 #include <fmt/format.h>
+#include <sys/mman.h>
 
 #include "avsi/core/log.h"
 #include "avsi/core/rng.h"
@@ -249,6 +257,78 @@ std::vector<double> band_edges_hz(const VocoderSettings& s) {
 
 namespace {
 
+// The memory of ChannelEngine's store: large ones in 2 MiB-aligned memory
+// that the kernel may back with huge pages (a tenth of the time of a
+// 96 MiB store went to faulting in its 4 KiB pages one by one).
+class StoreBuffer {
+public:
+    explicit StoreBuffer(std::size_t bytes) {
+        constexpr std::size_t kHuge = std::size_t{2} << 20;
+        if (bytes >= kHuge) {
+            const std::size_t rounded = (bytes + kHuge - 1) / kHuge * kHuge;
+            m_data = static_cast<unsigned char*>(std::aligned_alloc(kHuge, rounded));
+#ifdef MADV_HUGEPAGE
+            if (m_data) ::madvise(m_data, rounded, MADV_HUGEPAGE);  // advice only: failure changes nothing
+#endif
+        } else {
+            m_data = static_cast<unsigned char*>(std::malloc(std::max<std::size_t>(bytes, 1)));
+        }
+        if (!m_data) throw std::bad_alloc();
+    }
+    ~StoreBuffer() { std::free(m_data); }
+    StoreBuffer(const StoreBuffer&) = delete;
+    StoreBuffer& operator=(const StoreBuffer&) = delete;
+    unsigned char* get() const { return m_data; }
+
+private:
+    unsigned char* m_data = nullptr;
+};
+
+// A second thread that runs one job at a time beside the caller: the back
+// of the fused pipeline (steps 3–4) for one piece of a block while the
+// caller runs the front (steps 1–2) of the next piece.
+class PairWorker {
+public:
+    PairWorker() : m_thread([this] { loop(); }) {}
+    ~PairWorker() {
+        m_stop = true;
+        m_go.release();
+        m_thread.join();
+    }
+    PairWorker(const PairWorker&) = delete;
+    PairWorker& operator=(const PairWorker&) = delete;
+
+    // Starts `job` on the worker; wait() before the next start.
+    void start(std::function<void()> job) {
+        m_job = std::move(job);
+        m_go.release();
+    }
+    // Waits for the job started last; rethrows what it threw.
+    void wait() {
+        m_done.acquire();
+        if (m_error) std::rethrow_exception(std::exchange(m_error, nullptr));
+    }
+
+private:
+    void loop() {
+        for (;;) {
+            m_go.acquire();
+            if (m_stop) return;
+            try {
+                m_job();
+            } catch (...) {
+                m_error = std::current_exception();
+            }
+            m_done.release();
+        }
+    }
+    std::function<void()> m_job;
+    std::exception_ptr m_error;
+    bool m_stop = false;
+    std::binary_semaphore m_go{0}, m_done{0};
+    std::thread m_thread;
+};
+
 // The band-pass and envelope filters of one channel and their memory, so the
 // signal can run through the pipeline block by block.
 struct Pipeline {
@@ -265,6 +345,10 @@ struct Pipeline {
     std::vector<std::uint64_t> noise_draw;
     std::vector<double> analysis_sum_sq;
     bool fused;  // steps 1–4 in one loop (fused_pipeline.h)
+    // With the fused loop: a block of more than one piece runs front and
+    // back on two threads (the back a piece behind); null: one thread.
+    PairWorker* worker = nullptr;
+    static constexpr std::size_t kPieceFrames = 4096;
 
     Pipeline(const VocoderSettings& s, double rate_hz, const std::vector<Sos>& band_filters, int channel)
         : settings(s), rate(rate_hz), lanes(band_filters.size()), bands(band_filters),
@@ -350,12 +434,49 @@ struct Pipeline {
         rows.frames = frames;
         rows.analysis_sum_sq = analysis_sum_sq.data();
         if (fused) {
-            make_carrier(carrier.data(), first, frames, centres_hz);
             detail::FusedBanks banks{&bands, &envelope_lowpass, &analysis_state, &envelope_state,
                                      settings.prefilter_carrier ? &prefilter_state : nullptr,
                                      settings.refilter_carrier ? &refilter_state : nullptr,
                                      settings.envelope == EnvelopeMethod::FullWaveRectify};
-            detail::run_fused(banks, rows);
+            if (!worker || frames <= kPieceFrames) {
+                make_carrier(carrier.data(), first, frames, centres_hz);
+                detail::run_fused(banks, rows);
+                return;
+            }
+            // Piece i's front beside piece i − 1's back (which makes its
+            // carriers first); each piece in its own part of work/carrier.
+            auto piece = [&](std::size_t i) {
+                detail::FusedBlock p = rows;
+                const std::size_t start = i * kPieceFrames;
+                p.frames = std::min(kPieceFrames, frames - start);
+                p.x += start;
+                p.carrier += start * stride;
+                p.work += start * stride;
+                if (p.rows) p.rows += start * p.lanes;
+                if (p.sum) p.sum += start;
+                return p;
+            };
+            const std::size_t pieces = (frames + kPieceFrames - 1) / kPieceFrames;
+            for (std::size_t i = 0; i <= pieces; ++i) {
+                if (i > 0) {
+                    const detail::FusedBlock back = piece(i - 1);
+                    double* c = carrier.data() + (i - 1) * kPieceFrames * stride;
+                    const std::size_t at = first + (i - 1) * kPieceFrames;
+                    worker->start([this, back, banks, c, at, &centres_hz] {
+                        make_carrier(c, at, back.frames, centres_hz);
+                        detail::run_fused_back(banks, back);
+                    });
+                }
+                if (i < pieces) {
+                    try {
+                        detail::run_fused_front(banks, piece(i));
+                    } catch (...) {
+                        if (i > 0) worker->wait();
+                        throw;
+                    }
+                }
+                if (i > 0) worker->wait();
+            }
             return;
         }
         if (rows.in_sum_sq)
@@ -415,33 +536,51 @@ struct Pipeline {
 // by a copy of the pipeline taken at frame `stored`, which gives the same
 // values (the pipeline is deterministic and block-length independent). With
 // everything stored, the pipeline runs once, as it always did.
+// Pass 2 can keep its sums for pass 3 in the same memory (`keep_sums`): a
+// frame's sum (8 bytes) takes less room than its band outputs (4 bytes per
+// band) from 3 bands on, so the sums of the first `summed` frames fit
+// (summed > stored) and pass 3 computes again only the frames past them,
+// with a copy of the pipeline taken at frame `summed`.
 class ChannelEngine {
 public:
     ChannelEngine(const VocoderSettings& s, double rate, const std::vector<Sos>& band_filters,
-                  const std::vector<double>& centres, int channel, std::size_t stored_frames)
+                  const std::vector<double>& centres, int channel, std::size_t stored_frames, std::size_t frames,
+                  bool keep_sums)
         : m_settings(s), m_centres(centres), m_pipeline(s, rate, band_filters, channel),
           m_lanes(band_filters.size()), m_stride(m_pipeline.bands.stride()), m_stored(stored_frames),
-          m_store(new float[stored_frames * m_lanes]), m_out_sum_sq(m_stride, 0.0) {}
+          m_summed(m_stored), m_store(stored_frames * m_lanes * sizeof(float)),
+          m_out_sum_sq(m_stride, 0.0) {
+        const std::size_t sum_room = stored_frames * m_lanes * sizeof(float) / sizeof(double);
+        if (keep_sums && m_stored < frames && sum_room > m_stored) m_summed = std::min(frames, sum_room);
+    }
 
     std::size_t lanes() const { return m_lanes; }
     std::size_t stride() const { return m_stride; }
+    bool fused() const { return m_pipeline.fused; }
+    // Runs the pipeline (and its copies) with a second thread (see Pipeline::worker).
+    void use_worker(PairWorker* worker) { m_pipeline.worker = worker; }
+    // The first frame the next replay computes again (and so reads the input from).
+    std::size_t replay_from() const { return m_sums_kept ? m_summed : m_stored; }
 
     // Pass 1 over frames [first, first + count) (x[0] is frame `first`);
     // `work` and `carrier` are scratch of count × stride.
     void measure(const double* x, std::size_t first, std::size_t count, std::vector<double>& work,
                  std::vector<double>& carrier) {
-        // Split at the end of the store: the replay pipeline starts there.
-        if (first < m_stored && first + count > m_stored) {
-            const std::size_t head = m_stored - first;
-            measure(x, first, head, work, carrier);
-            measure(x + head, m_stored, count - head, work, carrier);
-            return;
+        // Split at the end of the store and of the sums: replay pipelines start there.
+        for (std::size_t edge : {m_stored, m_summed}) {
+            if (first < edge && first + count > edge) {
+                const std::size_t head = edge - first;
+                measure(x, first, head, work, carrier);
+                measure(x + head, edge, count - head, work, carrier);
+                return;
+            }
         }
         if (first == m_stored) m_replay_start.emplace(m_pipeline);
+        if (first == m_summed && m_summed > m_stored) m_final_start.emplace(m_pipeline);
         detail::FusedBlock rows;
         rows.out_sum_sq = m_out_sum_sq.data();
         rows.in_sum_sq = &m_in_sq;
-        if (first < m_stored) rows.rows = m_store.get() + first * m_lanes;
+        if (first < m_stored) rows.rows = rows_at(first);
         rows.lanes = m_lanes;
         m_pipeline.run(x, first, count, work, carrier, m_centres, rows);
     }
@@ -462,57 +601,121 @@ public:
 
     // Starts a replay (pass 2 or 3) from frame 0.
     void begin_replay() {
-        if (m_replay_start) m_replay.emplace(*m_replay_start);
+        if (m_summed > m_stored && m_sums_written == m_summed) m_sums_kept = true;
+        if (m_sums_kept) {
+            if (m_final_start) m_replay.emplace(*m_final_start);
+        } else if (m_replay_start) {
+            m_replay.emplace(*m_replay_start);
+        }
     }
 
     // The level-matched band sum of frames [first, first + count) into `sum`
-    // (x[0] is frame `first`; read only past the store), in order from 0.
-    // With `band_signals`, also each band's level-matched output.
+    // (x[0] is frame `first`; read only from replay_from() on), in order
+    // from 0. With `band_signals`, also each band's level-matched output.
+    // With `keep`, the sums of frames before `summed` are kept for the next
+    // replay (which then reads them); only in one replay over all frames.
     void replay(const double* x, std::size_t first, std::size_t count, double* sum, std::vector<double>& work,
-                std::vector<double>& carrier, std::vector<std::vector<double>>* band_signals = nullptr) {
-        if (first < m_stored && first + count > m_stored) {
-            const std::size_t head = m_stored - first;
-            replay(x, first, head, sum, work, carrier, band_signals);
-            replay(x + head, m_stored, count - head, sum + head, work, carrier, band_signals);
+                std::vector<double>& carrier, std::vector<std::vector<double>>* band_signals = nullptr,
+                bool keep = false) {
+        const std::size_t from = replay_from();
+        if (first < from && first + count > from) {
+            const std::size_t head = from - first;
+            replay(x, first, head, sum, work, carrier, band_signals, keep);
+            replay(x + head, from, count - head, sum + head, work, carrier, band_signals, keep);
+            return;
+        }
+        if (keep && m_summed > m_stored && first < m_summed && first + count > m_summed) {
+            const std::size_t head = m_summed - first;
+            replay(x, first, head, sum, work, carrier, band_signals, keep);
+            replay(x + head, m_summed, count - head, sum + head, work, carrier, band_signals, keep);
+            return;
+        }
+        if (m_sums_kept && first < m_summed) {
+            std::memcpy(sum, m_store.get() + first * sizeof(double), count * sizeof(double));
             return;
         }
         if (first < m_stored) {
             // The sum as the pipeline's rows give it: over the stride's
             // lanes, whose padding lanes hold +0 with gain 0 and so add
             // +0.0 (which turns a -0 sum into +0).
-            const float* rows = m_store.get() + first * m_lanes;
+            const float* rows = rows_at(first);
             const bool padded = m_stride > m_lanes;
-            for (std::size_t n = 0; n < count; ++n) {
-                double s = 0.0;
-                for (std::size_t b = 0; b < m_lanes; ++b) s += m_gains[b] * rows[n * m_lanes + b];
-                if (padded) s += 0.0;
-                sum[n] = s;
-            }
+            sum_rows(rows, count, padded, sum);
             if (band_signals)
                 for (std::size_t b = 0; b < m_lanes; ++b)
                     for (std::size_t n = 0; n < count; ++n)
                         (*band_signals)[b][first + n] = m_gains[b] * rows[n * m_lanes + b];
-            return;
+        } else {
+            AVSI_ASSERT(m_replay && !band_signals);
+            detail::FusedBlock rows;
+            rows.gains = m_gains.data();
+            rows.sum = sum;
+            m_replay->run(x, first, count, work, carrier, m_centres, rows);
         }
-        AVSI_ASSERT(m_replay && !band_signals);
-        detail::FusedBlock rows;
-        rows.gains = m_gains.data();
-        rows.sum = sum;
-        m_replay->run(x, first, count, work, carrier, m_centres, rows);
+        // Frame n's sum goes to bytes [8n, 8n + 8), which hold band outputs
+        // of frames before n·8/(4·lanes) ≤ n only: read already.
+        if (keep && m_summed > m_stored && first < m_summed) {
+            AVSI_ASSERT(first == m_sums_written);
+            std::memcpy(m_store.get() + first * sizeof(double), sum, count * sizeof(double));
+            m_sums_written += count;
+        }
+    }
+
+    // The kept sums of frames [first, first + count) when the next replay
+    // reads them all from the store, else null.
+    const double* kept_sums(std::size_t first, std::size_t count) const {
+        if (!m_sums_kept || first + count > m_summed) return nullptr;
+        return reinterpret_cast<const double*>(m_store.get()) + first;
     }
 
     double in_sq() const { return m_in_sq; }
 
 private:
+    float* rows_at(std::size_t frame) {
+        return reinterpret_cast<float*>(m_store.get()) + frame * m_lanes;
+    }
+    // sum[n] = Σ_b gains[b]·rows[n][b] in band order from 0.0 (+ 0.0 when
+    // padded); four frames at a time, each frame's operations in that order.
+    void sum_rows(const float* rows, std::size_t count, bool padded, double* sum) const {
+        auto run = [&](auto lanes_constant) {
+            constexpr std::size_t L = decltype(lanes_constant)::value;
+            const std::size_t lanes = L ? L : m_lanes;
+            std::size_t n = 0;
+            for (; n + 4 <= count; n += 4) {
+                double s[4] = {0.0, 0.0, 0.0, 0.0};
+                for (std::size_t b = 0; b < lanes; ++b)
+                    for (std::size_t j = 0; j < 4; ++j)
+                        s[j] += m_gains[b] * static_cast<double>(rows[(n + j) * lanes + b]);
+                for (std::size_t j = 0; j < 4; ++j) sum[n + j] = padded ? s[j] + 0.0 : s[j];
+            }
+            for (; n < count; ++n) {
+                double s = 0.0;
+                for (std::size_t b = 0; b < lanes; ++b) s += m_gains[b] * static_cast<double>(rows[n * lanes + b]);
+                sum[n] = padded ? s + 0.0 : s;
+            }
+        };
+        switch (m_lanes) {
+            case 1: run(std::integral_constant<std::size_t, 1>{}); break;
+            case 2: run(std::integral_constant<std::size_t, 2>{}); break;
+            case 3: run(std::integral_constant<std::size_t, 3>{}); break;
+            case 4: run(std::integral_constant<std::size_t, 4>{}); break;
+            default: run(std::integral_constant<std::size_t, 0>{}); break;
+        }
+    }
+
     const VocoderSettings& m_settings;
     const std::vector<double>& m_centres;
     Pipeline m_pipeline;
-    std::size_t m_lanes, m_stride, m_stored;
-    std::unique_ptr<float[]> m_store;  // [frame][band], the first m_stored frames
+    std::size_t m_lanes, m_stride, m_stored, m_summed;
+    // [frame][band] floats of the first m_stored frames; after a replay
+    // with `keep`, the doubles of the first m_summed frames' sums.
+    StoreBuffer m_store;
+    std::size_t m_sums_written = 0;  // by the replay with `keep`
+    bool m_sums_kept = false;         // the next replays read them
     std::vector<double> m_out_sum_sq;
     double m_in_sq = 0.0;
     std::vector<double> m_gains;
-    std::optional<Pipeline> m_replay_start, m_replay;
+    std::optional<Pipeline> m_replay_start, m_final_start, m_replay;
 };
 
 // Zero-phase filtering, Hilbert envelopes and low-noise carriers need the
@@ -557,7 +760,7 @@ ChannelResult vocode_channel_in_blocks(std::span<const double> x, double rate, c
     if (frames == 0) return result;
     const std::size_t block =
         whole_signal_only(s) ? frames : std::max<std::size_t>(1, std::min(block_frames, frames));
-    ChannelEngine engine(s, rate, setup.filters, setup.centres, channel, frames);
+    ChannelEngine engine(s, rate, setup.filters, setup.centres, channel, frames, frames, false);
     std::vector<double> work(block * engine.stride()), carrier(block * engine.stride());
     for (std::size_t first = 0; first < frames; first += block)
         engine.measure(x.data() + first, first, std::min(block, frames - first), work, carrier);
@@ -610,8 +813,19 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // Every channel gets channel 0's noise carrier: a dual-mono input stays
     // dual-mono (independent carriers would make it dichotic).
     for (int c = 0; c < channels; ++c)
-        engines.push_back(std::make_unique<ChannelEngine>(s, rate, setup.filters, setup.centres, 0, stored));
+        engines.push_back(std::make_unique<ChannelEngine>(s, rate, setup.filters, setup.centres, 0, stored, frames, true));
     const std::size_t stride = engines.front()->stride();
+    // Pass 3's output blocks, two so that the worker writes one while the
+    // next is filled (declared before the worker, which may still be
+    // writing one when an exception unwinds: it finishes before they go).
+    std::vector<float> out[2] = {std::vector<float>(block * nc), std::vector<float>(block * nc)};
+    // Declared after the engines so it stops before they go.
+    std::optional<PairWorker> worker;
+    if (limits.threads >= 2 && engines.front()->fused() && block > Pipeline::kPieceFrames &&
+        frames > Pipeline::kPieceFrames) {
+        worker.emplace();
+        for (auto& engine : engines) engine->use_worker(&*worker);
+    }
     std::vector<float> interleaved(block * nc);
     std::vector<double> x(block), work(block * stride), carrier(block * stride), sum(block);
     // Reads frames [first, first + count) of channel c into x.
@@ -644,8 +858,20 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     report.bands = bands[0];
 
     // Replays (passes 2 and 3): the input is read only past the store.
-    auto replay = [&](auto&& consume) {
+    // With `keep`, the engines keep what sums fit for the next replay.
+    // `sums`: the block's sums for `consume` (`sum`, or the engine's store).
+    const double* sums = nullptr;
+    // Pass 3 writes its blocks on the worker, when there is one.
+    bool write_pending = false;
+    auto finish_write = [&] {
+        if (write_pending) {
+            write_pending = false;
+            worker->wait();
+        }
+    };
+    auto replay = [&](auto&& consume, bool keep) {
         for (auto& engine : engines) engine->begin_replay();
+        const std::size_t stored = engines.front()->replay_from();  // the same for every channel
         if (stored < frames) input.seek(stored);
         for (std::size_t first = 0; first < frames; first += block) {
             const std::size_t count = std::min(block, frames - first);
@@ -665,7 +891,12 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
             }
             for (std::size_t c = 0; c < nc; ++c) {
                 if (from_input > 0) deinterleave(count, c);
-                engines[c]->replay(x.data(), first, count, sum.data(), work, carrier);
+                sums = engines[c]->kept_sums(first, count);
+                if (!sums) {
+                    finish_write();  // the pipeline may need the worker
+                    engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep);
+                    sums = sum.data();
+                }
                 consume(c, first, count);
             }
         }
@@ -673,12 +904,17 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
 
     // Pass 2: the sum's energy and peak per channel, then the gains.
     std::vector<double> out_sq(nc, 0.0), max_abs(nc, 0.0);
-    replay([&](std::size_t c, std::size_t, std::size_t count) {
-        for (std::size_t n = 0; n < count; ++n) {
-            out_sq[c] += sum[n] * sum[n];
-            max_abs[c] = std::max(max_abs[c], std::abs(sum[n]));
-        }
-    });
+    replay(
+        [&](std::size_t c, std::size_t, std::size_t count) {
+            double sq = out_sq[c], top = max_abs[c];
+            for (std::size_t n = 0; n < count; ++n) {
+                sq += sums[n] * sums[n];
+                top = std::max(top, std::abs(sums[n]));
+            }
+            out_sq[c] = sq;
+            max_abs[c] = top;
+        },
+        true);
     std::vector<double> gain(nc, 1.0);
     std::vector<bool> apply_gain(nc, false);
     double peak = 0.0;
@@ -705,15 +941,29 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
                     peak, report.limit_gain_db);
     }
 
-    // Pass 3: the output.
-    std::vector<float> out(block * nc);
-    replay([&](std::size_t c, std::size_t, std::size_t count) {
-        for (std::size_t n = 0; n < count; ++n) {
-            const double v = apply_gain[c] ? sum[n] * gain[c] : sum[n];
-            out[n * nc + c] = static_cast<float>(v * scale);
-        }
-        if (c + 1 == nc) output.write(out.data(), count);
-    });
+    // Pass 3: the output (block k written on the worker while block k + 1
+    // is filled, into the other buffer).
+    std::size_t current = 0;
+    replay(
+        [&](std::size_t c, std::size_t, std::size_t count) {
+            float* o = out[current].data();
+            const double g = gain[c];
+            if (apply_gain[c])
+                for (std::size_t n = 0; n < count; ++n) o[n * nc + c] = static_cast<float>(sums[n] * g * scale);
+            else
+                for (std::size_t n = 0; n < count; ++n) o[n * nc + c] = static_cast<float>(sums[n] * scale);
+            if (c + 1 < nc) return;
+            if (!worker) {
+                output.write(o, count);
+                return;
+            }
+            finish_write();
+            worker->start([&output, o, count] { output.write(o, count); });
+            write_pending = true;
+            current = 1 - current;
+        },
+        false);
+    finish_write();
     return report;
 }
 
@@ -724,8 +974,12 @@ ChannelResult vocode_channel(std::span<const double> x, double rate, const Vocod
     return detail::vocode_channel_in_blocks(x, rate, s, channel, keep_band_signals, 512);
 }
 
+// One thread: these are called by code that runs several at once (stimulus
+// builds, batches); `avsi vocode` of one file asks for two (batch.cpp).
 VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const VocoderSettings& settings) {
-    return detail::vocode_stream(input, output, settings, detail::StreamLimits{});
+    detail::StreamLimits limits;
+    limits.threads = 1;
+    return detail::vocode_stream(input, output, settings, limits);
 }
 
 VocoderResult vocode(const Audio& input, const VocoderSettings& settings) {
@@ -735,7 +989,9 @@ VocoderResult vocode(const Audio& input, const VocoderSettings& settings) {
     result.audio.channels = input.channels;
     result.audio.samples.reserve(input.samples.size());
     AudioBufferSink sink(result.audio);
-    VocoderReport report = detail::vocode_stream(source, sink, settings, detail::StreamLimits{});
+    detail::StreamLimits limits;
+    limits.threads = 1;
+    VocoderReport report = detail::vocode_stream(source, sink, settings, limits);
     result.bands = std::move(report.bands);
     result.output_gain_db = report.output_gain_db;
     result.peak_before_limit = report.peak_before_limit;

@@ -149,11 +149,16 @@ ChannelResult vocode_channel_in_blocks(std::span<const double> samples, double s
                                        const VocoderSettings& settings, int channel, bool keep_band_signals,
                                        std::size_t block_frames);
 
-// The block length and the memory kept from the first pass (band outputs,
-// 4 bytes per band, channel and frame; past it they are computed again).
+// The block length, the memory kept from the first pass (band outputs,
+// 4 bytes per band, channel and frame; past it they are computed again) and
+// the threads of the filter pipeline (2: steps 1–2 and 3–4 of the channel
+// vocoder on two threads, a piece of 4096 frames apart, when a block holds
+// more than one piece, and pass 3's writing beside its sums; the output is
+// the same with 1, which vocode() and the vocode_stream above use).
 struct StreamLimits {
-    std::size_t block_frames = 4096;
-    std::size_t store_bytes = std::size_t{64} << 20;
+    std::size_t block_frames = 32768;
+    std::size_t store_bytes = std::size_t{96} << 20;
+    unsigned threads = 2;
 };
 // vocode_stream with the limits given (for tests: any limits must give the
 // same output).
