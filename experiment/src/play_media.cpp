@@ -28,16 +28,11 @@ namespace avsi::experiment {
 
 namespace fs = std::filesystem;
 
-std::vector<stimuli::Pose> animation_poses(const synth::Trajectory& trajectory, const PhoneSequence* phones,
-                                           const stimuli::BlinkSettings& blinks) {
-    const std::size_t n = trajectory.size();
-    const std::vector<double> blink = stimuli::blink_track(n, trajectory.fps, blinks);
-    const std::vector<double> tongue =
-        phones ? stimuli::tongue_tip_track(*phones, n, trajectory.fps) : std::vector<double>(n, 0.0);
-    std::vector<stimuli::Pose> poses;
-    poses.reserve(n);
-    for (std::size_t k = 0; k < n; ++k) poses.push_back(stimuli::pose_at(trajectory, k, blink[k], tongue[k]));
-    return poses;
+std::vector<std::string> animate_play_media(const stimuli::Head& head, PlayMedia& media) {
+    stimuli::Animation a = stimuli::animate(head, media.trajectory, media.phones.empty() ? nullptr : &media.phones,
+                                            media.layers, media.layer_seeds);
+    media.poses = std::move(a.poses);
+    return std::move(a.warnings);
 }
 
 namespace {
@@ -109,7 +104,6 @@ PlayMedia load_play_media(const PlaySource& s) {
         throw UsageError("--audio-file and --phones go with --traj or --fap; a stimulus definition brings its own");
 
     PlayMedia m;
-    stimuli::BlinkSettings blinks;
     if (from_protocol) {
         std::string sentence = s.sentence, condition = s.condition;
         std::optional<ManifestStimulus> built;
@@ -138,7 +132,8 @@ PlayMedia load_play_media(const PlaySource& s) {
         m.phones = std::move(d.phones);
         m.sample_rate_hz = d.audio.sample_rate_hz;
         m.audio = d.audio.mono();
-        blinks = d.blinks;
+        m.layers = std::move(d.layers);
+        m.layer_seeds = d.layer_seeds;
         m.head_gltf = d.head_gltf;
         m.head_obj = d.head_mesh;
         m.head_rig = d.head_rig;
@@ -157,7 +152,6 @@ PlayMedia load_play_media(const PlaySource& s) {
     }
     if (m.audio.empty())
         m.audio.assign(static_cast<std::size_t>(std::lround(m.trajectory.duration_s() * m.sample_rate_hz)), 0.0f);
-    m.poses = animation_poses(m.trajectory, m.phones.empty() ? nullptr : &m.phones, blinks);
     // The viseme of each phone, for the strip.
     const synth::VisemeSet set =
         synth::load_viseme_set(s.viseme_set_path.empty() ? default_viseme_set() : s.viseme_set_path);

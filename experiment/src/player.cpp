@@ -182,6 +182,7 @@ public:
     // Draws the head in `pose` into the face texture.
     void draw_face(const stimuli::Pose& pose) {
         stimuli::pose_head(m_head, pose, m_posed);
+        stimuli::apply_head_rotation(m_head, pose.head_rotation, m_posed);
         m_gl.BindFramebuffer(GL_FRAMEBUFFER, m_fbo);
         stimuli::RenderSettings settings;
         m_drawer->draw(m_posed, settings, m_face_width, m_face_height);
@@ -427,6 +428,7 @@ PlayResult run_player(const PlaySettings& s) {
     // The audio lasts as long as the video, as in the stimulus MP4 (VideoWriter pads or cuts it).
     media.audio.resize(static_cast<std::size_t>(std::llround(media.frame_count() / media.fps() * media.sample_rate_hz)), 0.0f);
     const stimuli::Head head = load_play_head(media);
+    for (const std::string& w : animate_play_media(head, media)) log_warning("play: {}", w);
 
     Transport transport(media.audio, media.sample_rate_hz, media.fps(), media.frame_count());
     transport.set_speed(s.speed);

@@ -1034,6 +1034,10 @@ StimulusDefinition stimulus_definition(const std::filesystem::path& protocol_pat
     }
     d.blinks.seed = job->blink_seed;
     d.blinks.enabled = c.face == FaceMode::Model;
+    if (c.face == FaceMode::Model) d.layers = plan.layers.at(c.name);
+    d.layer_seeds.blink = job->blink_seed;
+    d.layer_seeds.gaze = job->gaze_seed;
+    d.layer_seeds.head = job->head_seed;
     const auto& pr = plan.protocol.render;
     d.head_gltf = pr.head_gltf;
     d.head_mapping = pr.head_mapping;

@@ -12,6 +12,7 @@
 #include "avsi/experiment/player.h"
 #include "avsi/stimuli/animation.h"
 #include "avsi/stimuli/head.h"
+#include "avsi/stimuli/layers.h"
 #include "avsi/synth/trajectory.h"
 
 namespace avsi::experiment {
@@ -20,7 +21,9 @@ namespace avsi::experiment {
 struct PlayMedia {
     std::string title;
     synth::Trajectory trajectory;
-    std::vector<stimuli::Pose> poses;  // one per trajectory frame
+    std::vector<stimuli::Pose> poses;  // one per trajectory frame (animate_play_media)
+    stimuli::LayerSettings layers = stimuli::LayerSettings::speech_only();  // the stimulus's stack
+    stimuli::LayerSeeds layer_seeds;
     PhoneSequence phones;              // may be empty
     std::vector<std::string> visemes;  // the viseme name of each phone
     std::vector<float> audio;          // mono; silence of the video's length when there is no audio
@@ -28,18 +31,20 @@ struct PlayMedia {
     std::filesystem::path head_gltf;   // a protocol's own head, if any
     std::filesystem::path head_obj;
     std::filesystem::path head_rig;
-    int frame_count() const { return static_cast<int>(poses.size()); }
+    int frame_count() const { return static_cast<int>(trajectory.size()); }
     double fps() const { return trajectory.fps; }
 };
 
-// The one place the player's animation comes from: the pose of every frame
-// of a speech trajectory, with the seeded blinks and (given phones) the
-// tongue tip, as the stimulus builder renders them (animation.h).
-std::vector<stimuli::Pose> animation_poses(const synth::Trajectory& trajectory, const PhoneSequence* phones,
-                                           const stimuli::BlinkSettings& blinks);
-
-// Loads what `source` names. Throws UsageError for a wrong combination of
-// options and InputError (file:line field) for missing or bad files.
+// Loads what `source` names (poses not yet made: animate_play_media). Throws
+// UsageError for a wrong combination of options and InputError (file:line
+// field) for missing or bad files.
 PlayMedia load_play_media(const PlaySource& source);
+
+// The one place the player's animation comes from: the pose of every frame
+// through the animation layers (layers.h) on `head`, as the stimulus builder
+// renders them — a stimulus definition's own stack and seeds, or speech and
+// the seeded blinks for a trajectory or FAP stream. Returns the layers'
+// warnings (channels the head lacks).
+std::vector<std::string> animate_play_media(const stimuli::Head& head, PlayMedia& media);
 
 }  // namespace avsi::experiment

@@ -24,6 +24,7 @@
 #include "avsi/core/audio.h"
 #include "avsi/core/phones.h"
 #include "avsi/stimuli/animation.h"
+#include "avsi/stimuli/layers.h"
 #include "avsi/synth/trajectory.h"
 
 namespace avsi::stimuli {
@@ -101,6 +102,8 @@ struct StimulusDefinition {
     PhoneSequence phones;
     Audio audio;
     BlinkSettings blinks;
+    LayerSettings layers;                // the condition's stack (empty for a still face: the head at rest)
+    LayerSeeds layer_seeds;              // the stimulus's seeds, as the builder derives them
     std::filesystem::path head_gltf;     // the protocol's own head, if any ([render])
     std::filesystem::path head_mapping;
     std::filesystem::path head_mesh;
