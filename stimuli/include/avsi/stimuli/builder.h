@@ -21,6 +21,8 @@
 #include <string>
 #include <vector>
 
+#include "avsi/stimuli/lod.h"
+
 namespace avsi::stimuli {
 
 struct BuildSettings {
@@ -35,6 +37,10 @@ struct BuildSettings {
     // condition (all conditions when practice cycles through them).
     // true: every sentence × condition.
     bool all_sentences = false;
+    // Level of detail of the rendered head (lod.h); default full detail.
+    // Recorded in the manifest's render settings (and so in every input
+    // hash) when not full detail.
+    LodSettings lod;
 };
 
 struct BuildReport {
