@@ -29,12 +29,12 @@ const bool registered_build_stimuli = register_command({
                      "the design shows them in");
         auto lod = std::make_shared<std::string>("0");
         sub.add_option("--lod", *lod,
-                       "Level of detail of the head: 0 = full detail, 1-4 = its simplifiable triangles (all but the "
-                       "lips, teeth and eyes) halved per level, or auto = by the head's size in the frame "
-                       "(docs/level-of-detail.md); recorded in the manifest")
+                       "Level of detail of the head: 0 = full detail; 1-3 = simplified (all but the lips, teeth and "
+                       "eyes: about half of what is left per level, within 0.5, 1 or 2 mm); or auto = by the head's "
+                       "size in the frame (docs/level-of-detail.md); recorded in the manifest")
             ->capture_default_str();
         sub.add_option("--max-triangles", o->lod.max_triangles,
-                       "Simplify the head to at most this many triangles (0 = no budget; instead of --lod)")
+                       "The finest level of detail with at most this many triangles (0 = no budget; instead of --lod)")
             ->capture_default_str();
         sub.add_option("--lod-error-px", o->lod.max_error_px,
                        "--lod auto: the largest simplification error allowed on screen, in pixels")

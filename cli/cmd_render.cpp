@@ -38,12 +38,13 @@ const bool registered_render = register_command({
             ->capture_default_str();
         auto lod = std::make_shared<std::string>("0");
         sub.add_option("--lod", *lod,
-                       "Level of detail: 0 = full detail, 1-4 = the head's simplifiable triangles (all but the lips, "
-                       "teeth and eyes) halved per level, or auto = the coarsest level whose simplification error "
-                       "is under --lod-error-px at this frame size (docs/level-of-detail.md)")
+                       "Level of detail: 0 = full detail; 1-3 = the head simplified (all but the lips, teeth and eyes: "
+                       "about half of what is left per level, within 0.5, 1 or 2 mm); or auto = the coarsest level "
+                       "whose simplification error is under --lod-error-px at this frame size "
+                       "(docs/level-of-detail.md)")
             ->capture_default_str();
         sub.add_option("--max-triangles", o->render.lod.max_triangles,
-                       "Simplify the head to at most this many triangles (0 = no budget; instead of --lod)")
+                       "The finest level of detail with at most this many triangles (0 = no budget; instead of --lod)")
             ->capture_default_str();
         sub.add_option("--lod-error-px", o->render.lod.max_error_px,
                        "--lod auto: the largest simplification error allowed on screen, in pixels")

@@ -76,7 +76,7 @@ struct LodResult {
     Head head;                                 // the simplified head, rig and landmarks re-indexed
     std::vector<std::uint32_t> source_vertex;  // per vertex of `head`, its index in the full head
     std::string chosen_by = "full";            // "full", "level", "max_triangles" or "auto"
-    int level = 0;                             // the level (0 for full detail and for a budget)
+    int level = 0;                             // the level drawn (0 = full detail)
     std::size_t full_triangles = 0;            // the full head's
     std::size_t kept_triangles = 0;            // of those, kept at full detail
     std::size_t triangles = 0;                 // the simplified head's
@@ -99,10 +99,10 @@ std::vector<char> lod_kept_triangles(const Head& head);
 // level outside [0, max_lod_level].
 LodResult head_at_level(const Head& head, int level);
 
-// The head in at most `max_triangles` triangles (the full head when it has no
-// more). Throws InputError naming the head's file when the budget is below
-// what the head simplifies to with its kept regions at full detail (the
-// message gives the smallest budget that works).
+// The finest level of the head with at most `max_triangles` triangles (the
+// full head when it has no more). Throws InputError naming the head's file
+// when the budget is below the coarsest level (the message gives that
+// level's count, the smallest budget that works).
 LodResult head_within_budget(const Head& head, std::size_t max_triangles);
 
 // The coarsest level whose simplification error is at most max_error_px at
