@@ -357,13 +357,13 @@ Plan::Plan(const BuildSettings& settings)
     // build's manifest and input hashes stay as they were.
     if (lod) {
         json j = {{"chosen_by", lod->chosen_by},
+                  {"level", lod->level},
                   {"triangles", lod->triangles},
                   {"full_triangles", lod->full_triangles},
                   {"kept_triangles", lod->kept_triangles},
                   {"vertices", lod->head.mesh.positions.size()},
                   {"error_mm", lod->error_mm},
                   {"simplifier", lod_simplifier()}};
-        if (lod->chosen_by == "level" || lod->chosen_by == "auto" || lod->chosen_by == "full") j["level"] = lod->level;
         if (settings.lod.max_triangles) j["max_triangles"] = settings.lod.max_triangles;
         if (settings.lod.automatic) {
             j["max_error_px"] = settings.lod.max_error_px;

@@ -6,10 +6,10 @@
 
 #include <algorithm>
 #include <cctype>
-#include <unordered_map>
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <unordered_map>
 
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
