@@ -29,6 +29,7 @@
 #include "avsi/stimuli/animation.h"
 #include "avsi/stimuli/articulation.h"
 #include "avsi/stimuli/layers.h"
+#include "avsi/stimuli/lod.h"
 #include "avsi/stimuli/video.h"
 #include "avsi/synth/control_model.h"
 #include "avsi/synth/target_hold.h"
@@ -267,6 +268,7 @@ struct Plan {
     double fps = 30.0;
     vocoder::VocoderSettings vocoder_base;
     Head head;
+    std::optional<LodResult> lod;  // the head simplified for rendering (BuildSettings::lod), when asked for
     std::optional<ArticulationMeter> meter;  // when [render] check_articulation
     std::map<std::string, std::shared_ptr<const synth::ControlModel>> models;
     // Each model condition's animation layers ([condition.layers]; speech and blinks when absent).
@@ -303,6 +305,11 @@ Plan::Plan(const BuildSettings& settings)
     if (!pr.head_gltf.empty())
         head = load_gltf_head(pr.head_gltf, pr.head_mapping.empty() ? default_blendshape_mapping() : pr.head_mapping);
     else head = pr.head_mesh.empty() ? load_default_head() : load_head(pr.head_mesh, pr.head_rig);
+    // Level of detail: simplified once here, drawn by every worker; the
+    // articulation is measured on the full head (the simplified head's rig
+    // and landmarks are the same vertices: lod.h).
+    if (!settings.lod.full_detail())
+        lod.emplace(level_of_detail(head, settings.lod, render.height, double(render.framing_mm)));
     if (pr.check_articulation) {
         try {
             meter.emplace(head);
@@ -361,6 +368,25 @@ Plan::Plan(const BuildSettings& settings)
                                                       {"labiodental_mm", ArticulationLimits{}.labiodental_mm},
                                                       {"interpenetration_mm", ArticulationLimits{}.interpenetration_mm}}
                                                : json("not checked ([render] check_articulation = false)")}};
+
+    // Recorded (and hashed) only when not at full detail, so a default
+    // build's manifest and input hashes stay as they were.
+    if (lod) {
+        json j = {{"chosen_by", lod->chosen_by},
+                  {"level", lod->level},
+                  {"triangles", lod->triangles},
+                  {"full_triangles", lod->full_triangles},
+                  {"kept_triangles", lod->kept_triangles},
+                  {"vertices", lod->head.mesh.positions.size()},
+                  {"error_mm", lod->error_mm},
+                  {"simplifier", lod_simplifier()}};
+        if (settings.lod.max_triangles) j["max_triangles"] = settings.lod.max_triangles;
+        if (settings.lod.automatic) {
+            j["max_error_px"] = settings.lod.max_error_px;
+            j["head_height_px"] = lod->head_height_px;
+        }
+        settings_json["render"]["lod"] = j;
+    }
 
     // Every stimulus and the hash of everything it depends on.
     const std::size_t n_sentences = settings.max_sentences ? std::min(settings.max_sentences, corpus.sentences.size())
@@ -757,7 +783,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     std::exception_ptr error;
     auto worker = [&] {
         try {
-            OffscreenRenderer renderer(head, render);
+            OffscreenRenderer renderer(plan.lod ? plan.lod->head : head, render);
             while (true) {
                 const std::size_t t = next.fetch_add(1);
                 if (t >= todo.size()) break;

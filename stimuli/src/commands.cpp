@@ -1,6 +1,8 @@
 // `avsi render` and `avsi contact-sheet` (see commands.h).
 #include "avsi/stimuli/commands.h"
 
+#include <fmt/format.h>
+
 #include "avsi/core/error.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/tts.h"
@@ -40,6 +42,13 @@ void run_render(const RenderJobSettings& s) {
     RenderSettings rs = s.render;
     rs.camera = camera_view_from_name(s.camera);
     OffscreenRenderer renderer(head, rs);
+    if (const LodResult* lod = renderer.lod())
+        log_info("level of detail ({}): {} of the head's {} triangles, {} kept at full detail; simplification error "
+                 "{:.3f} mm",
+                 lod->chosen_by == "max_triangles" ? "--max-triangles"
+                 : lod->chosen_by == "auto"        ? fmt::format("auto, level {}", lod->level)
+                                                   : fmt::format("level {}", lod->level),
+                 lod->triangles, lod->full_triangles, lod->kept_triangles, lod->error_mm);
     PhoneSequence phones;
     if (!s.phones_path.empty()) phones = read_phones(s.phones_path);
     const PhoneSequence* tongue = s.phones_path.empty() ? nullptr : &phones;

@@ -33,6 +33,13 @@ namespace {
 
 void* load_proc(const char* name) { return detail::OsmesaContext::proc_address(name); }
 
+// The simplified head the settings ask for; null for full detail.
+std::unique_ptr<const LodResult> simplified(const Head& head, const RenderSettings& settings) {
+    if (settings.lod.full_detail()) return nullptr;
+    return std::make_unique<const LodResult>(
+        level_of_detail(head, settings.lod, settings.height, double(settings.framing_mm)));
+}
+
 }  // namespace
 
 struct OffscreenRenderer::Impl {
@@ -65,7 +72,10 @@ struct OffscreenRenderer::Impl {
 };
 
 OffscreenRenderer::OffscreenRenderer(const Head& head, const RenderSettings& settings)
-    : m_head(head), m_settings(settings), m_impl(std::make_unique<Impl>()) {
+    : m_lod(simplified(head, settings)),
+      m_head(m_lod ? m_lod->head : head),
+      m_settings(settings),
+      m_impl(std::make_unique<Impl>()) {
     if (settings.width < 16 || settings.height < 16 || settings.width > 8192 || settings.height > 8192)
         throw InputError(Diagnostic{"", 0, 0, "render.width/height",
                                     "expected a size in [16, 8192], got " + std::to_string(settings.width) + "x" +
@@ -107,7 +117,7 @@ OffscreenRenderer::OffscreenRenderer(const Head& head, const RenderSettings& set
     if (gl.glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
         throw std::runtime_error("OpenGL: the scene framebuffer is incomplete");
 
-    d.drawer = std::make_unique<HeadDrawer>(head, &load_proc);
+    d.drawer = std::make_unique<HeadDrawer>(m_head, &load_proc);
     d.rgba.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 4);
 
     if (settings.cache_static && settings.samples == 1) {

@@ -25,6 +25,7 @@
 #include "avsi/core/phones.h"
 #include "avsi/stimuli/animation.h"
 #include "avsi/stimuli/layers.h"
+#include "avsi/stimuli/lod.h"
 #include "avsi/synth/trajectory.h"
 
 namespace avsi::stimuli {
@@ -41,6 +42,10 @@ struct BuildSettings {
     // condition (all conditions when practice cycles through them).
     // true: every sentence × condition.
     bool all_sentences = false;
+    // Level of detail of the rendered head (lod.h); default full detail.
+    // Recorded in the manifest's render settings (and so in every input
+    // hash) when not full detail.
+    LodSettings lod;
 };
 
 struct BuildReport {

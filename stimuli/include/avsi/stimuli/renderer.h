@@ -21,6 +21,7 @@
 #include <glm/mat4x4.hpp>
 
 #include "avsi/stimuli/head.h"
+#include "avsi/stimuli/lod.h"
 
 namespace avsi::stimuli {
 
@@ -69,6 +70,10 @@ struct RenderSettings {
     float framing_mm = 340.0f;
     // The point the camera looks at (mesh units); default: the head's head_center landmark.
     std::optional<glm::vec3> target;
+    // Level of detail (lod.h): OffscreenRenderer draws the head simplified
+    // as this asks (the automatic choice by this frame height and framing);
+    // default full detail. HeadDrawer draws the head it is given.
+    LodSettings lod;
 };
 
 // Parses "front" / "three-quarter"; throws InputError otherwise.
@@ -131,7 +136,10 @@ public:
     Image render(const Pose& pose, RenderMode mode = RenderMode::Shaded);
 
     const RenderSettings& settings() const { return m_settings; }
+    // The head drawn: the one given, or its simplified version (settings().lod).
     const Head& head() const { return m_head; }
+    // How the head was simplified; null at full detail (the default settings).
+    const LodResult* lod() const { return m_lod.get(); }
     // The GL renderer string (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
     std::string gl_renderer() const;
 
@@ -139,6 +147,7 @@ private:
     void render_cached(Image& out, bool lids_at_rest);
 
     struct Impl;
+    std::unique_ptr<const LodResult> m_lod;  // before m_head, which may refer to its head
     const Head& m_head;
     RenderSettings m_settings;
     PosedMesh m_posed;
