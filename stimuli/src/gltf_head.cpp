@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <functional>
 #include <set>
 #include <tuple>
@@ -19,8 +20,10 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
+#include "avsi/core/checks.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/synth/parameters.h"
 #include "rig_reader.h"
 #include "smoothstep.h"
@@ -166,15 +169,11 @@ json from_value(const tinygltf::Value& v) {
     return json();
 }
 
-// An object's extras: from the original JSON text when tinygltf kept it, else its parsed value.
-json extras_of(const std::string& text, const tinygltf::Value& value) {
-    if (!text.empty()) {
-        try {
-            return json::parse(text);
-        } catch (const json::parse_error&) {
-        }
-    }
-    const json j = from_value(value);
+// An object's extras: from the original JSON text when tinygltf kept it, else
+// its parsed value (the file's JSON was checked by parse_json before tinygltf
+// read it, so the text parses within the nesting limit).
+json extras_of(const std::string& text, const tinygltf::Value& value, const std::filesystem::path& path) {
+    const json j = text.empty() ? from_value(value) : parse_json(text, path.string());
     return j.is_object() ? j : json::object();
 }
 
@@ -204,6 +203,10 @@ json scaled_point(const json& p, double scale) {
     return out;
 }
 
+BlendshapeMapping read_mapping(const json& doc, const std::filesystem::path& path);
+Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mapping, const std::filesystem::path& path);
+tinygltf::Model load_gltf_model(const std::filesystem::path& path);
+
 }  // namespace
 
 std::vector<std::string> BlendshapeMapping::targets() const {
@@ -219,12 +222,76 @@ std::filesystem::path default_blendshape_mapping() {
 }
 
 BlendshapeMapping read_blendshape_mapping(const std::filesystem::path& path) {
-    json doc;
-    try {
-        doc = json::parse(read_text_file(path));
-    } catch (const json::parse_error& e) {
-        throw InputError(path, std::string("not valid JSON: ") + e.what());
+    const json doc = read_json_file(path);
+    return with_json_context(path, [&] { return read_mapping(doc, path); });
+}
+
+namespace {
+
+// The files a glTF names (buffers, images), read for tinygltf: regular files
+// only (never a device or a FIFO, which could block or never end), at most
+// max_resource_bytes each.
+constexpr std::uintmax_t max_resource_bytes = std::uintmax_t(1) << 30;
+
+bool read_resource(std::vector<unsigned char>* out, std::string* err, const std::string& file, void*) {
+    std::error_code ec;
+    const bool regular = std::filesystem::is_regular_file(file, ec);
+    const auto size = regular ? std::filesystem::file_size(file, ec) : 0;
+    if (!regular || ec || size > max_resource_bytes) {
+        if (err) *err += (regular ? "larger than 1 GiB or unreadable: " : "not a regular file: ") + file + "\n";
+        return false;
     }
+    out->resize(static_cast<std::size_t>(size));
+    std::ifstream in(file, std::ios::binary);
+    if (!in.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(size))) {
+        if (err) *err += "cannot read " + file + "\n";
+        return false;
+    }
+    return true;
+}
+
+bool resource_exists(const std::string& file, void*) {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(file, ec);
+}
+
+std::string no_expansion(const std::string& file, void*) { return file; }
+
+// Reads the glTF (.glb: its JSON chunk) through parse_json first, so a syntax
+// error, a number out of range or nesting deeper than max_json_depth is a
+// file:line:col error before tinygltf (whose JSON values and our conversion
+// of them are recursive) sees it; then loads it with tinygltf.
+tinygltf::Model load_gltf_model(const std::filesystem::path& path) {
+    const std::string bytes = read_text_file(path);
+    const bool binary = bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0;
+    if (binary) {
+        // Header (magic, version, length), then the JSON chunk (length, "JSON", text).
+        std::uint32_t json_bytes = 0;
+        if (bytes.size() >= 20) std::memcpy(&json_bytes, bytes.data() + 12, 4);
+        if (bytes.size() < 20 || bytes.compare(16, 4, "JSON") != 0 || json_bytes > bytes.size() - 20)
+            throw InputError(path, "not a readable binary glTF (.glb): expected a header and a JSON chunk within the file's " +
+                                       std::to_string(bytes.size()) + " bytes");
+        (void)parse_json(std::string_view(bytes).substr(20, json_bytes), path.string() + " (JSON chunk)");
+    } else {
+        (void)parse_json(bytes, path.string());
+    }
+    if (bytes.size() > std::numeric_limits<unsigned int>::max()) throw InputError(path, "larger than 4 GiB");
+    tinygltf::TinyGLTF loader;
+    loader.SetStoreOriginalJSONForExtrasAndExtensions(true);
+    loader.SetFsCallbacks({&resource_exists, &no_expansion, &read_resource, &tinygltf::WriteWholeFile, nullptr});
+    tinygltf::Model model;
+    std::string error, warning;
+    const std::string base_dir = path.has_parent_path() ? path.parent_path().string() : ".";
+    const bool ok =
+        binary ? loader.LoadBinaryFromMemory(&model, &error, &warning, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                             static_cast<unsigned int>(bytes.size()), base_dir)
+               : loader.LoadASCIIFromString(&model, &error, &warning, bytes.data(), static_cast<unsigned int>(bytes.size()),
+                                            base_dir);
+    if (!ok) throw InputError(path, "not a readable glTF 2.0 file: " + (error.empty() ? warning : error));
+    return model;
+}
+
+BlendshapeMapping read_mapping(const json& doc, const std::filesystem::path& path) {
     DiagnosticList problems;
     auto problem = [&](const std::string& field, const std::string& message) {
         problems.add(path.string(), 0, 0, field, message);
@@ -272,30 +339,44 @@ BlendshapeMapping read_blendshape_mapping(const std::filesystem::path& path) {
     return m;
 }
 
+}  // namespace
+
 Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::path& mapping_path) {
     const BlendshapeMapping mapping = read_blendshape_mapping(mapping_path);
     if (!std::filesystem::exists(path)) throw InputError(path, "cannot open: no such file");
-    tinygltf::TinyGLTF loader;
-    loader.SetStoreOriginalJSONForExtrasAndExtensions(true);
-    tinygltf::Model model;
-    std::string error, warning;
-    const bool binary = path.extension() == ".glb";
-    const bool ok = binary ? loader.LoadBinaryFromFile(&model, &error, &warning, path.string())
-                           : loader.LoadASCIIFromFile(&model, &error, &warning, path.string());
-    if (!ok) throw InputError(path, "not a readable glTF 2.0 file: " + (error.empty() ? warning : error));
+    const tinygltf::Model model = load_gltf_model(path);
+    return with_json_context(path, [&] { return read_gltf_head(model, mapping, path); });
+}
 
+namespace {
+
+Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mapping, const std::filesystem::path& path) {
     Head head;
     head.obj_path = path;
     head.rig_path = path;
-    const json avsi = extras_of(model.extras_json_string, model.extras).value("avsi", json::object());
+    const json avsi = extras_of(model.extras_json_string, model.extras, path).value("avsi", json::object());
 
     // The mesh nodes of the default scene, in order, with their world matrices.
     std::vector<std::pair<int, glm::mat4>> mesh_nodes;
+    // A node may appear once on a path from the root (the hierarchy is a tree).
+    std::vector<bool> on_path(model.nodes.size(), false);
+    std::size_t instances = 0;
     std::function<void(int, glm::mat4)> visit = [&](int n, glm::mat4 parent) {
-        const auto& node = model.nodes.at(static_cast<std::size_t>(n));
+        if (n < 0 || static_cast<std::size_t>(n) >= model.nodes.size())
+            throw InputError(path.string(), 0, 0, "nodes", "expected a node index in [0, " + std::to_string(model.nodes.size()) +
+                                                               "), got " + std::to_string(n));
+        if (on_path[static_cast<std::size_t>(n)])
+            throw InputError(path.string(), 0, 0, "nodes[" + std::to_string(n) + "].children",
+                             "expected a tree of nodes, got node " + std::to_string(n) + " among its own descendants");
+        // Shared subtrees multiply: bound the instances a small file can make.
+        if (++instances > 100'000)
+            throw InputError(path.string(), 0, 0, "nodes", "expected at most 100000 node instances in the scene, got more");
+        on_path[static_cast<std::size_t>(n)] = true;
+        const auto& node = model.nodes[static_cast<std::size_t>(n)];
         const glm::mat4 world = parent * node_matrix(node);
         if (node.mesh >= 0) mesh_nodes.emplace_back(node.mesh, world);
         for (int c : node.children) visit(c, world);
+        on_path[static_cast<std::size_t>(n)] = false;
     };
     const int scene = model.defaultScene >= 0 ? model.defaultScene : 0;
     if (static_cast<std::size_t>(scene) < model.scenes.size())
@@ -313,7 +394,7 @@ Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::pa
     for (std::size_t k = 0; k < mesh_nodes.size(); ++k) {
         const auto& [mi, world] = mesh_nodes[k];
         const auto& gm = model.meshes.at(static_cast<std::size_t>(mi));
-        const json mesh_extras = extras_of(gm.extras_json_string, gm.extras);
+        const json mesh_extras = extras_of(gm.extras_json_string, gm.extras, path);
         std::vector<std::string> names;
         if (mesh_extras.contains("targetNames") && mesh_extras["targetNames"].is_array())
             for (const auto& t : mesh_extras["targetNames"]) names.push_back(t.is_string() ? t.get<std::string>() : "");
@@ -468,6 +549,8 @@ Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::pa
     detail::read_rig(head, doc, std::nullopt, false);
     return head;
 }
+
+}  // namespace
 
 void export_gltf_head(const Head& head, const std::filesystem::path& out_path, const std::filesystem::path& mapping_path) {
     const BlendshapeMapping mapping = read_blendshape_mapping(mapping_path);
@@ -676,7 +759,7 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
     }
     // The rig file's lip contact and materials, as written (group names are the materials').
     if (!head.rig_path.empty() && head.rig_path.extension() == ".json") {
-        const json rig = json::parse(read_text_file(head.rig_path));
+        const json rig = read_json_file(head.rig_path);
         for (const char* key : {"lip_contact", "materials"})
             if (rig.contains(key)) avsi[key] = rig[key];
     }
