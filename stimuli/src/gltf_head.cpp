@@ -55,17 +55,64 @@ std::pair<double, double> channel_range(const std::string& channel) {
 
 // ---- Reading accessors ------------------------------------------------------
 
+const tinygltf::Accessor& accessor_at(const tinygltf::Model& model, int index, const std::filesystem::path& path) {
+    if (index < 0 || static_cast<std::size_t>(index) >= model.accessors.size())
+        throw InputError(path.string(), 0, 0, "accessors",
+                         "expected an accessor index in [0, " + std::to_string(model.accessors.size()) + "), got " + std::to_string(index));
+    return model.accessors[static_cast<std::size_t>(index)];
+}
+
+// `count` elements of `element_bytes` bytes in buffer view `index` from
+// `offset`, `stride` apart (the view's byteStride, else `tight` or the
+// element's size): where they start, checked to lie within the view and the
+// view within its buffer (no overflow for any count).
+struct ViewBytes {
+    const unsigned char* data = nullptr;
+    std::size_t stride = 0;
+};
+ViewBytes view_bytes(const tinygltf::Model& model, int index, std::size_t offset, std::size_t count, std::size_t element_bytes,
+                     const std::string& name, const std::filesystem::path& path, std::size_t tight = 0) {
+    if (index < 0 || static_cast<std::size_t>(index) >= model.bufferViews.size())
+        throw InputError(path.string(), 0, 0, name + ".bufferView",
+                         "expected a buffer view index in [0, " + std::to_string(model.bufferViews.size()) + "), got " + std::to_string(index));
+    const auto& view = model.bufferViews[static_cast<std::size_t>(index)];
+    if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model.buffers.size())
+        throw InputError(path.string(), 0, 0, "bufferViews[" + std::to_string(index) + "].buffer", "expected a buffer index");
+    const auto& buffer = model.buffers[static_cast<std::size_t>(view.buffer)].data;
+    if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset)
+        throw InputError(path.string(), 0, 0, "bufferViews[" + std::to_string(index) + "]", "reaches beyond its buffer");
+    const std::size_t stride = view.byteStride ? view.byteStride : (tight ? tight : element_bytes);
+    const std::size_t length = view.byteLength;
+    const bool fits = count == 0 || (offset <= length && element_bytes <= length - offset &&
+                                     (stride == 0 || count - 1 <= (length - offset - element_bytes) / stride));
+    if (!fits)
+        throw InputError(path.string(), 0, 0, name,
+                         std::to_string(count) + " elements reach beyond buffer view " + std::to_string(index) + " (" +
+                             std::to_string(length) + " bytes)");
+    return {buffer.data() + view.byteOffset + offset, stride};
+}
+
 // Accessor `index` as floats, `components` per element (normalized integer
 // types scaled to [0, 1]); sparse accessors applied.
 std::vector<float> read_floats(const tinygltf::Model& model, int index, int components, const std::filesystem::path& path) {
-    if (index < 0 || static_cast<std::size_t>(index) >= model.accessors.size())
-        throw InputError(path, "an accessor index is out of range");
-    const auto& a = model.accessors[static_cast<std::size_t>(index)];
+    const auto& a = accessor_at(model, index, path);
+    const std::string name = "accessors[" + std::to_string(index) + "]";
     const int have = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type));
     if (have < components)
-        throw InputError(path, "accessor " + std::to_string(index) + ": expected " + std::to_string(components) +
-                                   " components, got " + std::to_string(have));
-    std::vector<float> out(a.count * static_cast<std::size_t>(components), 0.0f);
+        throw InputError(path.string(), 0, 0, name + ".type",
+                         "expected " + std::to_string(components) + " components, got " + std::to_string(have));
+    const int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
+    if (size <= 0) throw InputError(path.string(), 0, 0, name + ".componentType", "expected a glTF component type, got " + std::to_string(a.componentType));
+    const std::size_t element_bytes = std::size_t(size) * std::size_t(have);
+    // The values come from a buffer view (the count bounded by its bytes) or
+    // are zeros with sparse entries (the count bounded by a sane limit).
+    constexpr std::size_t max_viewless_count = 10'000'000;
+    if (a.bufferView < 0 && a.count > max_viewless_count)
+        throw InputError(path.string(), 0, 0, name + ".count",
+                         "expected at most " + std::to_string(max_viewless_count) + " elements without a buffer view, got " +
+                             std::to_string(a.count));
+    const auto view = a.bufferView >= 0 ? view_bytes(model, a.bufferView, a.byteOffset, a.count, element_bytes, name, path)
+                                        : ViewBytes{};
     auto element = [&](const unsigned char* p, int c) -> float {
         switch (a.componentType) {
             case TINYGLTF_COMPONENT_TYPE_FLOAT: {
@@ -80,54 +127,49 @@ std::vector<float> read_floats(const tinygltf::Model& model, int index, int comp
                 return v / (a.normalized ? 65535.0f : 1.0f);
             }
             default:
-                throw InputError(path, "accessor " + std::to_string(index) + ": unsupported component type " +
-                                           std::to_string(a.componentType));
+                throw InputError(path.string(), 0, 0, name + ".componentType",
+                                 "expected float, unsigned byte or unsigned short, got " + std::to_string(a.componentType));
         }
     };
-    const int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
-    if (a.bufferView >= 0) {
-        const auto& view = model.bufferViews.at(static_cast<std::size_t>(a.bufferView));
-        const auto& buffer = model.buffers.at(static_cast<std::size_t>(view.buffer));
-        const std::size_t stride = view.byteStride ? view.byteStride : std::size_t(size * have);
-        const std::size_t start = view.byteOffset + a.byteOffset;
-        if (a.count > 0 && start + stride * (a.count - 1) + std::size_t(size * have) > buffer.data.size())
-            throw InputError(path, "accessor " + std::to_string(index) + " reaches beyond its buffer");
-        for (std::size_t i = 0; i < a.count; ++i)
-            for (int c = 0; c < components; ++c)
-                out[i * std::size_t(components) + std::size_t(c)] = element(buffer.data.data() + start + i * stride, c);
-    }
+    std::vector<float> out(a.count * static_cast<std::size_t>(components), 0.0f);
+    for (std::size_t i = 0; view.data && i < a.count; ++i)
+        for (int c = 0; c < components; ++c)
+            out[i * std::size_t(components) + std::size_t(c)] = element(view.data + i * view.stride, c);
     if (a.sparse.isSparse) {
-        const auto& iv = model.bufferViews.at(static_cast<std::size_t>(a.sparse.indices.bufferView));
-        const auto& vv = model.bufferViews.at(static_cast<std::size_t>(a.sparse.values.bufferView));
-        const auto& ib = model.buffers.at(static_cast<std::size_t>(iv.buffer));
-        const auto& vb = model.buffers.at(static_cast<std::size_t>(vv.buffer));
-        const int isize = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.sparse.indices.componentType));
-        for (int k = 0; k < a.sparse.count; ++k) {
-            const unsigned char* ip = ib.data.data() + iv.byteOffset + a.sparse.indices.byteOffset + std::size_t(k * isize);
+        const auto& sp = a.sparse;
+        if (sp.count < 0 || static_cast<std::size_t>(sp.count) > a.count)
+            throw InputError(path.string(), 0, 0, name + ".sparse.count",
+                             "expected at most the accessor's " + std::to_string(a.count) + " elements, got " + std::to_string(sp.count));
+        const int isize = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(sp.indices.componentType));
+        if (isize != 1 && isize != 2 && isize != 4)
+            throw InputError(path.string(), 0, 0, name + ".sparse.indices.componentType", "expected an unsigned integer type");
+        const auto count = static_cast<std::size_t>(sp.count);
+        const auto iv = view_bytes(model, sp.indices.bufferView, sp.indices.byteOffset, count, std::size_t(isize), name + ".sparse.indices", path, std::size_t(isize));
+        const auto vv = view_bytes(model, sp.values.bufferView, sp.values.byteOffset, count, element_bytes, name + ".sparse.values", path, element_bytes);
+        for (std::size_t k = 0; k < count; ++k) {
+            const unsigned char* ip = iv.data + k * iv.stride;
             std::uint32_t target = 0;
             if (isize == 1) target = *ip;
             else if (isize == 2) { std::uint16_t v; std::memcpy(&v, ip, 2); target = v; }
             else std::memcpy(&target, ip, 4);
-            if (target >= a.count) throw InputError(path, "a sparse accessor index is out of range");
-            const unsigned char* vp = vb.data.data() + vv.byteOffset + a.sparse.values.byteOffset + std::size_t(k) * std::size_t(size * have);
-            for (int c = 0; c < components; ++c) out[target * std::size_t(components) + std::size_t(c)] = element(vp, c);
+            if (target >= a.count) throw InputError(path.string(), 0, 0, name + ".sparse.indices", "an index is out of range");
+            for (int c = 0; c < components; ++c) out[target * std::size_t(components) + std::size_t(c)] = element(vv.data + k * vv.stride, c);
         }
     }
     return out;
 }
 
 std::vector<std::uint32_t> read_indices(const tinygltf::Model& model, int index, const std::filesystem::path& path) {
-    const auto& a = model.accessors.at(static_cast<std::size_t>(index));
-    const auto& view = model.bufferViews.at(static_cast<std::size_t>(a.bufferView));
-    const auto& buffer = model.buffers.at(static_cast<std::size_t>(view.buffer));
+    const auto& a = accessor_at(model, index, path);
+    const std::string name = "accessors[" + std::to_string(index) + "]";
     const int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
-    const std::size_t stride = view.byteStride ? view.byteStride : std::size_t(size);
-    const std::size_t start = view.byteOffset + a.byteOffset;
-    if (a.count > 0 && start + stride * (a.count - 1) + std::size_t(size) > buffer.data.size())
-        throw InputError(path, "an index accessor reaches beyond its buffer");
+    if ((size != 1 && size != 2 && size != 4) || tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type)) != 1)
+        throw InputError(path.string(), 0, 0, name, "expected scalar unsigned integer indices");
+    if (a.bufferView < 0) throw InputError(path.string(), 0, 0, name + ".bufferView", "expected the indices' buffer view");
+    const auto view = view_bytes(model, a.bufferView, a.byteOffset, a.count, std::size_t(size), name, path);
     std::vector<std::uint32_t> out(a.count);
     for (std::size_t i = 0; i < a.count; ++i) {
-        const unsigned char* p = buffer.data.data() + start + i * stride;
+        const unsigned char* p = view.data + i * view.stride;
         if (size == 1) out[i] = *p;
         else if (size == 2) { std::uint16_t v; std::memcpy(&v, p, 2); out[i] = v; }
         else std::memcpy(&out[i], p, 4);
@@ -438,6 +480,9 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
                 }
                 if (mat.alphaMode == "BLEND") materials[group]["blend"] = true;
             }
+            if ((!uv.empty() && uv.size() != 2 * count) || (!color.empty() && color.size() != 3 * count))
+                throw InputError(path.string(), 0, 0, "meshes[" + std::to_string(mi) + "].primitives[" + std::to_string(pi) + "]",
+                                 "expected TEXCOORD_0 and COLOR_0 with as many elements as POSITION (" + std::to_string(count) + ")");
             for (std::size_t i = 0; fresh && i < count; ++i) {
                 mesh.colors.push_back(factor * (color.empty() ? glm::vec3(1.0f)
                                                               : glm::vec3(color[3 * i], color[3 * i + 1], color[3 * i + 2])));
@@ -470,6 +515,10 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
                 const auto it = prim.targets[t].find("POSITION");
                 if (it == prim.targets[t].end()) continue;
                 const auto d = read_floats(model, it->second, 3, path);
+                if (d.size() != 3 * count)
+                    throw InputError(path.string(), 0, 0, "morph target " + name,
+                                     "expected as many offsets as the primitive's POSITION (" + std::to_string(count) + "), got " +
+                                         std::to_string(d.size() / 3));
                 auto& list = targets[name];
                 for (std::size_t i = 0; i < d.size() / 3; ++i) {
                     const glm::vec3 offset = linear * glm::vec3(d[3 * i], d[3 * i + 1], d[3 * i + 2]) * mm_per_metre;
@@ -495,7 +544,8 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
 
     if (texture_image >= 0) {
         const auto& img = model.images.at(static_cast<std::size_t>(texture_image));
-        if (img.image.empty() || img.width <= 0 || img.height <= 0 || (img.component != 3 && img.component != 4))
+        if (img.image.empty() || img.width <= 0 || img.height <= 0 || (img.component != 3 && img.component != 4) ||
+            img.image.size() < std::size_t(img.width) * std::size_t(img.height) * std::size_t(img.component))
             throw InputError(path, "the texture image could not be decoded");
         ImageRgba tex;
         tex.width = img.width;
@@ -527,7 +577,9 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
         for (const auto& [g, m] : avsi["materials"].items()) materials[g] = m;
     if (!materials.empty()) doc["materials"] = materials;
     json transforms = json::array();
-    for (const auto& [channel, row] : mapping.rows) {
+    for (const auto& mapping_row : mapping.rows) {
+        const std::string& channel = mapping_row.first;  // not a structured binding: lambdas below capture it (clang 14)
+        const MappingRow& row = mapping_row.second;
         const auto [lo, hi] = channel_range(channel);
         auto add = [&](const std::map<std::string, float>& weights, double per_unit, const char* side) {
             for (const auto& [target, w] : weights) {
@@ -568,7 +620,9 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
     bare.transforms = head.transforms;
     std::vector<glm::vec3> rest;
     pose_positions(bare, Pose{}, rest);
-    for (const auto& [channel, row] : mapping.rows) {
+    for (const auto& mapping_row : mapping.rows) {
+        const std::string& channel = mapping_row.first;  // not a structured binding: lambdas below capture it (clang 14)
+        const MappingRow& row = mapping_row.second;
         const auto [lo, hi] = channel_range(channel);
         auto side_shapes = [&](const std::map<std::string, float>& weights, double value) {
             if (weights.empty()) return;

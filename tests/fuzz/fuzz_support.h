@@ -8,6 +8,8 @@
 #include <unistd.h>
 
 #include <cstddef>
+#include <cstdio>
+#include <cstdlib>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -44,6 +46,9 @@ int run(const std::uint8_t* data, std::size_t size, Parse&& parse) {
     } catch (const avsi::InputError& e) {
         // The message must name a place: a file (or "<input>" for in-memory text).
         if (e.diagnostics().empty() || std::string(e.what()).find("error: ") == std::string::npos) __builtin_trap();
+        // AVSI_FUZZ_VERBOSE=1: say why an input was refused (checking that a good seed passes).
+        static const bool verbose = std::getenv("AVSI_FUZZ_VERBOSE") != nullptr;
+        if (verbose) std::fprintf(stderr, "refused: %s\n", e.what());
     }
     return 0;
 }

@@ -314,7 +314,7 @@ def gltf_doc():
     data = b"".join(struct.pack("<3f", *p) for p in pos) + struct.pack("<6H", 0, 2, 1, 1, 2, 3)
     import base64
     return {
-        "asset": {"version": "2.0", "extras": {"avsi": {"landmarks": {"left_eye": [0.03, 0, 0]}}}},
+        "asset": {"version": "2.0"}, "extras": {"avsi": {"landmarks": {"left_eye": [0.03, 0, 0]}}},
         "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
         "meshes": [{"name": "face", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
         "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
@@ -343,7 +343,7 @@ gltf_cases = {
     "node_index.gltf": gltf_with(lambda d: d["scenes"][0].__setitem__("nodes", [7])),
     "buffer_missing.gltf": gltf_with(lambda d: d["buffers"][0].__setitem__("uri", "missing.bin")),
     "buffer_device.gltf": gltf_with(lambda d: d["buffers"][0].__setitem__("uri", "/dev/zero")),
-    "extras_avsi_array.gltf": gltf_with(lambda d: d["asset"]["extras"].__setitem__("avsi", [1, 2])),
+    "extras_avsi_array.gltf": gltf_with(lambda d: d["extras"].__setitem__("avsi", [1, 2])),
     "accessor_count_huge.gltf": gltf_with(lambda d: d["accessors"][0].__setitem__("count", 4000000000)),
     "bad_magic.glb": b"glTF\x02\x00\x00\x00",
     "glb_json_length.glb": glb(json.dumps(gltf_doc()).encode(), declared=1 << 30),
