@@ -15,6 +15,7 @@
 #include <fstream>
 #include <string>
 #include <string_view>
+#include <system_error>
 
 #include "avsi/core/error.h"
 
@@ -26,13 +27,21 @@ inline constexpr std::size_t max_input_bytes = 1 << 20;
 
 // A file in a per-process folder, rewritten for every input.
 inline std::filesystem::path input_file(std::string_view name, std::string_view data) {
-    static const std::filesystem::path dir = [] {
+    // Removed when the process exits normally (a crash leaves it for a look).
+    struct Folder {
+        std::filesystem::path path;
+        ~Folder() {
+            std::error_code ec;
+            std::filesystem::remove_all(path, ec);
+        }
+    };
+    static const Folder dir{[] {
         const char* tmp = std::getenv("TMPDIR");
         auto d = std::filesystem::path(tmp && *tmp ? tmp : "/tmp") / ("avsi_fuzz_" + std::to_string(::getpid()));
         std::filesystem::create_directories(d);
         return d;
-    }();
-    const auto path = dir / name;
+    }()};
+    const auto path = dir.path / name;
     std::ofstream(path, std::ios::binary | std::ios::trunc).write(data.data(), static_cast<std::streamsize>(data.size()));
     return path;
 }
