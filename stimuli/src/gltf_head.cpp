@@ -294,7 +294,7 @@ bool read_resource(std::vector<unsigned char>* out, std::string* err, const std:
 
 bool resource_exists(const std::string& file, void*) {
     std::error_code ec;
-    return std::filesystem::is_regular_file(file, ec);
+    return std::filesystem::exists(file, ec);  // read_resource says why a device or folder is refused
 }
 
 std::string no_expansion(const std::string& file, void*) { return file; }
@@ -313,7 +313,8 @@ tinygltf::Model load_gltf_model(const std::filesystem::path& path) {
         if (bytes.size() < 20 || bytes.compare(16, 4, "JSON") != 0 || json_bytes > bytes.size() - 20)
             throw InputError(path, "not a readable binary glTF (.glb): expected a header and a JSON chunk within the file's " +
                                        std::to_string(bytes.size()) + " bytes");
-        (void)parse_json(std::string_view(bytes).substr(20, json_bytes), path.string() + " (JSON chunk)");
+        // Positions are within the JSON chunk (line 1, column from its start).
+        (void)parse_json(std::string_view(bytes).substr(20, json_bytes), path.string());
     } else {
         (void)parse_json(bytes, path.string());
     }
@@ -397,6 +398,9 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
     head.obj_path = path;
     head.rig_path = path;
     const json avsi = extras_of(model.extras_json_string, model.extras, path).value("avsi", json::object());
+    if (!avsi.is_object())
+        throw InputError(path.string(), 0, 0, "extras.avsi",
+                         "expected an object of landmarks, articulation, lip_contact and materials, got " + avsi.dump().substr(0, 40));
 
     // The mesh nodes of the default scene, in order, with their world matrices.
     std::vector<std::pair<int, glm::mat4>> mesh_nodes;
