@@ -292,6 +292,7 @@ rig_cases = {
     "empty": "",
     "deep_nesting": '{"format": "avsi-rig", "x": ' + DEEP + "}\n",
     "not_object": "[]\n",
+    "nul_after_document": '{"format": "avsi-rig"}\x00 garbage',
     "wrong_format": rig_with(lambda r: r.__setitem__("format", "blender")),
     "landmark_1e308": rig_with(lambda r: set_landmark(r, "left_eye", [1e308, 0, 0])),
     "landmark_string": rig_with(lambda r: set_landmark(r, "left_eye", ["a", 0, 0])),
@@ -407,6 +408,8 @@ def cj_with(mut):
     mut(c)
     return json.dumps(c, indent=1)
 cm_cases = {
+    "not_object": "1\n",
+    "nul_after_number": '1\x00,\n"x"',
     "empty": "",
     "deep_nesting": '{"format": "avsi-articulatory-corpus", "utterances": ' + NESTED + "}",
     "wrong_format": cj_with(lambda c: c.__setitem__("format", "mocha")),
