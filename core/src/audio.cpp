@@ -2,9 +2,12 @@
 
 #include <sndfile.h>
 
+#include <cstdint>
+
 #include <fmt/format.h>
 
 #include "avsi/core/audio_stream.h"
+#include "avsi/core/checks.h"
 #include "avsi/core/error.h"
 
 namespace avsi {
@@ -35,19 +38,28 @@ Audio read_audio(const std::filesystem::path& path) {
         throw InputError(path, fmt::format("cannot read audio file: {} (supported: WAV and FLAC, "
                                            "PCM or float)", sf_strerror(nullptr)));
     }
+    struct Closer {
+        SNDFILE* file;
+        ~Closer() { sf_close(file); }
+    } closer{file};
+    if (info.samplerate <= 0 || info.channels <= 0 || info.frames < 0)
+        throw InputError(path, "audio file has no valid sample rate or channel count");
+    // The header's length is allocated at once: bounded first (a FLAC header
+    // may claim 2^36 frames in a few bytes).
+    if (static_cast<std::uint64_t>(info.frames) > max_declared_count / static_cast<std::uint64_t>(info.channels))
+        throw InputError(path.string(), 0, 0, "frames",
+                         fmt::format("expected at most {} samples in all channels, got a header declaring {} frames of {} channels",
+                                     max_declared_count, info.frames, info.channels));
     Audio audio;
     audio.sample_rate_hz = info.samplerate;
     audio.channels = info.channels;
-    audio.samples.resize(static_cast<std::size_t>(info.frames) * info.channels);
+    audio.samples.resize(static_cast<std::size_t>(info.frames) * static_cast<std::size_t>(info.channels));
     // Float reads of float files must not be rescaled; PCM maps to [-1, 1).
     sf_command(file, SFC_SET_NORM_FLOAT, nullptr, SF_TRUE);
     const sf_count_t read = sf_readf_float(file, audio.samples.data(), info.frames);
-    sf_close(file);
     if (read != info.frames)
         throw InputError(path, fmt::format("audio file is truncated: header says {} frames, read {}",
                                            info.frames, read));
-    if (audio.sample_rate_hz <= 0 || audio.channels <= 0)
-        throw InputError(path, "audio file has no valid sample rate or channel count");
     if (info.frames == 0) throw InputError(path, "audio file has no samples");
     return audio;
 }

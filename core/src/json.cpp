@@ -93,7 +93,22 @@ std::string plain_message(const std::string& what) {
 
 }  // namespace
 
+namespace {
+
+// nlohmann's lexer takes a NUL byte for the end of the input: a document
+// followed by a NUL and anything at all would pass. JSON text has no raw NUL
+// (not even in strings, where control characters are escaped).
+void refuse_nul(std::string_view text, const std::string& path) {
+    if (const auto z = text.find('\0'); z != std::string_view::npos) {
+        const Position p = position_of(text, z);
+        throw InputError(path, p.line, p.column, "", "invalid JSON: a NUL byte (binary data in a JSON file?)");
+    }
+}
+
+}  // namespace
+
 nlohmann::json parse_json(std::string_view text, const std::string& path, int max_depth) {
+    refuse_nul(text, path);
     scan_structure(text, path, max_depth);
     try {
         return nlohmann::json::parse(text.begin(), text.end());
@@ -108,6 +123,7 @@ nlohmann::json parse_json(std::string_view text, const std::string& path, int ma
 }
 
 void check_json_structure(std::string_view text, const std::string& path, int max_depth) {
+    refuse_nul(text, path);
     scan_structure(text, path, max_depth);
 }
 

@@ -86,7 +86,8 @@ void parse_records(const std::string& text, const std::string& file, std::vector
                                          what));
         }
         any = true;
-        const auto [line, column] = line_column(text, start);
+        const auto position = line_column(text, start);  // not a structured binding: captured below (clang 14)
+        const auto line = position.first, column = position.second;
         auto take = [&](json&& v, const std::string& where) {
             if (v.is_object() && v.contains("avsi"))
                 out.push_back({std::move(v), file, line, column, where});

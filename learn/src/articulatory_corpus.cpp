@@ -294,6 +294,9 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
         }
     } else {
         const json j = parse_json(text, mpath);
+        if (!j.is_object())
+            throw InputError(mpath, fmt::format("expected a JSON object (an avsi articulatory corpus manifest), got {}",
+                                                j.dump().substr(0, 40)));
         static const std::vector<std::string> top = {"format", "version", "name", "split", "sensor_mapping",
                                                      "utterances", "description", "generator"};
         for (const auto& [key, value] : j.items())

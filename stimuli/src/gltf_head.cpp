@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <functional>
 #include <set>
 #include <tuple>
@@ -19,8 +20,10 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
+#include "avsi/core/checks.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/synth/parameters.h"
 #include "rig_reader.h"
 #include "smoothstep.h"
@@ -52,17 +55,64 @@ std::pair<double, double> channel_range(const std::string& channel) {
 
 // ---- Reading accessors ------------------------------------------------------
 
+const tinygltf::Accessor& accessor_at(const tinygltf::Model& model, int index, const std::filesystem::path& path) {
+    if (index < 0 || static_cast<std::size_t>(index) >= model.accessors.size())
+        throw InputError(path.string(), 0, 0, "accessors",
+                         "expected an accessor index in [0, " + std::to_string(model.accessors.size()) + "), got " + std::to_string(index));
+    return model.accessors[static_cast<std::size_t>(index)];
+}
+
+// `count` elements of `element_bytes` bytes in buffer view `index` from
+// `offset`, `stride` apart (the view's byteStride, else `tight` or the
+// element's size): where they start, checked to lie within the view and the
+// view within its buffer (no overflow for any count).
+struct ViewBytes {
+    const unsigned char* data = nullptr;
+    std::size_t stride = 0;
+};
+ViewBytes view_bytes(const tinygltf::Model& model, int index, std::size_t offset, std::size_t count, std::size_t element_bytes,
+                     const std::string& name, const std::filesystem::path& path, std::size_t tight = 0) {
+    if (index < 0 || static_cast<std::size_t>(index) >= model.bufferViews.size())
+        throw InputError(path.string(), 0, 0, name + ".bufferView",
+                         "expected a buffer view index in [0, " + std::to_string(model.bufferViews.size()) + "), got " + std::to_string(index));
+    const auto& view = model.bufferViews[static_cast<std::size_t>(index)];
+    if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model.buffers.size())
+        throw InputError(path.string(), 0, 0, "bufferViews[" + std::to_string(index) + "].buffer", "expected a buffer index");
+    const auto& buffer = model.buffers[static_cast<std::size_t>(view.buffer)].data;
+    if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset)
+        throw InputError(path.string(), 0, 0, "bufferViews[" + std::to_string(index) + "]", "reaches beyond its buffer");
+    const std::size_t stride = view.byteStride ? view.byteStride : (tight ? tight : element_bytes);
+    const std::size_t length = view.byteLength;
+    const bool fits = count == 0 || (offset <= length && element_bytes <= length - offset &&
+                                     (stride == 0 || count - 1 <= (length - offset - element_bytes) / stride));
+    if (!fits)
+        throw InputError(path.string(), 0, 0, name,
+                         std::to_string(count) + " elements reach beyond buffer view " + std::to_string(index) + " (" +
+                             std::to_string(length) + " bytes)");
+    return {buffer.data() + view.byteOffset + offset, stride};
+}
+
 // Accessor `index` as floats, `components` per element (normalized integer
 // types scaled to [0, 1]); sparse accessors applied.
 std::vector<float> read_floats(const tinygltf::Model& model, int index, int components, const std::filesystem::path& path) {
-    if (index < 0 || static_cast<std::size_t>(index) >= model.accessors.size())
-        throw InputError(path, "an accessor index is out of range");
-    const auto& a = model.accessors[static_cast<std::size_t>(index)];
+    const auto& a = accessor_at(model, index, path);
+    const std::string name = "accessors[" + std::to_string(index) + "]";
     const int have = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type));
     if (have < components)
-        throw InputError(path, "accessor " + std::to_string(index) + ": expected " + std::to_string(components) +
-                                   " components, got " + std::to_string(have));
-    std::vector<float> out(a.count * static_cast<std::size_t>(components), 0.0f);
+        throw InputError(path.string(), 0, 0, name + ".type",
+                         "expected " + std::to_string(components) + " components, got " + std::to_string(have));
+    const int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
+    if (size <= 0) throw InputError(path.string(), 0, 0, name + ".componentType", "expected a glTF component type, got " + std::to_string(a.componentType));
+    const std::size_t element_bytes = std::size_t(size) * std::size_t(have);
+    // The values come from a buffer view (the count bounded by its bytes) or
+    // are zeros with sparse entries (the count bounded by a sane limit).
+    constexpr std::size_t max_viewless_count = 10'000'000;
+    if (a.bufferView < 0 && a.count > max_viewless_count)
+        throw InputError(path.string(), 0, 0, name + ".count",
+                         "expected at most " + std::to_string(max_viewless_count) + " elements without a buffer view, got " +
+                             std::to_string(a.count));
+    const auto view = a.bufferView >= 0 ? view_bytes(model, a.bufferView, a.byteOffset, a.count, element_bytes, name, path)
+                                        : ViewBytes{};
     auto element = [&](const unsigned char* p, int c) -> float {
         switch (a.componentType) {
             case TINYGLTF_COMPONENT_TYPE_FLOAT: {
@@ -77,54 +127,49 @@ std::vector<float> read_floats(const tinygltf::Model& model, int index, int comp
                 return v / (a.normalized ? 65535.0f : 1.0f);
             }
             default:
-                throw InputError(path, "accessor " + std::to_string(index) + ": unsupported component type " +
-                                           std::to_string(a.componentType));
+                throw InputError(path.string(), 0, 0, name + ".componentType",
+                                 "expected float, unsigned byte or unsigned short, got " + std::to_string(a.componentType));
         }
     };
-    const int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
-    if (a.bufferView >= 0) {
-        const auto& view = model.bufferViews.at(static_cast<std::size_t>(a.bufferView));
-        const auto& buffer = model.buffers.at(static_cast<std::size_t>(view.buffer));
-        const std::size_t stride = view.byteStride ? view.byteStride : std::size_t(size * have);
-        const std::size_t start = view.byteOffset + a.byteOffset;
-        if (a.count > 0 && start + stride * (a.count - 1) + std::size_t(size * have) > buffer.data.size())
-            throw InputError(path, "accessor " + std::to_string(index) + " reaches beyond its buffer");
-        for (std::size_t i = 0; i < a.count; ++i)
-            for (int c = 0; c < components; ++c)
-                out[i * std::size_t(components) + std::size_t(c)] = element(buffer.data.data() + start + i * stride, c);
-    }
+    std::vector<float> out(a.count * static_cast<std::size_t>(components), 0.0f);
+    for (std::size_t i = 0; view.data && i < a.count; ++i)
+        for (int c = 0; c < components; ++c)
+            out[i * std::size_t(components) + std::size_t(c)] = element(view.data + i * view.stride, c);
     if (a.sparse.isSparse) {
-        const auto& iv = model.bufferViews.at(static_cast<std::size_t>(a.sparse.indices.bufferView));
-        const auto& vv = model.bufferViews.at(static_cast<std::size_t>(a.sparse.values.bufferView));
-        const auto& ib = model.buffers.at(static_cast<std::size_t>(iv.buffer));
-        const auto& vb = model.buffers.at(static_cast<std::size_t>(vv.buffer));
-        const int isize = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.sparse.indices.componentType));
-        for (int k = 0; k < a.sparse.count; ++k) {
-            const unsigned char* ip = ib.data.data() + iv.byteOffset + a.sparse.indices.byteOffset + std::size_t(k * isize);
+        const auto& sp = a.sparse;
+        if (sp.count < 0 || static_cast<std::size_t>(sp.count) > a.count)
+            throw InputError(path.string(), 0, 0, name + ".sparse.count",
+                             "expected at most the accessor's " + std::to_string(a.count) + " elements, got " + std::to_string(sp.count));
+        const int isize = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(sp.indices.componentType));
+        if (isize != 1 && isize != 2 && isize != 4)
+            throw InputError(path.string(), 0, 0, name + ".sparse.indices.componentType", "expected an unsigned integer type");
+        const auto count = static_cast<std::size_t>(sp.count);
+        const auto iv = view_bytes(model, sp.indices.bufferView, sp.indices.byteOffset, count, std::size_t(isize), name + ".sparse.indices", path, std::size_t(isize));
+        const auto vv = view_bytes(model, sp.values.bufferView, sp.values.byteOffset, count, element_bytes, name + ".sparse.values", path, element_bytes);
+        for (std::size_t k = 0; k < count; ++k) {
+            const unsigned char* ip = iv.data + k * iv.stride;
             std::uint32_t target = 0;
             if (isize == 1) target = *ip;
             else if (isize == 2) { std::uint16_t v; std::memcpy(&v, ip, 2); target = v; }
             else std::memcpy(&target, ip, 4);
-            if (target >= a.count) throw InputError(path, "a sparse accessor index is out of range");
-            const unsigned char* vp = vb.data.data() + vv.byteOffset + a.sparse.values.byteOffset + std::size_t(k) * std::size_t(size * have);
-            for (int c = 0; c < components; ++c) out[target * std::size_t(components) + std::size_t(c)] = element(vp, c);
+            if (target >= a.count) throw InputError(path.string(), 0, 0, name + ".sparse.indices", "an index is out of range");
+            for (int c = 0; c < components; ++c) out[target * std::size_t(components) + std::size_t(c)] = element(vv.data + k * vv.stride, c);
         }
     }
     return out;
 }
 
 std::vector<std::uint32_t> read_indices(const tinygltf::Model& model, int index, const std::filesystem::path& path) {
-    const auto& a = model.accessors.at(static_cast<std::size_t>(index));
-    const auto& view = model.bufferViews.at(static_cast<std::size_t>(a.bufferView));
-    const auto& buffer = model.buffers.at(static_cast<std::size_t>(view.buffer));
+    const auto& a = accessor_at(model, index, path);
+    const std::string name = "accessors[" + std::to_string(index) + "]";
     const int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
-    const std::size_t stride = view.byteStride ? view.byteStride : std::size_t(size);
-    const std::size_t start = view.byteOffset + a.byteOffset;
-    if (a.count > 0 && start + stride * (a.count - 1) + std::size_t(size) > buffer.data.size())
-        throw InputError(path, "an index accessor reaches beyond its buffer");
+    if ((size != 1 && size != 2 && size != 4) || tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type)) != 1)
+        throw InputError(path.string(), 0, 0, name, "expected scalar unsigned integer indices");
+    if (a.bufferView < 0) throw InputError(path.string(), 0, 0, name + ".bufferView", "expected the indices' buffer view");
+    const auto view = view_bytes(model, a.bufferView, a.byteOffset, a.count, std::size_t(size), name, path);
     std::vector<std::uint32_t> out(a.count);
     for (std::size_t i = 0; i < a.count; ++i) {
-        const unsigned char* p = buffer.data.data() + start + i * stride;
+        const unsigned char* p = view.data + i * view.stride;
         if (size == 1) out[i] = *p;
         else if (size == 2) { std::uint16_t v; std::memcpy(&v, p, 2); out[i] = v; }
         else std::memcpy(&out[i], p, 4);
@@ -166,15 +211,11 @@ json from_value(const tinygltf::Value& v) {
     return json();
 }
 
-// An object's extras: from the original JSON text when tinygltf kept it, else its parsed value.
-json extras_of(const std::string& text, const tinygltf::Value& value) {
-    if (!text.empty()) {
-        try {
-            return json::parse(text);
-        } catch (const json::parse_error&) {
-        }
-    }
-    const json j = from_value(value);
+// An object's extras: from the original JSON text when tinygltf kept it, else
+// its parsed value (the file's JSON was checked by parse_json before tinygltf
+// read it, so the text parses within the nesting limit).
+json extras_of(const std::string& text, const tinygltf::Value& value, const std::filesystem::path& path) {
+    const json j = text.empty() ? from_value(value) : parse_json(text, path.string());
     return j.is_object() ? j : json::object();
 }
 
@@ -204,6 +245,10 @@ json scaled_point(const json& p, double scale) {
     return out;
 }
 
+BlendshapeMapping read_mapping(const json& doc, const std::filesystem::path& path);
+Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mapping, const std::filesystem::path& path);
+tinygltf::Model load_gltf_model(const std::filesystem::path& path);
+
 }  // namespace
 
 std::vector<std::string> BlendshapeMapping::targets() const {
@@ -219,12 +264,77 @@ std::filesystem::path default_blendshape_mapping() {
 }
 
 BlendshapeMapping read_blendshape_mapping(const std::filesystem::path& path) {
-    json doc;
-    try {
-        doc = json::parse(read_text_file(path));
-    } catch (const json::parse_error& e) {
-        throw InputError(path, std::string("not valid JSON: ") + e.what());
+    const json doc = read_json_file(path);
+    return with_json_context(path, [&] { return read_mapping(doc, path); });
+}
+
+namespace {
+
+// The files a glTF names (buffers, images), read for tinygltf: regular files
+// only (never a device or a FIFO, which could block or never end), at most
+// max_resource_bytes each.
+constexpr std::uintmax_t max_resource_bytes = std::uintmax_t(1) << 30;
+
+bool read_resource(std::vector<unsigned char>* out, std::string* err, const std::string& file, void*) {
+    std::error_code ec;
+    const bool regular = std::filesystem::is_regular_file(file, ec);
+    const auto size = regular ? std::filesystem::file_size(file, ec) : 0;
+    if (!regular || ec || size > max_resource_bytes) {
+        if (err) *err += (regular ? "larger than 1 GiB or unreadable: " : "not a regular file: ") + file + "\n";
+        return false;
     }
+    out->resize(static_cast<std::size_t>(size));
+    std::ifstream in(file, std::ios::binary);
+    if (!in.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(size))) {
+        if (err) *err += "cannot read " + file + "\n";
+        return false;
+    }
+    return true;
+}
+
+bool resource_exists(const std::string& file, void*) {
+    std::error_code ec;
+    return std::filesystem::exists(file, ec);  // read_resource says why a device or folder is refused
+}
+
+std::string no_expansion(const std::string& file, void*) { return file; }
+
+// Reads the glTF (.glb: its JSON chunk) through parse_json first, so a syntax
+// error, a number out of range or nesting deeper than max_json_depth is a
+// file:line:col error before tinygltf (whose JSON values and our conversion
+// of them are recursive) sees it; then loads it with tinygltf.
+tinygltf::Model load_gltf_model(const std::filesystem::path& path) {
+    const std::string bytes = read_text_file(path);
+    const bool binary = bytes.size() >= 4 && bytes.compare(0, 4, "glTF") == 0;
+    if (binary) {
+        // Header (magic, version, length), then the JSON chunk (length, "JSON", text).
+        std::uint32_t json_bytes = 0;
+        if (bytes.size() >= 20) std::memcpy(&json_bytes, bytes.data() + 12, 4);
+        if (bytes.size() < 20 || bytes.compare(16, 4, "JSON") != 0 || json_bytes > bytes.size() - 20)
+            throw InputError(path, "not a readable binary glTF (.glb): expected a header and a JSON chunk within the file's " +
+                                       std::to_string(bytes.size()) + " bytes");
+        // Positions are within the JSON chunk (line 1, column from its start).
+        (void)parse_json(std::string_view(bytes).substr(20, json_bytes), path.string());
+    } else {
+        (void)parse_json(bytes, path.string());
+    }
+    if (bytes.size() > std::numeric_limits<unsigned int>::max()) throw InputError(path, "larger than 4 GiB");
+    tinygltf::TinyGLTF loader;
+    loader.SetStoreOriginalJSONForExtrasAndExtensions(true);
+    loader.SetFsCallbacks({&resource_exists, &no_expansion, &read_resource, &tinygltf::WriteWholeFile, nullptr});
+    tinygltf::Model model;
+    std::string error, warning;
+    const std::string base_dir = path.has_parent_path() ? path.parent_path().string() : ".";
+    const bool ok =
+        binary ? loader.LoadBinaryFromMemory(&model, &error, &warning, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                             static_cast<unsigned int>(bytes.size()), base_dir)
+               : loader.LoadASCIIFromString(&model, &error, &warning, bytes.data(), static_cast<unsigned int>(bytes.size()),
+                                            base_dir);
+    if (!ok) throw InputError(path, "not a readable glTF 2.0 file: " + (error.empty() ? warning : error));
+    return model;
+}
+
+BlendshapeMapping read_mapping(const json& doc, const std::filesystem::path& path) {
     DiagnosticList problems;
     auto problem = [&](const std::string& field, const std::string& message) {
         problems.add(path.string(), 0, 0, field, message);
@@ -272,30 +382,47 @@ BlendshapeMapping read_blendshape_mapping(const std::filesystem::path& path) {
     return m;
 }
 
+}  // namespace
+
 Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::path& mapping_path) {
     const BlendshapeMapping mapping = read_blendshape_mapping(mapping_path);
     if (!std::filesystem::exists(path)) throw InputError(path, "cannot open: no such file");
-    tinygltf::TinyGLTF loader;
-    loader.SetStoreOriginalJSONForExtrasAndExtensions(true);
-    tinygltf::Model model;
-    std::string error, warning;
-    const bool binary = path.extension() == ".glb";
-    const bool ok = binary ? loader.LoadBinaryFromFile(&model, &error, &warning, path.string())
-                           : loader.LoadASCIIFromFile(&model, &error, &warning, path.string());
-    if (!ok) throw InputError(path, "not a readable glTF 2.0 file: " + (error.empty() ? warning : error));
+    const tinygltf::Model model = load_gltf_model(path);
+    return with_json_context(path, [&] { return read_gltf_head(model, mapping, path); });
+}
 
+namespace {
+
+Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mapping, const std::filesystem::path& path) {
     Head head;
     head.obj_path = path;
     head.rig_path = path;
-    const json avsi = extras_of(model.extras_json_string, model.extras).value("avsi", json::object());
+    const json avsi = extras_of(model.extras_json_string, model.extras, path).value("avsi", json::object());
+    if (!avsi.is_object())
+        throw InputError(path.string(), 0, 0, "extras.avsi",
+                         "expected an object of landmarks, articulation, lip_contact and materials, got " + avsi.dump().substr(0, 40));
 
     // The mesh nodes of the default scene, in order, with their world matrices.
     std::vector<std::pair<int, glm::mat4>> mesh_nodes;
+    // A node may appear once on a path from the root (the hierarchy is a tree).
+    std::vector<bool> on_path(model.nodes.size(), false);
+    std::size_t instances = 0;
     std::function<void(int, glm::mat4)> visit = [&](int n, glm::mat4 parent) {
-        const auto& node = model.nodes.at(static_cast<std::size_t>(n));
+        if (n < 0 || static_cast<std::size_t>(n) >= model.nodes.size())
+            throw InputError(path.string(), 0, 0, "nodes", "expected a node index in [0, " + std::to_string(model.nodes.size()) +
+                                                               "), got " + std::to_string(n));
+        if (on_path[static_cast<std::size_t>(n)])
+            throw InputError(path.string(), 0, 0, "nodes[" + std::to_string(n) + "].children",
+                             "expected a tree of nodes, got node " + std::to_string(n) + " among its own descendants");
+        // Shared subtrees multiply: bound the instances a small file can make.
+        if (++instances > 100'000)
+            throw InputError(path.string(), 0, 0, "nodes", "expected at most 100000 node instances in the scene, got more");
+        on_path[static_cast<std::size_t>(n)] = true;
+        const auto& node = model.nodes[static_cast<std::size_t>(n)];
         const glm::mat4 world = parent * node_matrix(node);
         if (node.mesh >= 0) mesh_nodes.emplace_back(node.mesh, world);
         for (int c : node.children) visit(c, world);
+        on_path[static_cast<std::size_t>(n)] = false;
     };
     const int scene = model.defaultScene >= 0 ? model.defaultScene : 0;
     if (static_cast<std::size_t>(scene) < model.scenes.size())
@@ -313,7 +440,7 @@ Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::pa
     for (std::size_t k = 0; k < mesh_nodes.size(); ++k) {
         const auto& [mi, world] = mesh_nodes[k];
         const auto& gm = model.meshes.at(static_cast<std::size_t>(mi));
-        const json mesh_extras = extras_of(gm.extras_json_string, gm.extras);
+        const json mesh_extras = extras_of(gm.extras_json_string, gm.extras, path);
         std::vector<std::string> names;
         if (mesh_extras.contains("targetNames") && mesh_extras["targetNames"].is_array())
             for (const auto& t : mesh_extras["targetNames"]) names.push_back(t.is_string() ? t.get<std::string>() : "");
@@ -357,6 +484,9 @@ Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::pa
                 }
                 if (mat.alphaMode == "BLEND") materials[group]["blend"] = true;
             }
+            if ((!uv.empty() && uv.size() != 2 * count) || (!color.empty() && color.size() != 3 * count))
+                throw InputError(path.string(), 0, 0, "meshes[" + std::to_string(mi) + "].primitives[" + std::to_string(pi) + "]",
+                                 "expected TEXCOORD_0 and COLOR_0 with as many elements as POSITION (" + std::to_string(count) + ")");
             for (std::size_t i = 0; fresh && i < count; ++i) {
                 mesh.colors.push_back(factor * (color.empty() ? glm::vec3(1.0f)
                                                               : glm::vec3(color[3 * i], color[3 * i + 1], color[3 * i + 2])));
@@ -389,6 +519,10 @@ Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::pa
                 const auto it = prim.targets[t].find("POSITION");
                 if (it == prim.targets[t].end()) continue;
                 const auto d = read_floats(model, it->second, 3, path);
+                if (d.size() != 3 * count)
+                    throw InputError(path.string(), 0, 0, "morph target " + name,
+                                     "expected as many offsets as the primitive's POSITION (" + std::to_string(count) + "), got " +
+                                         std::to_string(d.size() / 3));
                 auto& list = targets[name];
                 for (std::size_t i = 0; i < d.size() / 3; ++i) {
                     const glm::vec3 offset = linear * glm::vec3(d[3 * i], d[3 * i + 1], d[3 * i + 2]) * mm_per_metre;
@@ -414,7 +548,8 @@ Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::pa
 
     if (texture_image >= 0) {
         const auto& img = model.images.at(static_cast<std::size_t>(texture_image));
-        if (img.image.empty() || img.width <= 0 || img.height <= 0 || (img.component != 3 && img.component != 4))
+        if (img.image.empty() || img.width <= 0 || img.height <= 0 || (img.component != 3 && img.component != 4) ||
+            img.image.size() < std::size_t(img.width) * std::size_t(img.height) * std::size_t(img.component))
             throw InputError(path, "the texture image could not be decoded");
         ImageRgba tex;
         tex.width = img.width;
@@ -446,7 +581,9 @@ Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::pa
         for (const auto& [g, m] : avsi["materials"].items()) materials[g] = m;
     if (!materials.empty()) doc["materials"] = materials;
     json transforms = json::array();
-    for (const auto& [channel, row] : mapping.rows) {
+    for (const auto& mapping_row : mapping.rows) {
+        const std::string& channel = mapping_row.first;  // not a structured binding: lambdas below capture it (clang 14)
+        const MappingRow& row = mapping_row.second;
         const auto [lo, hi] = channel_range(channel);
         auto add = [&](const std::map<std::string, float>& weights, double per_unit, const char* side) {
             for (const auto& [target, w] : weights) {
@@ -469,6 +606,8 @@ Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::pa
     return head;
 }
 
+}  // namespace
+
 void export_gltf_head(const Head& head, const std::filesystem::path& out_path, const std::filesystem::path& mapping_path) {
     const BlendshapeMapping mapping = read_blendshape_mapping(mapping_path);
     const auto& mesh = head.mesh;
@@ -485,7 +624,9 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
     bare.transforms = head.transforms;
     std::vector<glm::vec3> rest;
     pose_positions(bare, Pose{}, rest);
-    for (const auto& [channel, row] : mapping.rows) {
+    for (const auto& mapping_row : mapping.rows) {
+        const std::string& channel = mapping_row.first;  // not a structured binding: lambdas below capture it (clang 14)
+        const MappingRow& row = mapping_row.second;
         const auto [lo, hi] = channel_range(channel);
         auto side_shapes = [&](const std::map<std::string, float>& weights, double value) {
             if (weights.empty()) return;
@@ -677,7 +818,7 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
     }
     // The rig file's lip contact and materials, as written (group names are the materials').
     if (!head.rig_path.empty() && head.rig_path.extension() == ".json") {
-        const json rig = json::parse(read_text_file(head.rig_path));
+        const json rig = read_json_file(head.rig_path);
         for (const char* key : {"lip_contact", "materials"})
             if (rig.contains(key)) avsi[key] = rig[key];
     }

@@ -222,7 +222,13 @@ std::vector<float> term_weights(const HeadMesh& mesh, const json& region, const 
             }
         }
         for (std::size_t i = 0; i < n; ++i) w[i] = total[i] > 0 ? inside[i] / total[i] : 0.0f;
-        const int smooth = region.value("smooth", 0);
+        // Each pass visits every edge: bounded, so a number cannot make the rig hang.
+        const json smooth_value = region.value("smooth", json(0));
+        int smooth = 0;
+        if (!smooth_value.is_number_integer() || smooth_value.get<long long>() < 0 || smooth_value.get<long long>() > 1000)
+            rig.problem(field + ".smooth", "expected an integer in [0, 1000], got " + smooth_value.dump());
+        else
+            smooth = smooth_value.get<int>();
         if (smooth > 0) {
             std::vector<std::set<std::uint32_t>> neighbours(n);
             for (std::size_t t = 0; t < mesh.indices.size(); t += 3)
@@ -540,7 +546,7 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
                                        " has two texture coordinates; a textured head needs one per vertex (split the vertex)");
         else {
             const auto path = rig_path.parent_path() / doc["texture"].get<std::string>();
-            if (!std::filesystem::exists(path)) rig.problem("texture", "no such file: " + path.string());
+            if (!std::filesystem::is_regular_file(path)) rig.problem("texture", "no such file: " + path.string());
             else {
                 head.texture = read_image_rgba(path);
                 head.texture_path = path;
@@ -632,7 +638,8 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
                     rig.problem(field + ".blendshape.offsets", "expected numbers, got " + o[3 * k].dump());
                     break;
                 }
-                rt.offsets.push_back({o[3 * k].get<float>(), o[3 * k + 1].get<float>(), o[3 * k + 2].get<float>()});
+                const std::string f = field + ".blendshape.offsets";
+                rt.offsets.push_back({rig.number(o[3 * k], f), rig.number(o[3 * k + 1], f), rig.number(o[3 * k + 2], f)});
             }
             rt.weights.assign(rt.vertices.size(), 1.0f);
             if (t.contains("region")) {

@@ -2,6 +2,7 @@
 #include "avsi/stimuli/image_io.h"
 
 #include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
@@ -34,6 +35,12 @@ ImageRgba read_image_rgba(const std::filesystem::path& path) {
     auto in = OIIO::ImageInput::open(path.string());
     if (!in) throw InputError(path, "cannot read image: " + OIIO::geterror());
     const auto& spec = in->spec();
+    // A header's size is checked before its pixels are allocated (a texture
+    // is at most 16384 pixels on a side, 1 to 4 channels).
+    if (spec.width <= 0 || spec.height <= 0 || spec.width > 16384 || spec.height > 16384 || spec.nchannels < 1 || spec.nchannels > 4)
+        throw InputError(path.string(), 0, 0, "size",
+                         fmt::format("expected an image of at most 16384 × 16384 pixels with 1 to 4 channels, got {} × {} × {}",
+                                     spec.width, spec.height, spec.nchannels));
     const auto channels = static_cast<std::size_t>(spec.nchannels);
     std::vector<std::uint8_t> pixels(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) * channels);
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UINT8, pixels.data()))

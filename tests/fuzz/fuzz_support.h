@@ -8,11 +8,14 @@
 #include <unistd.h>
 
 #include <cstddef>
+#include <cstdio>
+#include <cstdlib>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <string_view>
+#include <system_error>
 
 #include "avsi/core/error.h"
 
@@ -24,13 +27,21 @@ inline constexpr std::size_t max_input_bytes = 1 << 20;
 
 // A file in a per-process folder, rewritten for every input.
 inline std::filesystem::path input_file(std::string_view name, std::string_view data) {
-    static const std::filesystem::path dir = [] {
+    // Removed when the process exits normally (a crash leaves it for a look).
+    struct Folder {
+        std::filesystem::path path;
+        ~Folder() {
+            std::error_code ec;
+            std::filesystem::remove_all(path, ec);
+        }
+    };
+    static const Folder dir{[] {
         const char* tmp = std::getenv("TMPDIR");
         auto d = std::filesystem::path(tmp && *tmp ? tmp : "/tmp") / ("avsi_fuzz_" + std::to_string(::getpid()));
         std::filesystem::create_directories(d);
         return d;
-    }();
-    const auto path = dir / name;
+    }()};
+    const auto path = dir.path / name;
     std::ofstream(path, std::ios::binary | std::ios::trunc).write(data.data(), static_cast<std::streamsize>(data.size()));
     return path;
 }
@@ -44,6 +55,9 @@ int run(const std::uint8_t* data, std::size_t size, Parse&& parse) {
     } catch (const avsi::InputError& e) {
         // The message must name a place: a file (or "<input>" for in-memory text).
         if (e.diagnostics().empty() || std::string(e.what()).find("error: ") == std::string::npos) __builtin_trap();
+        // AVSI_FUZZ_VERBOSE=1: say why an input was refused (checking that a good seed passes).
+        static const bool verbose = std::getenv("AVSI_FUZZ_VERBOSE") != nullptr;
+        if (verbose) std::fprintf(stderr, "refused: %s\n", e.what());
     }
     return 0;
 }

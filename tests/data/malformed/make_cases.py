@@ -292,6 +292,7 @@ rig_cases = {
     "empty": "",
     "deep_nesting": '{"format": "avsi-rig", "x": ' + DEEP + "}\n",
     "not_object": "[]\n",
+    "nul_after_document": '{"format": "avsi-rig"}\x00 garbage',
     "wrong_format": rig_with(lambda r: r.__setitem__("format", "blender")),
     "landmark_1e308": rig_with(lambda r: set_landmark(r, "left_eye", [1e308, 0, 0])),
     "landmark_string": rig_with(lambda r: set_landmark(r, "left_eye", ["a", 0, 0])),
@@ -304,6 +305,53 @@ rig_cases = {
 }
 for name, text in rig_cases.items():
     write("rig", name + ".json", text)
+
+# ------------------------------------------------------------------ glTF head
+# A one-quad glTF (its buffer embedded as a data URI) with the avsi extras;
+# every case fails before the ARKit mapping's targets are looked for.
+command("gltf", "args measure --traj {data}/malformed/_support/good_traj.csv --head {input} --out {out}/measures.csv")
+def gltf_doc():
+    pos = [(-0.02, -0.06, 0.01), (0.02, -0.06, 0.01), (-0.02, -0.07, 0.01), (0.02, -0.07, 0.01)]
+    data = b"".join(struct.pack("<3f", *p) for p in pos) + struct.pack("<6H", 0, 2, 1, 1, 2, 3)
+    import base64
+    return {
+        "asset": {"version": "2.0"}, "extras": {"avsi": {"landmarks": {"left_eye": [0.03, 0, 0]}}},
+        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"name": "face", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                       "min": [-0.02, -0.07, 0.01], "max": [0.02, -0.06, 0.01]},
+                      {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 12}],
+        "buffers": [{"byteLength": len(data), "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+    }
+def gltf_with(mut):
+    d = gltf_doc()
+    mut(d)
+    return json.dumps(d, indent=1)
+def glb(json_bytes, declared=None):
+    j = json_bytes + b" " * ((4 - len(json_bytes) % 4) % 4)
+    n = len(j) if declared is None else declared
+    return struct.pack("<4sII", b"glTF", 2, 20 + len(j)) + struct.pack("<I4s", n, b"JSON") + j
+gltf_good = json.dumps(gltf_doc(), indent=1)
+gltf_cases = {
+    "empty.gltf": "",
+    "truncated.gltf": gltf_good[:700],
+    "syntax_error.gltf": gltf_good.replace('"scene": 0,', '"scene": 0,,', 1),
+    "deep_nesting.gltf": gltf_good.replace('"extras": {', '"extras": {"deep": ' + DEEP + ", ", 1),
+    "number_overflow.gltf": gltf_good.replace('"scene": 0', '"scene": 1e999', 1),
+    "not_object.gltf": "[]\n",
+    "node_cycle.gltf": gltf_with(lambda d: d["nodes"][0].__setitem__("children", [0])),
+    "node_index.gltf": gltf_with(lambda d: d["scenes"][0].__setitem__("nodes", [7])),
+    "buffer_missing.gltf": gltf_with(lambda d: d["buffers"][0].__setitem__("uri", "missing.bin")),
+    "buffer_device.gltf": gltf_with(lambda d: d["buffers"][0].__setitem__("uri", "../" * 16 + "dev/zero")),
+    "extras_avsi_array.gltf": gltf_with(lambda d: d["extras"].__setitem__("avsi", [1, 2])),
+    "accessor_count_huge.gltf": gltf_with(lambda d: d["accessors"][0].__setitem__("count", 4000000000)),
+    "bad_magic.glb": b"glTF\x02\x00\x00\x00",
+    "glb_json_length.glb": glb(json.dumps(gltf_doc()).encode(), declared=1 << 30),
+    "glb_deep_nesting.glb": glb(('{"asset": {"version": "2.0"}, "x": ' + DEEP + "}").encode()),
+}
+for name, content in gltf_cases.items():
+    write("gltf", name, content)
 
 # ------------------------------------------------------------------ EST tracks (through a corpus)
 est = (HERE / "_support" / "sensors" / "utt.est").read_text()
@@ -360,6 +408,8 @@ def cj_with(mut):
     mut(c)
     return json.dumps(c, indent=1)
 cm_cases = {
+    "not_object": "1\n",
+    "nul_after_number": '1\x00,\n"x"',
     "empty": "",
     "deep_nesting": '{"format": "avsi-articulatory-corpus", "utterances": ' + NESTED + "}",
     "wrong_format": cj_with(lambda c: c.__setitem__("format", "mocha")),
