@@ -1,15 +1,21 @@
 // The player's window-free parts: the transport's audio clock and frame
 // choice, the pitch-preserving time-stretch, play scripts, and the viseme
-// editor's state (round trip, undo, phone mapping, diff with the disk).
+// editor's state (round trip, undo, phone mapping, diff with the disk), and
+// a stimulus definition's poses through its condition's animation layers.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 
+#include <unistd.h>
+
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/experiment/play_media.h"
 #include "avsi/experiment/player.h"
 #include "avsi/experiment/viseme_editor.h"
+#include "avsi/stimuli/head.h"
 #include "test_support.h"
 
 namespace avsi::experiment {
@@ -232,6 +238,75 @@ TEST(VisemeEditor, RefusesABadSetWithFileAndField) {
     write_text_file(dir / "syntax.json", "{\"name\": \"x\",\n \"visemes\": [\n");
     EXPECT_THROW(VisemeEditor(dir / "syntax.json"), InputError);
     EXPECT_THROW(VisemeEditor(dir / "missing.json"), InputError);
+}
+
+// A stimulus definition plays with its condition's animation layers, as the
+// builder renders it: an expressive condition turns the head and raises the
+// brows, its mouth still the speech layer's; a plain condition of the same
+// protocol is speech and blinks only, frame for frame its trajectory.
+TEST(PlayMedia, AStimulusDefinitionPlaysItsConditionsLayers) {
+    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_play_layers");
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const fs::path rule = fs::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json";
+    write_text_file(dir / "p.toml", fmt::format(R"([experiment]
+name = "play-layers"
+seed = 3
+[corpus]
+sentences = "{}"
+[[condition]]
+name = "plain"
+model = "{}"
+[[condition]]
+name = "expressive"
+model = "{}"
+[condition.layers]
+expression = "surprised"
+head_motion = "idle"
+gaze = true
+[design]
+lists = 2
+sentences_per_list = 1
+warmup = 0
+practice = 0
+)",
+                                                (fs::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build" / "corpus.csv").string(),
+                                                rule.string(), rule.string()));
+    const stimuli::Head head = stimuli::load_default_head();
+    auto played = [&](const std::string& condition) {
+        PlaySource source;
+        source.protocol_path = dir / "p.toml";
+        source.sentence = "s1";
+        source.condition = condition;
+        PlayMedia m = load_play_media(source);
+        animate_play_media(head, m);
+        return m;
+    };
+    const PlayMedia expressive = played("expressive");
+    const PlayMedia plain = played("plain");
+    ASSERT_EQ(expressive.poses.size(), expressive.trajectory.size());
+    ASSERT_EQ(plain.poses.size(), plain.trajectory.size());
+    ASSERT_GT(plain.poses.size(), 30u);
+
+    std::size_t turned = 0, raised = 0;
+    for (std::size_t k = 0; k < expressive.poses.size(); ++k) {
+        const stimuli::Pose& pose = expressive.poses[k];
+        turned += !pose.head_at_rest();
+        raised += pose.brow_inner_raise > 0.05 || pose.brow_outer_raise > 0.05;
+        // The speech layer owns the mouth: the jaw and lips are the trajectory's.
+        for (std::size_t c = 0; c < synth::param_count; ++c)
+            EXPECT_EQ(pose.params[c], expressive.trajectory.frames[k][c]) << "frame " << k << " parameter " << c;
+    }
+    EXPECT_GT(turned, expressive.poses.size() / 2);
+    EXPECT_EQ(raised, expressive.poses.size());
+
+    for (std::size_t k = 0; k < plain.poses.size(); ++k) {
+        const stimuli::Pose& pose = plain.poses[k];
+        EXPECT_TRUE(pose.head_at_rest() && pose.expression_at_rest()) << "frame " << k;
+        EXPECT_EQ(pose.gaze_left, 0.0);
+        for (std::size_t c = 0; c < synth::param_count; ++c) EXPECT_EQ(pose.params[c], plain.trajectory.frames[k][c]);
+    }
+    fs::remove_all(dir);
 }
 
 }  // namespace
