@@ -305,7 +305,8 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
                 problems.add(mpath, 0, 0, key,
                              fmt::format("unknown key{}", hint.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", hint)));
             }
-        if (j.value("format", "") != "avsi-articulatory-corpus")
+        const json* format = j.contains("format") ? &j["format"] : nullptr;
+        if (!format || !format->is_string() || format->get<std::string>() != "avsi-articulatory-corpus")
             problems.add(mpath, 0, 0, "format",
                          fmt::format("expected \"avsi-articulatory-corpus\", got {}",
                                      j.contains("format") ? j["format"].dump() : "nothing"));
