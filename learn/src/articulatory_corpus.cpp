@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <system_error>
 #include <thread>
 
 #include <fmt/format.h>
@@ -269,8 +270,12 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
              {std::tuple{"track", e.track, true}, std::tuple{"labels", e.labels, true},
               std::tuple{"audio", e.audio, false}}) {
             if (p.empty() || (!required && p == corpus.dir)) continue;
-            if (!fs::is_regular_file(p))
-                problems.add(mpath, line, 0, where + "." + field, fmt::format("file not found: {}", p.string()));
+            // The non-throwing form: a name the system refuses (too long, …) is "not found" too.
+            std::error_code ec;
+            if (!fs::is_regular_file(p, ec))
+                problems.add(mpath, line, 0, where + "." + field,
+                             fmt::format("file not found: {}{}", p.string().substr(0, 200),
+                                         p.string().size() > 200 ? "…" : ""));
         }
         if (track.empty()) problems.add(mpath, line, 0, where + ".track", "expected a file name");
         if (labels.empty() && !mat) problems.add(mpath, line, 0, where + ".labels", "expected a file name");
