@@ -133,6 +133,12 @@ nlohmann::json read_json_file(const std::filesystem::path& path, int max_depth) 
     return parse_json(read_text_file(path), path.string(), max_depth);
 }
 
+std::string json_string(const nlohmann::json& object, std::string_view key, std::string fallback) {
+    if (!object.is_object()) return fallback;
+    const auto it = object.find(key);
+    return it != object.end() && it->is_string() ? it->get<std::string>() : fallback;
+}
+
 void rethrow_json_error(const std::filesystem::path& path) {
     try {
         throw;

@@ -53,7 +53,7 @@ ManifestStimulus manifest_stimulus(const fs::path& dir, const std::string& stimu
     if (!fs::is_regular_file(path))
         throw InputError(path, "no stimulus manifest here; build the folder with `avsi build-stimuli protocol.toml --out DIR`");
     const nlohmann::json j = read_json_file(path);
-    if (!j.is_object() || j.value("format", "") != "avsi-stimuli-manifest" || !j.contains("stimuli") ||
+    if (!j.is_object() || json_string(j, "format") != "avsi-stimuli-manifest" || !j.contains("stimuli") ||
         !j["stimuli"].is_array())
         throw InputError(path, 0, 0, "format", "expected an avsi stimulus manifest (format \"avsi-stimuli-manifest\")");
     std::vector<std::string> paths;

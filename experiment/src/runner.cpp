@@ -126,11 +126,11 @@ StimulusManifest read_stimulus_manifest(const fs::path& dir) {
         throw InputError(path, "no stimulus manifest here; build the stimulus folder with `avsi build-stimuli "
                                "protocol.toml --out DIR`");
     const nlohmann::json j = read_json_file(path);
-    if (!j.is_object() || j.value("format", "") != "avsi-stimuli-manifest" || !j.contains("stimuli") ||
+    if (!j.is_object() || json_string(j, "format") != "avsi-stimuli-manifest" || !j.contains("stimuli") ||
         !j["stimuli"].is_array())
         throw InputError(path, 0, 0, "format", "expected an avsi stimulus manifest (format \"avsi-stimuli-manifest\")");
     StimulusManifest m;
-    m.experiment = j.value("experiment", "");
+    m.experiment = json_string(j, "experiment");
     m.sha256 = sha256_file(path);
     DiagnosticList problems;
     std::size_t index = 0;

@@ -230,7 +230,7 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
             previous = read_json_file(out / "study.json");
         } catch (const InputError&) {
         }
-        if (!previous.is_object() || previous.value("format", "") != "avsi-web-study")
+        if (!previous.is_object() || json_string(previous, "format") != "avsi-web-study")
             throw InputError(out / "study.json", "not an avsi study export; choose another --out or remove the folder");
     }
     StagingFolder staging(out);
@@ -247,9 +247,9 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
         result.vendored.push_back(f.to);
         const fs::path package_json = web / "node_modules" / f.package / "package.json";
         const nlohmann::json package = read_json_file(package_json);
-        vendored[f.package] = package.value("version", "");
-        vendored_txt += fmt::format("{}  <-  {}@{} ({}), licence {}, {}\n", f.to, f.package, package.value("version", "?"),
-                                    f.file, package.value("license", "?"), package.value("homepage", ""));
+        vendored[f.package] = json_string(package, "version");
+        vendored_txt += fmt::format("{}  <-  {}@{} ({}), licence {}, {}\n", f.to, f.package, json_string(package, "version", "?"),
+                                    f.file, json_string(package, "license", "?"), json_string(package, "homepage"));
     }
     write_text_file(dir / "lib" / "VENDORED.txt", vendored_txt);
 

@@ -524,7 +524,7 @@ void verify_one(const Job& job, const std::map<std::string, json>& entries, cons
         return;
     }
     const json& e = it->second;
-    if (e.value("input_sha256", "") != job.input_hash)
+    if (json_string(e, "input_sha256") != job.input_hash)
         add("out of date: its inputs or settings changed since it was built (run build-stimuli)");
     const auto video = out_dir / job.video;
     const auto wav = out_dir / job.wav;
@@ -532,15 +532,15 @@ void verify_one(const Job& job, const std::map<std::string, json>& entries, cons
         add("the MP4 is missing");
         return;
     }
-    if (sha256_file(video) != e.value("sha256", "")) add("the MP4 differs from the one built (SHA-256)");
+    if (sha256_file(video) != json_string(e, "sha256")) add("the MP4 differs from the one built (SHA-256)");
     if (!std::filesystem::exists(wav)) add("the WAV " + job.wav.generic_string() + " is missing");
-    else if (sha256_file(wav) != e.value("wav_sha256", ""))
+    else if (sha256_file(wav) != json_string(e, "wav_sha256"))
         add("the WAV " + job.wav.generic_string() + " differs from the one built (SHA-256)");
     std::map<std::string, std::string> listed;  // variant path → SHA-256 in the manifest
     if (e.contains("variants") && e["variants"].is_object() && e["variants"].contains("files") &&
         e["variants"]["files"].is_array())
         for (const auto& v : e["variants"]["files"])
-            if (v.is_object()) listed[v.value("wav", "")] = v.value("sha256", "");
+            if (v.is_object()) listed[json_string(v, "wav")] = json_string(v, "sha256");
     for (const auto& variant : job.variants) {
         const std::string name = variant.wav.generic_string();
         const auto l = listed.find(name);
@@ -671,8 +671,8 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         auto& job = jobs[i];
         const auto it = previous.find(job.video.generic_string());
         const auto video = settings.out_dir / job.video;
-        if (it != previous.end() && it->second.value("input_sha256", "") == job.input_hash &&
-            std::filesystem::exists(video) && sha256_file(video) == it->second.value("sha256", "")) {
+        if (it != previous.end() && json_string(it->second, "input_sha256") == job.input_hash &&
+            std::filesystem::exists(video) && sha256_file(video) == json_string(it->second, "sha256")) {
             job.entry = it->second;
             ++report.skipped;
         } else {

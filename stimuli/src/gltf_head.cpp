@@ -339,7 +339,7 @@ BlendshapeMapping read_mapping(const json& doc, const std::filesystem::path& pat
     auto problem = [&](const std::string& field, const std::string& message) {
         problems.add(path.string(), 0, 0, field, message);
     };
-    if (doc.value("format", "") != "avsi-blendshape-mapping")
+    if (json_string(doc, "format") != "avsi-blendshape-mapping")
         problem("format", "expected \"avsi-blendshape-mapping\", got " + doc.value("format", json()).dump());
     BlendshapeMapping m;
     m.path = path;

@@ -502,7 +502,7 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
         std::optional<std::size_t> uv_conflict;
     } obj{uv_conflict};
     RigReader rig{rig_path, {}};
-    if (check_format && doc.value("format", "") != "avsi-rig")
+    if (check_format && json_string(doc, "format") != "avsi-rig")
         rig.problem("format", "expected \"avsi-rig\", got " + doc.value("format", json()).dump());
 
     const json lm = doc.value("landmarks", json::object());

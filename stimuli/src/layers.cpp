@@ -15,6 +15,7 @@
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 #include "avsi/core/log.h"
 #include "avsi/core/rng.h"
 
@@ -456,7 +457,7 @@ ExpressionFile read_expressions(const std::filesystem::path& file) {
     auto problem = [&](const std::string& field, const std::string& message) {
         problems.add(file.string(), 0, 0, field, message);
     };
-    if (!doc.is_object() || doc.value("format", "") != "avsi-expressions") {
+    if (!doc.is_object() || json_string(doc, "format") != "avsi-expressions") {
         problem("format", "expected \"avsi-expressions\"");
         problems.throw_if_any();
     }

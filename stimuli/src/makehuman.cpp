@@ -14,6 +14,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/json.h"
 
 namespace avsi::stimuli::detail {
 
@@ -255,8 +256,8 @@ MhSkeleton read_skeleton(const std::filesystem::path& mhskel, const std::filesys
         MhSkeleton::Bone bone;
         bone.name = name;
         bone.parent = parent_of[name].empty() ? -1 : sk.bone_index(parent_of[name]);
-        bone.head_joint = b.value("head", "");
-        bone.tail_joint = b.value("tail", "");
+        bone.head_joint = json_string(b, "head");
+        bone.tail_joint = json_string(b, "tail");
         bone.plane = b.value("rotation_plane", json()).is_string() ? b["rotation_plane"].get<std::string>() : "";
         for (const auto* j : {&bone.head_joint, &bone.tail_joint})
             if (!sk.joints.count(*j))

@@ -85,6 +85,17 @@ TEST(Json, SyntaxAndNumberErrorsCarryFileLineAndColumn) {
     EXPECT_EQ(type.message.find("[json.exception"), std::string::npos);
 }
 
+// A key of another type reads as the fallback instead of throwing
+// nlohmann's type_error (a fuzzed manifest with "format": [...] crashed).
+TEST(Json, StringFieldOfAnotherTypeGivesTheFallback) {
+    const nlohmann::json j = nlohmann::json::parse(R"({"format": [1], "name": "x", "n": 3})");
+    EXPECT_EQ(json_string(j, "name"), "x");
+    EXPECT_EQ(json_string(j, "format"), "");
+    EXPECT_EQ(json_string(j, "n", "?"), "?");
+    EXPECT_EQ(json_string(j, "missing", "none"), "none");
+    EXPECT_EQ(json_string(nlohmann::json::array(), "name", "none"), "none");
+}
+
 TEST(Hints, LongWordsGetNoDidYouMeanAndExcerptsEscapeControlCharacters) {
     EXPECT_EQ(closest_match("AAA", {"AA"}), "AA");
     EXPECT_EQ(closest_match(std::string(5'000'000, 'A'), {"AA"}), "");

@@ -33,6 +33,11 @@ void check_json_structure(std::string_view text, const std::string& path, int ma
 // Reads and parses a JSON file (as parse_json).
 nlohmann::json read_json_file(const std::filesystem::path& path, int max_depth = max_json_depth);
 
+// The string at `key` of `object`, or `fallback` when `object` is not an
+// object, has no `key` or holds another type there. (nlohmann's
+// value(key, "") throws a type_error for a key of another type.)
+std::string json_string(const nlohmann::json& object, std::string_view key, std::string fallback = "");
+
 // Call inside a catch block around code that reads fields of a parsed
 // document: re-raises nlohmann's type and range errors (a string where a
 // number belongs, a missing key) as InputError naming `path`, and anything
