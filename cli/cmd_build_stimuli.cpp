@@ -8,6 +8,7 @@
 
 #include "avsi/stimuli/builder.h"
 #include "command.h"
+#include "lod_options.h"
 
 namespace avsi::cli {
 namespace {
@@ -27,25 +28,14 @@ const bool registered_build_stimuli = register_command({
                      "Build every sentence x condition; by default, when the corpus assigns lists, spare "
                      "sentences are skipped and warm-up/practice sentences are built only in the conditions "
                      "the design shows them in");
-        auto lod = std::make_shared<std::string>("0");
-        sub.add_option("--lod", *lod,
-                       "Level of detail of the head: 0 = full detail; 1-3 = simplified (all but the lips, teeth and "
-                       "eyes: about half of what is left per level, within 0.5, 1 or 2 mm); or auto = by the head's "
-                       "size in the frame (docs/level-of-detail.md); recorded in the manifest")
-            ->capture_default_str();
-        sub.add_option("--max-triangles", o->lod.max_triangles,
-                       "The finest level of detail with at most this many triangles (0 = no budget; instead of --lod)")
-            ->capture_default_str();
-        sub.add_option("--lod-error-px", o->lod.max_error_px,
-                       "--lod auto: the largest simplification error allowed on screen, in pixels")
-            ->capture_default_str();
+        const auto parse_lod = add_lod_options(sub, o->lod, "; recorded in the manifest");
         auto verify = std::make_shared<bool>(false);
         sub.add_flag("--verify", *verify,
                      "Build nothing; check the set in --out against the protocol and manifest.json: every stimulus "
                      "present, up to date, with the manifest's SHA-256, decoding to its frame count and rate with "
                      "audio as long as the video. Exit status 1 if anything is wrong");
-        return [o, verify, lod] {
-            stimuli::parse_lod_level(*lod, "--lod", o->lod);
+        return [o, verify, parse_lod] {
+            parse_lod();
             if (!*verify) {
                 stimuli::build_stimuli(*o);
                 return 0;

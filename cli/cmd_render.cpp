@@ -5,6 +5,7 @@
 
 #include "avsi/stimuli/commands.h"
 #include "command.h"
+#include "lod_options.h"
 
 namespace avsi::cli {
 namespace {
@@ -36,19 +37,7 @@ const bool registered_render = register_command({
         sub.add_flag("--per-pixel-lighting", o->render.per_pixel_lighting,
                      "Light per pixel instead of per vertex (~1.6x per frame)")
             ->capture_default_str();
-        auto lod = std::make_shared<std::string>("0");
-        sub.add_option("--lod", *lod,
-                       "Level of detail: 0 = full detail; 1-3 = the head simplified (all but the lips, teeth and eyes: "
-                       "about half of what is left per level, within 0.5, 1 or 2 mm); or auto = the coarsest level "
-                       "whose simplification error is under --lod-error-px at this frame size "
-                       "(docs/level-of-detail.md)")
-            ->capture_default_str();
-        sub.add_option("--max-triangles", o->render.lod.max_triangles,
-                       "The finest level of detail with at most this many triangles (0 = no budget; instead of --lod)")
-            ->capture_default_str();
-        sub.add_option("--lod-error-px", o->render.lod.max_error_px,
-                       "--lod auto: the largest simplification error allowed on screen, in pixels")
-            ->capture_default_str();
+        const auto parse_lod = add_lod_options(sub, o->render.lod);
         sub.add_option("--crf", o->video.crf, "x264 constant rate factor")->capture_default_str();
         sub.add_option("--blink-seed", o->blinks.seed, "Seed of the blink times")->capture_default_str();
         sub.add_flag("!--no-blinks", o->blinks.enabled, "Do not blink");
@@ -56,8 +45,8 @@ const bool registered_render = register_command({
                        "Animation layers: a TOML file with a [layers] table (gaze, head motion, expressions, FAP "
                        "streams; docs/animation-layers.md)");
         sub.add_option("--layer-seed", o->layer_seed, "Seed of the gaze and idle head-motion layers")->capture_default_str();
-        return [o, lod] {
-            stimuli::parse_lod_level(*lod, "--lod", o->render.lod);
+        return [o, parse_lod] {
+            parse_lod();
             stimuli::run_render(*o);
             return 0;
         };

@@ -35,77 +35,13 @@
 #include "avsi/stimuli/renderer.h"
 #include "avsi/stimuli/video.h"
 #include "avsi/synth/fap.h"
-
-#ifndef GL_FRAMEBUFFER
-#define GL_FRAMEBUFFER 0x8D40
-#define GL_RENDERBUFFER 0x8D41
-#define GL_COLOR_ATTACHMENT0 0x8CE0
-#define GL_DEPTH_ATTACHMENT 0x8D00
-#define GL_DEPTH_COMPONENT24 0x81A6
-#define GL_FRAMEBUFFER_COMPLETE 0x8CD5
-#endif
+#include "gl_functions.h"
 
 namespace avsi::experiment {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-// The GL entry points this file calls itself, from the window's context
-// through GLFW (the helper also links OSMesa, whose gl* symbols must not be
-// called here; see runner.cpp).
-struct PlayerGl {
-    void (*BindTexture)(GLenum, GLuint) = nullptr;
-    void (*Clear)(GLbitfield) = nullptr;
-    void (*ClearColor)(GLfloat, GLfloat, GLfloat, GLfloat) = nullptr;
-    void (*DeleteTextures)(GLsizei, const GLuint*) = nullptr;
-    void (*GenTextures)(GLsizei, GLuint*) = nullptr;
-    void (*PixelStorei)(GLenum, GLint) = nullptr;
-    void (*ReadBuffer)(GLenum) = nullptr;
-    void (*ReadPixels)(GLint, GLint, GLsizei, GLsizei, GLenum, GLenum, void*) = nullptr;
-    void (*TexImage2D)(GLenum, GLint, GLint, GLsizei, GLsizei, GLint, GLenum, GLenum, const void*) = nullptr;
-    void (*TexParameteri)(GLenum, GLenum, GLint) = nullptr;
-    void (*Viewport)(GLint, GLint, GLsizei, GLsizei) = nullptr;
-    void (*GenFramebuffers)(GLsizei, GLuint*) = nullptr;
-    void (*BindFramebuffer)(GLenum, GLuint) = nullptr;
-    void (*FramebufferTexture2D)(GLenum, GLenum, GLenum, GLuint, GLint) = nullptr;
-    void (*GenRenderbuffers)(GLsizei, GLuint*) = nullptr;
-    void (*BindRenderbuffer)(GLenum, GLuint) = nullptr;
-    void (*RenderbufferStorage)(GLenum, GLenum, GLsizei, GLsizei) = nullptr;
-    void (*FramebufferRenderbuffer)(GLenum, GLenum, GLenum, GLuint) = nullptr;
-    GLenum (*CheckFramebufferStatus)(GLenum) = nullptr;
-    void (*DeleteFramebuffers)(GLsizei, const GLuint*) = nullptr;
-    void (*DeleteRenderbuffers)(GLsizei, const GLuint*) = nullptr;
-
-    template <typename F>
-    static void get(F& f, const char* name) {
-        f = reinterpret_cast<F>(glfwGetProcAddress(name));
-        if (!f) throw InputError("display", 0, 0, "", fmt::format("the OpenGL context lacks {}", name));
-    }
-    void load() {
-        get(BindTexture, "glBindTexture");
-        get(Clear, "glClear");
-        get(ClearColor, "glClearColor");
-        get(DeleteTextures, "glDeleteTextures");
-        get(GenTextures, "glGenTextures");
-        get(PixelStorei, "glPixelStorei");
-        get(ReadBuffer, "glReadBuffer");
-        get(ReadPixels, "glReadPixels");
-        get(TexImage2D, "glTexImage2D");
-        get(TexParameteri, "glTexParameteri");
-        get(Viewport, "glViewport");
-        get(GenFramebuffers, "glGenFramebuffers");
-        get(BindFramebuffer, "glBindFramebuffer");
-        get(FramebufferTexture2D, "glFramebufferTexture2D");
-        get(GenRenderbuffers, "glGenRenderbuffers");
-        get(BindRenderbuffer, "glBindRenderbuffer");
-        get(RenderbufferStorage, "glRenderbufferStorage");
-        get(FramebufferRenderbuffer, "glFramebufferRenderbuffer");
-        get(CheckFramebufferStatus, "glCheckFramebufferStatus");
-        get(DeleteFramebuffers, "glDeleteFramebuffers");
-        get(DeleteRenderbuffers, "glDeleteRenderbuffers");
-    }
-};
 
 void* glfw_loader(const char* name) { return reinterpret_cast<void*>(glfwGetProcAddress(name)); }
 
@@ -132,7 +68,7 @@ public:
         glfwMakeContextCurrent(m_window);
         glfwSwapInterval(1);
         try {
-            m_gl.load();
+            detail::load_gl_functions(m_gl, true);
             if (GLFWmonitor* monitor = glfwGetPrimaryMonitor())
                 if (const GLFWvidmode* mode = glfwGetVideoMode(monitor); mode && mode->refreshRate > 0)
                     m_refresh_hz = mode->refreshRate;
@@ -245,7 +181,7 @@ private:
     int m_face_width;
     int m_face_height;
     GLFWwindow* m_window = nullptr;
-    PlayerGl m_gl;
+    detail::GlFunctions m_gl;
     double m_refresh_hz = 60.0;
     bool m_imgui = false;
     GLuint m_face_texture = 0, m_depth = 0, m_fbo = 0;

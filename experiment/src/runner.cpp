@@ -38,6 +38,7 @@
 #include "avsi/experiment/session.h"
 #include "avsi/experiment/store.h"
 #include "avsi/stimuli/video.h"
+#include "gl_functions.h"
 
 namespace avsi::experiment {
 
@@ -216,46 +217,8 @@ std::unique_ptr<StimulusOpener> make_stimulus_opener(const RunSettings& settings
 
 namespace {
 
-// The few GL 1.1 entry points the runner calls itself, fetched through GLFW
-// from the window's context: the avsi executable also links OSMesa (the
-// offscreen renderer), whose exported gl* symbols must not be called here.
-struct Gl {
-    void (*BindTexture)(GLenum, GLuint) = nullptr;
-    void (*Clear)(GLbitfield) = nullptr;
-    void (*ClearColor)(GLfloat, GLfloat, GLfloat, GLfloat) = nullptr;
-    void (*DeleteTextures)(GLsizei, const GLuint*) = nullptr;
-    void (*Disable)(GLenum) = nullptr;
-    void (*Finish)(void) = nullptr;
-    void (*GenTextures)(GLsizei, GLuint*) = nullptr;
-    void (*PixelStorei)(GLenum, GLint) = nullptr;
-    void (*ReadBuffer)(GLenum) = nullptr;
-    void (*ReadPixels)(GLint, GLint, GLsizei, GLsizei, GLenum, GLenum, void*) = nullptr;
-    void (*TexImage2D)(GLenum, GLint, GLint, GLsizei, GLsizei, GLint, GLenum, GLenum, const void*) = nullptr;
-    void (*TexParameteri)(GLenum, GLenum, GLint) = nullptr;
-    void (*TexSubImage2D)(GLenum, GLint, GLint, GLint, GLsizei, GLsizei, GLenum, GLenum, const void*) = nullptr;
-    void (*Viewport)(GLint, GLint, GLsizei, GLsizei) = nullptr;
-
-    void load() {
-        BindTexture = reinterpret_cast<decltype(BindTexture)>(glfwGetProcAddress("glBindTexture"));
-        Clear = reinterpret_cast<decltype(Clear)>(glfwGetProcAddress("glClear"));
-        ClearColor = reinterpret_cast<decltype(ClearColor)>(glfwGetProcAddress("glClearColor"));
-        DeleteTextures = reinterpret_cast<decltype(DeleteTextures)>(glfwGetProcAddress("glDeleteTextures"));
-        Disable = reinterpret_cast<decltype(Disable)>(glfwGetProcAddress("glDisable"));
-        Finish = reinterpret_cast<decltype(Finish)>(glfwGetProcAddress("glFinish"));
-        GenTextures = reinterpret_cast<decltype(GenTextures)>(glfwGetProcAddress("glGenTextures"));
-        PixelStorei = reinterpret_cast<decltype(PixelStorei)>(glfwGetProcAddress("glPixelStorei"));
-        ReadBuffer = reinterpret_cast<decltype(ReadBuffer)>(glfwGetProcAddress("glReadBuffer"));
-        ReadPixels = reinterpret_cast<decltype(ReadPixels)>(glfwGetProcAddress("glReadPixels"));
-        TexImage2D = reinterpret_cast<decltype(TexImage2D)>(glfwGetProcAddress("glTexImage2D"));
-        TexParameteri = reinterpret_cast<decltype(TexParameteri)>(glfwGetProcAddress("glTexParameteri"));
-        TexSubImage2D = reinterpret_cast<decltype(TexSubImage2D)>(glfwGetProcAddress("glTexSubImage2D"));
-        Viewport = reinterpret_cast<decltype(Viewport)>(glfwGetProcAddress("glViewport"));
-        const void* all[] = {reinterpret_cast<const void*>(BindTexture), reinterpret_cast<const void*>(Clear), reinterpret_cast<const void*>(ClearColor), reinterpret_cast<const void*>(DeleteTextures), reinterpret_cast<const void*>(Disable), reinterpret_cast<const void*>(Finish), reinterpret_cast<const void*>(GenTextures), reinterpret_cast<const void*>(PixelStorei), reinterpret_cast<const void*>(ReadBuffer), reinterpret_cast<const void*>(ReadPixels), reinterpret_cast<const void*>(TexImage2D), reinterpret_cast<const void*>(TexParameteri), reinterpret_cast<const void*>(TexSubImage2D), reinterpret_cast<const void*>(Viewport)};
-        for (const void* fn : all)
-            if (!fn) throw InputError("display", 0, 0, "", "the OpenGL context lacks a GL 1.1 function");
-    }
-};
-Gl gl;
+// The GL entry points the runner calls itself (gl_functions.h).
+detail::GlFunctions gl;
 
 // GLFW + ImGui lifetime.
 class Window {
@@ -290,7 +253,7 @@ public:
         }
         glfwMakeContextCurrent(m_window);
         glfwSwapInterval(1);
-        gl.load();
+        detail::load_gl_functions(gl, false);
         GLFWmonitor* reference = monitor ? monitor : glfwGetPrimaryMonitor();
         if (reference) m_refresh_hz = glfwGetVideoMode(reference)->refreshRate;
         if (m_refresh_hz <= 0) m_refresh_hz = 60.0;

@@ -849,6 +849,17 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
             out.warnings.push_back(fmt::format("{}: the head's rig has no {} transforms: those FAPs move nothing", what,
                                                fmt::join(missing, ", ")));
     };
+    // A FAP file played into the layer frame by frame (frames outside the
+    // stream stay unset), warned about under `what` and recorded by name and hash.
+    auto play_fap_file = [&](const std::string& what, const std::filesystem::path& file, Layer& l, json& r) {
+        const auto stream = synth::read_fap(file);
+        warn_stream(what + " " + file.filename().string(), stream);
+        const auto played = fap_player().play(stream, !settings.speech_owns_mouth);
+        for (std::size_t k = 0; k < frames; ++k)
+            if (const auto i = stream_frame_at(stream, k, fps)) l.frames[k] = played[*i];
+        r["file"] = file.filename().string();
+        r["sha256"] = sha256_file(file);
+    };
     for (const auto& spec : settings.layers) {
         Layer l;
         json r = {{"kind", to_string(spec.kind)}, {"weights", weights_json(spec.weight, spec.group_weights)}};
@@ -932,13 +943,7 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                     r["file"] = settings.expressions_file.filename().string();
                     r["sha256"] = sha256_file(settings.expressions_file);
                 } else {
-                    const auto stream = synth::read_fap(spec.file);
-                    warn_stream("expression " + spec.file.filename().string(), stream);
-                    const auto played = fap_player().play(stream, !settings.speech_owns_mouth);
-                    for (std::size_t k = 0; k < frames; ++k)
-                        if (const auto i = stream_frame_at(stream, k, fps)) l.frames[k] = played[*i];
-                    r["file"] = spec.file.filename().string();
-                    r["sha256"] = sha256_file(spec.file);
+                    play_fap_file("expression", spec.file, l, r);
                 }
                 break;
             }
@@ -946,13 +951,7 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                 l.name = "fap";
                 l.set = LayerSet::Stream;
                 l.frames.resize(frames);
-                const auto stream = synth::read_fap(spec.file);
-                warn_stream("fap " + spec.file.filename().string(), stream);
-                const auto played = fap_player().play(stream, !settings.speech_owns_mouth);
-                for (std::size_t k = 0; k < frames; ++k)
-                    if (const auto i = stream_frame_at(stream, k, fps)) l.frames[k] = played[*i];
-                r["file"] = spec.file.filename().string();
-                r["sha256"] = sha256_file(spec.file);
+                play_fap_file("fap", spec.file, l, r);
                 break;
             }
         }

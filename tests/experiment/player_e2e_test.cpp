@@ -5,11 +5,6 @@
 // the audio samples played are duration/speed), frame steps both ways, a
 // recording, and the viseme editor's scripted change saved to a set that the
 // MPEG-4 Cohen-Massaro model then uses.
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -31,6 +26,7 @@ namespace avsi::experiment {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::run;
 
 const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build" / "protocol.toml";
 
@@ -41,24 +37,6 @@ protected:
     static void TearDownTestSuite() { testing::stop_xvfb(s_xvfb); }
     void SetUp() override {
         if (s_xvfb <= 0) GTEST_SKIP() << "Xvfb is not available";
-    }
-    // Runs avsi with `args`; stdout and stderr to `log`; returns the exit code.
-    static int run(const std::vector<std::string>& args, const fs::path& log) {
-        const pid_t pid = ::fork();
-        if (pid == 0) {
-            const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-            ::dup2(out, 1);
-            ::dup2(out, 2);
-            std::vector<char*> argv;
-            argv.push_back(const_cast<char*>(AVSI_CLI_PATH));
-            for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-            argv.push_back(nullptr);
-            ::execv(AVSI_CLI_PATH, argv.data());
-            ::_exit(127);
-        }
-        int status = 0;
-        ::waitpid(pid, &status, 0);
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     }
     static inline pid_t s_xvfb = -1;
 };

@@ -17,6 +17,7 @@
 #include "avsi/experiment/viseme_editor.h"
 #include "avsi/stimuli/head.h"
 #include "test_support.h"
+#include "../layers_protocol.h"
 
 namespace avsi::experiment {
 namespace {
@@ -248,30 +249,8 @@ TEST(PlayMedia, AStimulusDefinitionPlaysItsConditionsLayers) {
     const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_play_layers");
     fs::remove_all(dir);
     fs::create_directories(dir);
-    const fs::path rule = fs::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json";
-    write_text_file(dir / "p.toml", fmt::format(R"([experiment]
-name = "play-layers"
-seed = 3
-[corpus]
-sentences = "{}"
-[[condition]]
-name = "plain"
-model = "{}"
-[[condition]]
-name = "expressive"
-model = "{}"
-[condition.layers]
-expression = "surprised"
-head_motion = "idle"
-gaze = true
-[design]
-lists = 2
-sentences_per_list = 1
-warmup = 0
-practice = 0
-)",
-                                                (fs::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build" / "corpus.csv").string(),
-                                                rule.string(), rule.string()));
+    test::write_layers_protocol(dir / "p.toml", "play-layers",
+                                "[condition.layers]\nexpression = \"surprised\"\nhead_motion = \"idle\"\ngaze = true\n");
     const stimuli::Head head = stimuli::load_default_head();
     auto played = [&](const std::string& condition) {
         PlaySource source;

@@ -1,7 +1,6 @@
 // End-to-end runs of `avsi run` / `avsi export` under a private Xvfb server
 // with the null audio device (simulated clock): scripted sessions, SIGKILL
 // crash safety with resume, and screenshots.
-#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -36,6 +35,8 @@ namespace avsi::experiment {
 namespace {
 
 using testing::GeneratedStudy;
+using testing::run;
+using testing::spawn;
 using testing::temp_dir;
 using testing::write_study;
 namespace fs = std::filesystem;
@@ -49,27 +50,6 @@ protected:
         if (s_xvfb <= 0) GTEST_SKIP() << "Xvfb is not available";
     }
 
-    // Starts `avsi` with arguments, output to `log`; returns its pid.
-    static pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
-        const pid_t pid = ::fork();
-        if (pid == 0) {
-            const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-            ::dup2(out, 1);
-            ::dup2(out, 2);
-            std::vector<char*> argv;
-            argv.push_back(const_cast<char*>(AVSI_CLI_PATH));
-            for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-            argv.push_back(nullptr);
-            ::execv(AVSI_CLI_PATH, argv.data());
-            ::_exit(127);
-        }
-        return pid;
-    }
-    static int run(const std::vector<std::string>& args, const fs::path& log) {
-        int status = 0;
-        ::waitpid(spawn(args, log), &status, 0);
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    }
     static std::vector<std::string> run_args(const fs::path& protocol, int subject, const fs::path& db,
                                              const fs::path& script) {
         return {"run", protocol.string(), "--subject", std::to_string(subject), "--db", db.string(), "--test-pattern",

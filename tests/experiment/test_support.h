@@ -1,5 +1,6 @@
-// Helpers for the experiment tests: a temporary folder and a generated
-// protocol + corpus of any size.
+// Helpers for the experiment tests: a temporary folder, a generated
+// protocol + corpus of any size, a private Xvfb server and the avsi
+// executable (AVSI_CLI_PATH) run in a child process.
 #pragma once
 
 #include <fcntl.h>
@@ -9,6 +10,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -95,6 +97,31 @@ inline void stop_xvfb(pid_t pid) {
     if (pid <= 0) return;
     ::kill(pid, SIGTERM);
     ::waitpid(pid, nullptr, 0);
+}
+
+// Starts `avsi` with `args`, stdout and stderr appended to `log`; returns its pid.
+inline pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+        ::dup2(out, 1);
+        ::dup2(out, 2);
+        std::vector<char*> argv;
+        argv.push_back(const_cast<char*>(AVSI_CLI_PATH));
+        for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+        argv.push_back(nullptr);
+        ::execv(AVSI_CLI_PATH, argv.data());
+        ::_exit(127);
+    }
+    return pid;
+}
+
+// Runs `avsi` with `args` to the end (output appended to `log`); returns its
+// exit code, -1 if it did not exit.
+inline int run(const std::vector<std::string>& args, const fs::path& log) {
+    int status = 0;
+    ::waitpid(spawn(args, log), &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 }  // namespace avsi::experiment::testing

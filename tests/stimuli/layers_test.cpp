@@ -28,6 +28,7 @@
 #include "avsi/stimuli/renderer.h"
 #include "avsi/synth/control_model.h"
 #include "avsi/synth/target_hold.h"
+#include "../layers_protocol.h"
 
 namespace avsi::stimuli {
 namespace {
@@ -566,28 +567,7 @@ TEST(LayersRender, AHeadWithoutTheExpressionChannelsLoadsRendersAndWarns) {
 // ---- Settings: the protocol's [condition.layers] ------------------------------
 
 Protocol protocol_with(const std::string& layers, const std::filesystem::path& path) {
-    const std::string text = fmt::format(R"([experiment]
-name = "layers-test"
-seed = 3
-[corpus]
-sentences = "{}"
-[[condition]]
-name = "plain"
-model = "{}"
-[[condition]]
-name = "expressive"
-model = "{}"
-{}
-[design]
-lists = 2
-sentences_per_list = 1
-warmup = 0
-practice = 0
-)",
-                                         (std::filesystem::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build" / "corpus.csv").string(),
-                                         (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json").string(),
-                                         (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json").string(), layers);
-    write_text_file(path, text);
+    test::write_layers_protocol(path, "layers-test", layers);
     return load_protocol(path);
 }
 

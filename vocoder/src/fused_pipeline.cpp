@@ -97,6 +97,15 @@ struct Cascade {
     }
 };
 
+// The row length of the block's `work` and `carrier`, and the column of a
+// chunk's lane 0 in them.
+inline std::size_t row_stride(const FusedBanks& banks, const FusedBlock& block) {
+    return block.stride ? block.stride : banks.bands->stride();
+}
+inline std::size_t column(const FusedBlock& block, std::size_t chunk) {
+    return (chunk - block.chunk_begin) * kChunk;
+}
+
 // Two loops over the block, each with the state of at most eight sections
 // in registers: the front, steps 1–2 (analysis, rectification, envelope;
 // the envelope into `work`), and the back, steps 3–4 (carrier, modulation,
@@ -105,11 +114,11 @@ struct Cascade {
 // and run_fused_back, on two threads).
 template <bool FullWave>
 [[gnu::always_inline]] inline void front_chunk(const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
-    const std::size_t stride = banks.bands->stride();
+    const std::size_t stride = row_stride(banks, block);
     const std::size_t lane0 = chunk * kChunk;
     const std::size_t frames = block.frames;
     const double* x = block.x;
-    double* work = block.work + lane0;
+    double* work = block.work + column(block, chunk);
     Cascade<kBandSections> analysis;
     Cascade<kEnvelopeSections> envelope;
     analysis.open(*banks.bands, *banks.analysis, chunk);
@@ -141,11 +150,11 @@ template <bool FullWave>
 
 template <bool Prefilter, bool Refilter, bool Replay>
 [[gnu::always_inline]] inline void back_chunk(const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
-    const std::size_t stride = banks.bands->stride();
+    const std::size_t stride = row_stride(banks, block);
     const std::size_t lane0 = chunk * kChunk;
     const std::size_t frames = block.frames;
-    const double* carrier = block.carrier + lane0;
-    const double* work = block.work + lane0;
+    const double* carrier = block.carrier + column(block, chunk);
+    const double* work = block.work + column(block, chunk);
     Cascade<kBandSections> prefilter, refilter;
     if constexpr (Prefilter) prefilter.open(*banks.bands, *banks.prefilter, chunk);
     if constexpr (Refilter) refilter.open(*banks.bands, *banks.refilter, chunk);
@@ -275,12 +284,14 @@ bool fused_supported(const SosBank& bands, const SosBank& envelope) {
 
 void run_fused_front(const FusedBanks& banks, const FusedBlock& block) {
     AVSI_ASSERT(fused_supported(*banks.bands, *banks.envelope));
-    for (std::size_t chunk = 0; chunk < banks.bands->stride() / kChunk; ++chunk) front_dispatch(banks, block, chunk);
+    const std::size_t end = std::min(block.chunk_end, banks.bands->stride() / kChunk);
+    for (std::size_t chunk = block.chunk_begin; chunk < end; ++chunk) front_dispatch(banks, block, chunk);
 }
 
 void run_fused_back(const FusedBanks& banks, const FusedBlock& block) {
     AVSI_ASSERT(fused_supported(*banks.bands, *banks.envelope));
-    for (std::size_t chunk = 0; chunk < banks.bands->stride() / kChunk; ++chunk) back_dispatch(banks, block, chunk);
+    const std::size_t end = std::min(block.chunk_end, banks.bands->stride() / kChunk);
+    for (std::size_t chunk = block.chunk_begin; chunk < end; ++chunk) back_dispatch(banks, block, chunk);
 }
 
 void run_fused(const FusedBanks& banks, const FusedBlock& block) {
@@ -290,9 +301,15 @@ void run_fused(const FusedBanks& banks, const FusedBlock& block) {
 
 void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t stride,
                     std::size_t first, std::size_t frames, double* carrier) {
-    for (std::size_t chunk = 0; chunk < stride / kChunk; ++chunk)
+    noise_carriers(state, draw, lanes, 0, stride / kChunk, stride, first, frames, carrier);
+}
+
+void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t chunk_begin,
+                    std::size_t chunk_end, std::size_t out_stride, std::size_t first, std::size_t frames,
+                    double* carrier) {
+    for (std::size_t chunk = chunk_begin; chunk < chunk_end; ++chunk)
         noise_chunk(state + chunk * 4 * kChunk, draw + chunk * kChunk, std::min(kChunk, lanes - chunk * kChunk),
-                    stride, first, frames, carrier + chunk * kChunk);
+                    out_stride, first, frames, carrier + (chunk - chunk_begin) * kChunk);
 }
 
 }  // namespace avsi::vocoder::detail

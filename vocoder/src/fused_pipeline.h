@@ -26,6 +26,13 @@ struct FusedBlock {
     const double* carrier = nullptr;  // frames × stride carriers
     double* work = nullptr;           // frames × stride scratch
     std::size_t frames = 0;
+    // The chunks (of SosBank::chunk_lanes lanes) run: [chunk_begin,
+    // chunk_end), and the layout of `carrier` and `work`: rows of `stride`
+    // values (0: the bank's stride) whose column 0 is lane 0 of chunk_begin.
+    // The other fields are indexed by band whatever the range.
+    std::size_t chunk_begin = 0;
+    std::size_t chunk_end = SIZE_MAX;
+    std::size_t stride = 0;
     double* analysis_sum_sq = nullptr;  // stride running sums of the analysis output squared
     // Measuring (each may be null):
     double* out_sum_sq = nullptr;  // stride running sums of r squared
@@ -56,6 +63,9 @@ bool fused_supported(const SosBank& bands, const SosBank& envelope);
 // refilter states, the rest). The front of one block and the back of an
 // earlier one touch nothing in common but their own `work`, so they can run
 // on two threads at once; each alone gives what run_fused gives.
+// Chunks are independent but for the replay's sum, which adds them in
+// order: a range may run on another thread once the ranges before it have
+// run over the same frames.
 void run_fused(const FusedBanks& banks, const FusedBlock& block);
 void run_fused_front(const FusedBanks& banks, const FusedBlock& block);
 void run_fused_back(const FusedBanks& banks, const FusedBlock& block);
@@ -67,5 +77,10 @@ void run_fused_back(const FusedBanks& banks, const FusedBlock& block);
 // per lane (stride); padding lanes get 0.
 void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t stride,
                     std::size_t first, std::size_t frames, double* carrier);
+// The same for the chunks [chunk_begin, chunk_end) only, into rows of
+// `out_stride` whose column 0 is lane 0 of chunk_begin.
+void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t chunk_begin,
+                    std::size_t chunk_end, std::size_t out_stride, std::size_t first, std::size_t frames,
+                    double* carrier);
 
 }  // namespace avsi::vocoder::detail

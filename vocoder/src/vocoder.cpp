@@ -10,6 +10,7 @@
 #include "avsi/vocoder/vocoder.h"
 
 #include <algorithm>
+#include <atomic>
 #include <complex>
 #include <cstdlib>
 #include <cstring>
@@ -21,7 +22,6 @@
 #include <exception>
 #include <functional>
 #include <utility>
-#include <semaphore>
 #include <thread>
 
 #include <fmt/format.h>
@@ -284,15 +284,23 @@ private:
     unsigned char* m_data = nullptr;
 };
 
-// A second thread that runs one job at a time beside the caller: the back
-// of the fused pipeline (steps 3–4) for one piece of a block while the
-// caller runs the front (steps 1–2) of the next piece.
+// A second thread that runs one job at a time beside the caller: its part
+// of each piece of a block while the caller runs its own part.
+// Jobs are short (tens of microseconds) and come thousands of times per
+// second, so each side first spins on the other's counter (with `pause`)
+// and only then sleeps on it: a futex sleep and wake per job cost as much
+// as the job. The spin adapts: it doubles (up to about 50 µs) while the
+// other side keeps arriving within it, and halves when it does not (a busy
+// machine, where the other thread waits for a core), so an idle machine
+// hands over without sleeping and a busy one wastes little.
+// (std::binary_semaphore spins 16 times, yields and sleeps.)
 class PairWorker {
 public:
     PairWorker() : m_thread([this] { loop(); }) {}
     ~PairWorker() {
-        m_stop = true;
-        m_go.release();
+        m_stop.store(true, std::memory_order_relaxed);
+        m_started.fetch_add(1, std::memory_order_release);
+        m_started.notify_one();
         m_thread.join();
     }
     PairWorker(const PairWorker&) = delete;
@@ -301,31 +309,52 @@ public:
     // Starts `job` on the worker; wait() before the next start.
     void start(std::function<void()> job) {
         m_job = std::move(job);
-        m_go.release();
+        m_started.fetch_add(1, std::memory_order_release);
+        m_started.notify_one();
     }
     // Waits for the job started last; rethrows what it threw.
     void wait() {
-        m_done.acquire();
+        await(m_finished, m_started.load(std::memory_order_relaxed), m_caller_spins);
         if (m_error) std::rethrow_exception(std::exchange(m_error, nullptr));
     }
 
 private:
+    static constexpr int kMinSpins = 16, kMaxSpins = 1024;  // a pause takes about 50 ns on the Zen 4 machine
+
+    // Returns once `counter` reaches `target` (acquire); `spins` is the
+    // waiting side's current spin limit.
+    static void await(const std::atomic<unsigned>& counter, unsigned target, int& spins) {
+        for (int spin = 0; spin < spins; ++spin) {
+            if (counter.load(std::memory_order_acquire) == target) {
+                spins = std::min(2 * spins, kMaxSpins);
+                return;
+            }
+#if defined(__x86_64__) || defined(__i386__)
+            __builtin_ia32_pause();
+#endif
+        }
+        spins = std::max(spins / 2, kMinSpins);
+        for (unsigned seen; (seen = counter.load(std::memory_order_acquire)) != target;) counter.wait(seen);
+    }
     void loop() {
-        for (;;) {
-            m_go.acquire();
-            if (m_stop) return;
+        int spins = kMaxSpins;
+        for (unsigned jobs = 1;; ++jobs) {
+            await(m_started, jobs, spins);
+            if (m_stop.load(std::memory_order_relaxed)) return;
             try {
                 m_job();
             } catch (...) {
                 m_error = std::current_exception();
             }
-            m_done.release();
+            m_finished.fetch_add(1, std::memory_order_release);
+            m_finished.notify_one();
         }
     }
     std::function<void()> m_job;
     std::exception_ptr m_error;
-    bool m_stop = false;
-    std::binary_semaphore m_go{0}, m_done{0};
+    int m_caller_spins = kMaxSpins;
+    std::atomic<bool> m_stop{false};
+    std::atomic<unsigned> m_started{0}, m_finished{0};
     std::thread m_thread;
 };
 
@@ -349,6 +378,8 @@ struct Pipeline {
     // back on two threads (the back a piece behind); null: one thread.
     PairWorker* worker = nullptr;
     static constexpr std::size_t kPieceFrames = 4096;
+    // run_split's scratch per side (work, then carrier).
+    std::vector<double> split_scratch[2];
 
     Pipeline(const VocoderSettings& s, double rate_hz, const std::vector<Sos>& band_filters, int channel)
         : settings(s), rate(rate_hz), lanes(band_filters.size()), bands(band_filters),
@@ -382,15 +413,26 @@ struct Pipeline {
     // Fills `carrier` (frames × stride) for the frames from `first` on.
     void make_carrier(double* carrier, std::size_t first, std::size_t frames,
                       const std::vector<double>& centres_hz) {
-        const std::size_t stride = bands.stride();
+        make_carrier(carrier, first, frames, centres_hz, 0, bands.stride() / SosBank::chunk_lanes, bands.stride());
+    }
+    // The same for the lanes of chunks [chunk_begin, chunk_end) only, into
+    // rows of `out_stride` whose column 0 is lane 0 of chunk_begin (padding
+    // lanes are left as they are, or get 0).
+    void make_carrier(double* carrier, std::size_t first, std::size_t frames, const std::vector<double>& centres_hz,
+                      std::size_t chunk_begin, std::size_t chunk_end, std::size_t out_stride) {
+        const std::size_t stride = out_stride;
+        const std::size_t lane_begin = chunk_begin * SosBank::chunk_lanes;
+        const std::size_t lane_end = std::min(lanes, chunk_end * SosBank::chunk_lanes);
         switch (settings.carrier) {
             case CarrierType::Noise:
             case CarrierType::LowNoise:
                 // Two uniform values in [-1, 1) with 32-bit resolution per
                 // 64-bit draw; the stream position is absolute (`first`), so
                 // an odd block start uses the second half of a draw.
-                detail::noise_carriers(noise_state.data(), noise_draw.data(), lanes, stride, first, frames, carrier);
+                detail::noise_carriers(noise_state.data(), noise_draw.data(), lanes, chunk_begin, chunk_end, stride,
+                                       first, frames, carrier);
                 if (settings.carrier == CarrierType::LowNoise) {
+                    AVSI_ASSERT(lane_begin == 0 && stride == bands.stride());
                     // Whole signal only (see vocode_channel): Hilbert envelopes need it.
                     std::vector<double> whole(carrier, carrier + frames * stride);
                     make_low_noise(bands, whole, frames, lanes, settings.low_noise_iterations, settings.zero_phase);
@@ -400,7 +442,8 @@ struct Pipeline {
             case CarrierType::Sine:
                 // A rotating phasor, re-anchored to the exact sin/cos every
                 // 1024 samples of absolute time (so blocks do not matter).
-                for (std::size_t b = 0; b < lanes; ++b) {
+                for (std::size_t b = lane_begin; b < lane_end; ++b) {
+                    double* column = carrier + (b - lane_begin);
                     const double w = 2.0 * std::numbers::pi * centres_hz[b] / rate;
                     const std::complex<double> step = std::polar(1.0, w);
                     // Start as a whole-signal run would: from the last anchor.
@@ -410,11 +453,81 @@ struct Pipeline {
                     for (std::size_t n = 0; n < frames; ++n) {
                         const std::size_t t = first + n;
                         if (t % 1024 == 0) phasor = std::polar(1.0, w * static_cast<double>(t));
-                        carrier[n * stride + b] = phasor.imag();
+                        column[n * stride] = phasor.imag();
                         phasor *= step;
                     }
                 }
                 break;
+        }
+    }
+
+    // The fused steps with two or more chunks of bands and the worker: the
+    // chunks [0, split) here and [split, chunks) on the worker, piece by
+    // piece, each side with scratch of its own (so the threads share no
+    // cache lines but those of the rows and sums). The replay's sum adds the
+    // chunks in order, and the rows kept put both sides' lanes in one cache
+    // line: then the worker runs a piece behind (piece i − 1 beside this
+    // thread's piece i, whose lines it does not touch); otherwise each side
+    // runs the whole block at once.
+    void run_split(const detail::FusedBanks& banks, const detail::FusedBlock& rows, std::size_t first,
+                   std::size_t frames, const std::vector<double>& centres_hz) {
+        constexpr std::size_t kLanes = SosBank::chunk_lanes;
+        const std::size_t chunks = bands.stride() / kLanes;
+        const std::size_t split = (chunks + 1) / 2;
+        const bool ordered = rows.sum || rows.rows;
+        const std::size_t piece_frames = ordered ? kPieceFrames / 2 : kPieceFrames;
+        const std::size_t pieces = (frames + piece_frames - 1) / piece_frames;
+        // Work then carrier, per side; zero at first (padding lanes' carriers
+        // stay 0 with sine carriers, which fill only the bands).
+        for (std::size_t side = 0; side < 2; ++side) {
+            const std::size_t lanes_of_side = (side == 0 ? split : chunks - split) * kLanes;
+            if (split_scratch[side].size() != 2 * kPieceFrames * lanes_of_side)
+                split_scratch[side].assign(2 * kPieceFrames * lanes_of_side, 0.0);
+        }
+        // Piece i of one side.
+        auto run_piece = [this, &banks, &rows, &centres_hz, first, frames, piece_frames, split, chunks](
+                             std::size_t i, std::size_t side) {
+            detail::FusedBlock p = rows;
+            const std::size_t start = i * piece_frames;
+            p.frames = std::min(piece_frames, frames - start);
+            p.x += start;
+            if (p.rows) p.rows += start * p.lanes;
+            if (p.sum) p.sum += start;
+            if (side == 1) p.in_sum_sq = nullptr;  // chunk 0's
+            p.chunk_begin = side == 0 ? 0 : split;
+            p.chunk_end = side == 0 ? split : chunks;
+            p.stride = (p.chunk_end - p.chunk_begin) * kLanes;
+            double* work = split_scratch[side].data();
+            double* carrier = work + kPieceFrames * p.stride;
+            p.work = work;
+            p.carrier = carrier;
+            make_carrier(carrier, first + start, p.frames, centres_hz, p.chunk_begin, p.chunk_end, p.stride);
+            detail::run_fused(banks, p);
+        };
+        if (!ordered) {
+            worker->start([&run_piece, pieces] {
+                for (std::size_t i = 0; i < pieces; ++i) run_piece(i, 1);
+            });
+            try {
+                for (std::size_t i = 0; i < pieces; ++i) run_piece(i, 0);
+            } catch (...) {
+                worker->wait();
+                throw;
+            }
+            worker->wait();
+            return;
+        }
+        for (std::size_t i = 0; i <= pieces; ++i) {
+            if (i > 0) worker->start([&run_piece, i] { run_piece(i - 1, 1); });
+            if (i < pieces) {
+                try {
+                    run_piece(i, 0);
+                } catch (...) {
+                    if (i > 0) worker->wait();
+                    throw;
+                }
+            }
+            if (i > 0) worker->wait();
         }
     }
 
@@ -443,8 +556,13 @@ struct Pipeline {
                 detail::run_fused(banks, rows);
                 return;
             }
-            // Piece i's front beside piece i − 1's back (which makes its
-            // carriers first); each piece in its own part of work/carrier.
+            if (stride / SosBank::chunk_lanes >= 2) {
+                run_split(banks, rows, first, frames, centres_hz);
+                return;
+            }
+            // One chunk: piece i's front beside piece i − 1's back (which
+            // makes its carriers first); each piece in its own part of
+            // work/carrier.
             auto piece = [&](std::size_t i) {
                 detail::FusedBlock p = rows;
                 const std::size_t start = i * kPieceFrames;
