@@ -468,8 +468,10 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
             if (fresh && prim.attributes.count("TEXCOORD_0")) uv = read_floats(model, prim.attributes.at("TEXCOORD_0"), 2, path);
             if (fresh && prim.attributes.count("COLOR_0")) color = read_floats(model, prim.attributes.at("COLOR_0"), 3, path);
             glm::vec3 factor(1.0f);
-            std::string group = gm.name.empty() ? "mesh" + std::to_string(k) : gm.name;
-            group += "_" + std::to_string(pi);
+            // (Appended piece by piece: GCC 12 at -O3 warns -Wrestrict,
+            // wrongly, on "_" + std::to_string(…).)
+            std::string group = gm.name.empty() ? std::string("mesh").append(std::to_string(k)) : gm.name;
+            group.append("_").append(std::to_string(pi));
             if (prim.material >= 0) {
                 const auto& mat = model.materials.at(static_cast<std::size_t>(prim.material));
                 if (!mat.name.empty()) group = mat.name;
