@@ -299,11 +299,6 @@ void run_fused(const FusedBanks& banks, const FusedBlock& block) {
     run_fused_back(banks, block);
 }
 
-void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t stride,
-                    std::size_t first, std::size_t frames, double* carrier) {
-    noise_carriers(state, draw, lanes, 0, stride / kChunk, stride, first, frames, carrier);
-}
-
 void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t chunk_begin,
                     std::size_t chunk_end, std::size_t out_stride, std::size_t first, std::size_t frames,
                     double* carrier) {

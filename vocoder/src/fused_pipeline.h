@@ -70,14 +70,12 @@ void run_fused(const FusedBanks& banks, const FusedBlock& block);
 void run_fused_front(const FusedBanks& banks, const FusedBlock& block);
 void run_fused_back(const FusedBanks& banks, const FusedBlock& block);
 
-// Noise carriers for lanes [0, lanes) of `stride`: at absolute frame t,
+// Noise carriers for lanes [0, lanes) of a bank: at absolute frame t,
 // lane l gets (bits · 2^-31 − 1) with bits the low (t even) or high (t odd)
 // 32 bits of stream l's draw for t − t mod 2, which is drawn at even t.
 // `state` holds xoshiro256** states [chunk][word][4], `draw` the last draw
-// per lane (stride); padding lanes get 0.
-void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t stride,
-                    std::size_t first, std::size_t frames, double* carrier);
-// The same for the chunks [chunk_begin, chunk_end) only, into rows of
+// per lane (the bank's stride); padding lanes get 0.
+// Only the chunks [chunk_begin, chunk_end) are made, into rows of
 // `out_stride` whose column 0 is lane 0 of chunk_begin.
 void noise_carriers(std::uint64_t* state, std::uint64_t* draw, std::size_t lanes, std::size_t chunk_begin,
                     std::size_t chunk_end, std::size_t out_stride, std::size_t first, std::size_t frames,

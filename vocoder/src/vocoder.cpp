@@ -374,8 +374,9 @@ struct Pipeline {
     std::vector<std::uint64_t> noise_draw;
     std::vector<double> analysis_sum_sq;
     bool fused;  // steps 1–4 in one loop (fused_pipeline.h)
-    // With the fused loop: a block of more than one piece runs front and
-    // back on two threads (the back a piece behind); null: one thread.
+    // With the fused loop: a block of more than one piece runs on two
+    // threads (by chunks of bands, run_split; with one chunk, the front and
+    // the back a piece behind); null: one thread.
     PairWorker* worker = nullptr;
     static constexpr std::size_t kPieceFrames = 4096;
     // run_split's scratch per side (work, then carrier).
