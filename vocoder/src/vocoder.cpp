@@ -23,6 +23,7 @@
 #include <functional>
 #include <utility>
 #include <thread>
+#include <chrono>
 
 #include <fmt/format.h>
 #include <sys/mman.h>
@@ -288,11 +289,15 @@ private:
 // of each piece of a block while the caller runs its own part.
 // Jobs are short (tens of microseconds) and come thousands of times per
 // second, so each side first spins on the other's counter (with `pause`)
-// and only then sleeps on it: a futex sleep and wake per job cost as much
-// as the job. The spin adapts: it doubles (up to about 50 µs) while the
-// other side keeps arriving within it, and halves when it does not (a busy
-// machine, where the other thread waits for a core), so an idle machine
-// hands over without sleeping and a busy one wastes little.
+// and only then sleeps on it: on the 2-core VM a futex sleep and wake cost
+// more than the job, and a pass whose hand-overs sleep ran slower on two
+// threads than on one. The spin is bounded in time, not in pauses (a pause
+// takes 25 ns on the Zen 4 machine): up to 200 µs, several
+// jobs' length, so that the other side's piece taking longer than this
+// one's does not send this side to sleep. The bound adapts: it halves when
+// the other side does not arrive within it (a busy machine, where the
+// other thread waits for a core: there spinning wastes a core others could
+// use) and doubles back when it does.
 // (std::binary_semaphore spins 16 times, yields and sleeps.)
 class PairWorker {
 public:
@@ -314,32 +319,36 @@ public:
     }
     // Waits for the job started last; rethrows what it threw.
     void wait() {
-        await(m_finished, m_started.load(std::memory_order_relaxed), m_caller_spins);
+        await(m_finished, m_started.load(std::memory_order_relaxed), m_caller_spin);
         if (m_error) std::rethrow_exception(std::exchange(m_error, nullptr));
     }
 
 private:
-    static constexpr int kMinSpins = 16, kMaxSpins = 1024;  // a pause takes about 50 ns on the Zen 4 machine
+    using Clock = std::chrono::steady_clock;
+    static constexpr std::chrono::nanoseconds kMinSpin{5'000}, kMaxSpin{200'000};
 
-    // Returns once `counter` reaches `target` (acquire); `spins` is the
-    // waiting side's current spin limit.
-    static void await(const std::atomic<unsigned>& counter, unsigned target, int& spins) {
-        for (int spin = 0; spin < spins; ++spin) {
-            if (counter.load(std::memory_order_acquire) == target) {
-                spins = std::min(2 * spins, kMaxSpins);
-                return;
-            }
+    // Returns once `counter` reaches `target` (acquire); `spin` is the
+    // waiting side's current spin bound.
+    static void await(const std::atomic<unsigned>& counter, unsigned target, std::chrono::nanoseconds& spin) {
+        if (counter.load(std::memory_order_acquire) == target) return;
+        const Clock::time_point until = Clock::now() + spin;
+        for (unsigned n = 1;; ++n) {
 #if defined(__x86_64__) || defined(__i386__)
             __builtin_ia32_pause();
 #endif
+            if (counter.load(std::memory_order_acquire) == target) {
+                spin = std::min(2 * spin, kMaxSpin);
+                return;
+            }
+            if (n % 32 == 0 && Clock::now() >= until) break;  // a clock read costs about a pause
         }
-        spins = std::max(spins / 2, kMinSpins);
+        spin = std::max(spin / 2, kMinSpin);
         for (unsigned seen; (seen = counter.load(std::memory_order_acquire)) != target;) counter.wait(seen);
     }
     void loop() {
-        int spins = kMaxSpins;
+        std::chrono::nanoseconds spin = kMaxSpin;
         for (unsigned jobs = 1;; ++jobs) {
-            await(m_started, jobs, spins);
+            await(m_started, jobs, spin);
             if (m_stop.load(std::memory_order_relaxed)) return;
             try {
                 m_job();
@@ -352,7 +361,7 @@ private:
     }
     std::function<void()> m_job;
     std::exception_ptr m_error;
-    int m_caller_spins = kMaxSpins;
+    std::chrono::nanoseconds m_caller_spin = kMaxSpin;
     std::atomic<bool> m_stop{false};
     std::atomic<unsigned> m_started{0}, m_finished{0};
     std::thread m_thread;
