@@ -4,6 +4,13 @@
 #include <sndfile.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include <utility>
+
+#include <fcntl.h>
+#include <unistd.h>
 
 #include <fmt/format.h>
 
@@ -79,8 +86,10 @@ struct AudioFileWriter::File {
     explicit File(const std::filesystem::path& target) : atomic(target) {}
     AtomicFile atomic;
     SNDFILE* handle = nullptr;
+    int fd = -1;  // the temporary's (libsndfile writes to it but does not close it)
     ~File() {
         if (handle) sf_close(handle);
+        if (fd >= 0) ::close(fd);
     }
 };
 
@@ -107,7 +116,10 @@ AudioFileWriter::AudioFileWriter(const std::filesystem::path& path, int rate_hz,
     info.samplerate = rate_hz;
     info.channels = channels;
     info.format = major | subtype;
-    m_file->handle = sf_open(m_file->atomic.temp_path().c_str(), SFM_WRITE, &info);
+    // Opened here and handed to libsndfile, so that start_writeback has the descriptor.
+    m_file->fd = ::open(m_file->atomic.temp_path().c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (m_file->fd < 0) throw InputError(path, fmt::format("cannot write audio file: {}", std::strerror(errno)));
+    m_file->handle = sf_open_fd(m_file->fd, SFM_WRITE, &info, SF_FALSE);
     if (!m_file->handle) throw InputError(path, fmt::format("cannot write audio file: {}", sf_strerror(nullptr)));
     // Clip integer output rather than wrapping around on overshoot.
     sf_command(m_file->handle, SFC_SET_CLIPPING, nullptr, SF_TRUE);
@@ -122,11 +134,20 @@ void AudioFileWriter::write(const float* samples, std::size_t frames) {
         throw InputError(m_path, "cannot write audio file: short write (disk full?)");
 }
 
+void AudioFileWriter::start_writeback() {
+    AVSI_ASSERT(m_file && m_file->handle);
+#ifdef SYNC_FILE_RANGE_WRITE
+    ::sync_file_range(m_file->fd, 0, 0, SYNC_FILE_RANGE_WRITE);  // advice: failure changes nothing
+#endif
+}
+
 void AudioFileWriter::commit() {
     AVSI_ASSERT(m_file && m_file->handle);
     const int status = sf_close(m_file->handle);
     m_file->handle = nullptr;
-    if (status != 0) throw InputError(m_path, "cannot write audio file: short write (disk full?)");
+    const int closed = ::close(std::exchange(m_file->fd, -1));
+    if (status != 0 || closed != 0)
+        throw InputError(m_path, "cannot write audio file: short write (disk full?)");
     m_file->atomic.commit();
 }
 

@@ -1072,6 +1072,11 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // Pass 3: the output (block k written on the worker while block k + 1
     // is filled, into the other buffer).
     std::size_t current = 0;
+    // Every so many frames, this thread starts the disk writes of what the
+    // worker wrote (while it writes the next block), so that the output's
+    // fsync at the end waits for the last few only.
+    constexpr std::size_t kWritebackFrames = std::size_t{1} << 21;
+    std::size_t unflushed = 0;
     replay(
         [&](std::size_t c, std::size_t, std::size_t count) {
             float* o = out[current].data();
@@ -1085,9 +1090,14 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
                 output.write(o, count);
                 return;
             }
+            if (unflushed >= kWritebackFrames) {
+                unflushed = 0;
+                output.start_writeback();
+            }
             finish_write();
             worker->start([&output, o, count] { output.write(o, count); });
             write_pending = true;
+            unflushed += count;
             current = 1 - current;
         },
         false);

@@ -41,6 +41,10 @@ public:
     virtual ~AudioSink() = default;
     // Appends `frames` interleaved frames.
     virtual void write(const float* samples, std::size_t frames) = 0;
+    // Advice: start storing what has been written so far (a file: its disk
+    // writes), so that the end waits for less. May be called from another
+    // thread than write(), while it runs.
+    virtual void start_writeback() {}
 };
 
 // An Audio buffer as a source (the buffer must outlive it).
@@ -113,6 +117,8 @@ public:
     AudioFileWriter& operator=(const AudioFileWriter&) = delete;
 
     void write(const float* samples, std::size_t frames) override;
+    // sync_file_range(SYNC_FILE_RANGE_WRITE) of the temporary.
+    void start_writeback() override;
     // Closes the file and renames it over the target.
     void commit();
 
