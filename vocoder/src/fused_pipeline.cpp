@@ -118,9 +118,9 @@ inline std::size_t column(const FusedBlock& block, std::size_t chunk) {
 // a pass (20 -> 16 cycles a frame at 3.6 GHz, near the add ports' limit
 // for its 21 adds), the whole process 541 -> 480 ms. Every section still
 // sees its frames in order with the same inputs, so each value is the same
-// bit for bit. The first and
-// last steps of a block run only the sections whose frame is in the block
-// (`Edge`), so the state is whole at the block's end.
+// bit for bit. The first and last steps of a block run only the sections
+// whose frame is in the block (`Edge`), so the state is whole at the
+// block's end.
 
 // `Edge`: step n of a block of `frames`, where section k runs only when
 // frame n − k is in the block.
@@ -130,12 +130,25 @@ struct Step {
     [[gnu::always_inline]] bool runs(std::size_t k) const { return !Edge || (n >= k && n - k < frames); }
 };
 
+// Steps 0 .. frames + Last − 1 of a skewed loop whose last section is
+// `Last`: those where every section runs without the checks.
+template <std::size_t Last, typename Loop>
+[[gnu::always_inline]] inline void run_steps(Loop& loop, std::size_t frames) {
+    const std::size_t steps = frames + Last;
+    std::size_t n = 0;
+    for (; n < std::min(Last, steps); ++n) loop.step(Step<true>{n, frames});
+    for (; n < frames; ++n) loop.step(Step<false>{n, frames});
+    for (; n < steps; ++n) loop.step(Step<true>{n, frames});
+}
+
 template <bool FullWave>
 struct Front {
-    static constexpr std::size_t kDepth = kBandSections + kEnvelopeSections;  // sections: frame n − 5 leaves step n
+    // Sections 0–3 the analysis band-pass, 4–5 the envelope low-pass.
+    static_assert(kBandSections == 4 && kEnvelopeSections == 2);
+    static constexpr std::size_t kLast = 5;  // frame n − 5 leaves step n
     Cascade<kBandSections> analysis;
     Cascade<kEnvelopeSections> envelope;
-    Lanes u[kDepth - 1];  // u[k]: what section k gave in the last step
+    Lanes u[kLast];  // u[k]: what section k gave in the last step
     Lanes analysis_sq;
     double in_sq;
     bool input_energy;
@@ -189,7 +202,6 @@ template <bool FullWave>
 [[gnu::always_inline]] inline void front_chunk(const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
     using F = Front<FullWave>;
     const std::size_t lane0 = chunk * kChunk;
-    const std::size_t frames = block.frames;
     F f;
     f.stride = row_stride(banks, block);
     f.x = block.x;
@@ -199,12 +211,7 @@ template <bool FullWave>
     load(f.analysis_sq, block.analysis_sum_sq + lane0);
     f.in_sq = block.in_sum_sq ? *block.in_sum_sq : 0.0;
     f.input_energy = block.in_sum_sq && chunk == 0;
-    const std::size_t steps = frames + F::kDepth - 1;
-    const std::size_t full_end = frames;  // steps [kDepth − 1, frames) run every section
-    std::size_t n = 0;
-    for (; n < std::min(F::kDepth - 1, steps); ++n) f.step(Step<true>{n, frames});
-    for (; n < full_end; ++n) f.step(Step<false>{n, frames});
-    for (; n < steps; ++n) f.step(Step<true>{n, frames});
+    run_steps<F::kLast>(f, block.frames);
     if (f.input_energy) *block.in_sum_sq = f.in_sq;
     store(block.analysis_sum_sq + lane0, f.analysis_sq);
     f.analysis.close();
@@ -218,12 +225,13 @@ struct Back {
     static constexpr std::size_t P = Prefilter ? kBandSections : 0;
     static constexpr std::size_t R = Refilter ? kBandSections : 0;
     static constexpr std::size_t kLast = P + (R ? R - 1 : 0);  // frame n − kLast leaves step n
+    static_assert(kBandSections > 1);  // so the re-filter's section 0 is never its last
     Cascade<kBandSections> prefilter, refilter;
     Lanes pre[kBandSections];  // what prefilter section k gave in the last step
     Lanes re[kBandSections];   // the same for the re-filter
     Lanes out_sq;
     bool out_energy;
-    double g[kChunk];
+    double g[kChunk] = {};  // the replay's gains
     const double* carrier;
     const double* work;
     std::size_t stride;
@@ -278,12 +286,7 @@ struct Back {
             v *= c;
             if constexpr (R > 0) {
                 refilter.band_pass_section(0, v);
-                if constexpr (R == 1) {
-                    v *= refilter.gain;
-                    out(m, v);
-                } else {
-                    re[0] = v;
-                }
+                re[0] = v;
             } else {
                 out(m, v);
             }
@@ -311,7 +314,6 @@ template <bool Prefilter, bool Refilter, bool Replay>
 [[gnu::always_inline]] inline void back_chunk(const FusedBanks& banks, const FusedBlock& block, std::size_t chunk) {
     using B = Back<Prefilter, Refilter, Replay>;
     const std::size_t lane0 = chunk * kChunk;
-    const std::size_t frames = block.frames;
     B b;
     b.stride = row_stride(banks, block);
     b.carrier = block.carrier + column(block, chunk);
@@ -323,17 +325,12 @@ template <bool Prefilter, bool Refilter, bool Replay>
     b.out_sq = Lanes{0, 0, 0, 0};
     b.out_energy = !Replay && block.out_sum_sq;
     if (b.out_energy) load(b.out_sq, block.out_sum_sq + lane0);
-    for (std::size_t j = 0; j < kChunk; ++j) b.g[j] = 0.0;
     if constexpr (Replay)
         for (std::size_t j = 0; j < kChunk; ++j) b.g[j] = block.gains[lane0 + j];
     b.rows = block.rows ? block.rows + lane0 : nullptr;
     b.row_lanes = block.lanes;
     b.valid = block.lanes > lane0 ? std::min(kChunk, block.lanes - lane0) : 0;
-    const std::size_t steps = frames + B::kLast;
-    std::size_t n = 0;
-    for (; n < std::min(B::kLast, steps); ++n) b.step(Step<true>{n, frames});
-    for (; n < frames; ++n) b.step(Step<false>{n, frames});
-    for (; n < steps; ++n) b.step(Step<true>{n, frames});
+    run_steps<B::kLast>(b, block.frames);
     if (b.out_energy) store(block.out_sum_sq + lane0, b.out_sq);
     if constexpr (Prefilter) b.prefilter.close();
     if constexpr (Refilter) b.refilter.close();
