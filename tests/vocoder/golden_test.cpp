@@ -151,6 +151,83 @@ TEST(VocoderGolden, StreamingWithAnyBlockAndStoreGivesTheRecordedHashes) {
     }
 }
 
+// A source that announces `announced` frames (the audio's, then silence)
+// and gives them all until its `short_from`-th seek (1: pass 1), after
+// which it ends at frame `ends_at`.
+class EndsEarly : public AudioSource {
+public:
+    EndsEarly(const Audio& audio, std::size_t announced, int short_from, std::size_t ends_at)
+        : m_audio(audio), m_announced(announced), m_short_from(short_from), m_ends_at(ends_at) {}
+    int sample_rate_hz() const override { return m_audio.sample_rate_hz; }
+    int channels() const override { return m_audio.channels; }
+    std::size_t frames() const override { return m_announced; }
+    std::size_t read(float* out, std::size_t frames) override {
+        const std::size_t end = m_seeks >= m_short_from ? m_ends_at : m_announced;
+        const std::size_t n = std::min(frames, end - std::min(end, m_position));
+        const std::size_t nc = static_cast<std::size_t>(m_audio.channels);
+        for (std::size_t i = 0; i < n * nc; ++i) {
+            const std::size_t at = m_position * nc + i;
+            out[i] = at < m_audio.samples.size() ? m_audio.samples[at] : 0.0f;
+        }
+        m_position += n;
+        return n;
+    }
+    void seek(std::size_t frame) override {
+        ++m_seeks;
+        m_position = frame;
+    }
+
+private:
+    const Audio& m_audio;
+    std::size_t m_announced;
+    int m_short_from;
+    std::size_t m_ends_at;
+    int m_seeks = 0;
+    std::size_t m_position = 0;
+};
+
+// An input that ends before the length it announced, in the middle of a
+// block of several pieces (the worker then waits for pieces that do not
+// come), in pass 1 or in a replay that reads past the store, on one thread
+// or two, with one chunk of bands or two: a clear error, no hang.
+TEST(VocoderGolden, AnInputThatEndsEarlyIsAnErrorOnEveryPath) {
+    for (int channels : {1, 2}) {
+        for (int bands : {3, 8}) {
+            const Audio in = input(channels, 1.0, 12.0);  // 192000 frames
+            VocoderSettings s;
+            s.bands = bands;
+            for (int short_from : {1, 2, 3}) {
+                for (unsigned threads : {1u, 2u}) {
+                    SCOPED_TRACE(::testing::Message() << channels << " channels, " << bands << " bands, short from seek "
+                                                      << short_from << ", " << threads << " threads");
+                    // Stored: the first 20000 frames (so pass 2 keeps the sums of
+                    // 10000 × bands < 151000 frames, and pass 3 reads the input
+                    // too); the input ends at 151000, in a block's fifth piece.
+                    const detail::StreamLimits limits{32768, 20000 * static_cast<std::size_t>(bands * channels) * 4,
+                                                      threads};
+                    EndsEarly source(in, 192000, short_from, 151000);
+                    Audio out;
+                    out.sample_rate_hz = in.sample_rate_hz;
+                    out.channels = in.channels;
+                    AudioBufferSink sink(out);
+                    try {
+                        detail::vocode_stream(source, sink, s, limits);
+                        ADD_FAILURE() << "no error";
+                    } catch (const InputError& e) {
+                        EXPECT_NE(std::string(e.what()).find("expected 192000 frames, the input ended after fewer"),
+                                  std::string::npos)
+                            << e.what();
+                    }
+                    // Nothing of the output was written before the input was read twice.
+                    if (short_from < 3) {
+                        EXPECT_EQ(out.samples.size(), 0u);
+                    }
+                }
+            }
+        }
+    }
+}
+
 // STOI's resampling in pieces (any sizes) gives resample()'s samples.
 TEST(VocoderGolden, StreamResamplerMatchesTheOneShotResampler) {
     for (double rate : {22050.0, 44100.0, 16000.0, 8000.0, 10000.0}) {

@@ -285,83 +285,110 @@ private:
     unsigned char* m_data = nullptr;
 };
 
-// A second thread that runs one job at a time beside the caller: its part
-// of each piece of a block while the caller runs its own part.
-// Jobs are short (tens of microseconds) and come thousands of times per
-// second, so each side first spins on the other's counter (with `pause`)
-// and only then sleeps on it: on the 2-core VM a futex sleep and wake cost
-// more than the job, and a pass whose hand-overs sleep ran slower on two
-// threads than on one. The spin is bounded in time, not in pauses (a pause
-// takes 25 ns on the Zen 4 machine): up to 200 µs, several
-// jobs' length, so that the other side's piece taking longer than this
-// one's does not send this side to sleep. The bound adapts: it halves when
-// the other side does not arrive within it (a busy machine, where the
-// other thread waits for a core: there spinning wastes a core others could
-// use) and doubles back when it does.
+// Waiting for the other of two threads, which hand over work thousands of
+// times a second (pieces of tens of microseconds): first spin on its
+// counter (with `pause`), and only then sleep on it: on the 2-core VM a
+// futex sleep and wake cost more than a piece, and a pass whose hand-overs
+// sleep ran slower on two threads than on one. The spin is bounded in
+// time, not in pauses (a pause takes 25 ns on the Zen 4 machine): up to
+// 200 µs, several pieces' length, so that the other side's piece taking
+// longer than this one's does not send this side to sleep. The bound
+// adapts: it halves when a wait lasts longer than the longest spin (a busy
+// machine, where the other thread waits for a core: there spinning wastes
+// a core others could use; or the other side idle for a while), and
+// doubles when the other side arrives within the longest spin, whether
+// within the bound or in the sleep that followed it (so that a bound halved
+// by a few long waits comes back when waits are short again).
 // (std::binary_semaphore spins 16 times, yields and sleeps.)
+class HandOver {
+public:
+    using Clock = std::chrono::steady_clock;
+    static constexpr std::chrono::nanoseconds kMinSpin{5'000}, kMaxSpin{200'000};
+
+    // Returns once `counter` has reached `target` (acquire; counted modulo
+    // 2^32, the two less than 2^31 apart).
+    void await(const std::atomic<unsigned>& counter, unsigned target) {
+        auto reached = [&](unsigned value) { return static_cast<int>(value - target) >= 0; };
+        if (reached(counter.load(std::memory_order_acquire))) return;
+        const Clock::time_point begin = Clock::now();
+        for (unsigned n = 1;; ++n) {
+#if defined(__x86_64__) || defined(__i386__)
+            __builtin_ia32_pause();
+#endif
+            if (reached(counter.load(std::memory_order_acquire))) {
+                m_spin = std::min(2 * m_spin, kMaxSpin);
+                return;
+            }
+            if (n % 32 == 0 && Clock::now() - begin >= m_spin) break;  // a clock read costs about a pause
+        }
+        for (unsigned seen; !reached(seen = counter.load(std::memory_order_acquire));) counter.wait(seen);
+        m_spin = Clock::now() - begin <= kMaxSpin ? std::min(2 * m_spin, kMaxSpin) : std::max(m_spin / 2, kMinSpin);
+    }
+    // Adds one to `counter` (release) and wakes its waiter.
+    static void bump(std::atomic<unsigned>& counter) {
+        counter.fetch_add(1, std::memory_order_release);
+        counter.notify_one();
+    }
+
+private:
+    std::chrono::nanoseconds m_spin = kMaxSpin;  // the current bound
+};
+
+// A second thread that runs one job at a time beside the caller (see
+// HandOver for how each side waits for the other).
 class PairWorker {
 public:
     PairWorker() : m_thread([this] { loop(); }) {}
     ~PairWorker() {
         m_stop.store(true, std::memory_order_relaxed);
-        m_started.fetch_add(1, std::memory_order_release);
-        m_started.notify_one();
+        HandOver::bump(m_started);
         m_thread.join();
     }
     PairWorker(const PairWorker&) = delete;
     PairWorker& operator=(const PairWorker&) = delete;
 
-    // Starts `job` on the worker; wait() before the next start.
-    void start(std::function<void()> job) {
+    // Starts `job` on the worker, after the job started before it; `owner`
+    // tags it (see running_for).
+    void start(std::function<void()> job, const void* owner = nullptr) {
+        wait();
         m_job = std::move(job);
-        m_started.fetch_add(1, std::memory_order_release);
-        m_started.notify_one();
+        m_owner = owner;
+        m_outstanding = true;
+        HandOver::bump(m_started);
     }
-    // Waits for the job started last; rethrows what it threw.
+    // Waits for the job started last, if it has not been waited for;
+    // rethrows what it threw.
     void wait() {
-        await(m_finished, m_started.load(std::memory_order_relaxed), m_caller_spin);
+        if (!m_outstanding) return;
+        m_outstanding = false;
+        m_caller.await(m_finished, m_started.load(std::memory_order_relaxed));
         if (m_error) std::rethrow_exception(std::exchange(m_error, nullptr));
     }
+    // Whether the job started last, tagged `owner`, has not been waited for.
+    bool running_for(const void* owner) const { return m_outstanding && m_owner == owner; }
+    // Each side's hand-overs, for a job and its caller that wait on each
+    // other's counters.
+    HandOver& caller_side() { return m_caller; }
+    HandOver& worker_side() { return m_worker; }
 
 private:
-    using Clock = std::chrono::steady_clock;
-    static constexpr std::chrono::nanoseconds kMinSpin{5'000}, kMaxSpin{200'000};
-
-    // Returns once `counter` reaches `target` (acquire); `spin` is the
-    // waiting side's current spin bound.
-    static void await(const std::atomic<unsigned>& counter, unsigned target, std::chrono::nanoseconds& spin) {
-        if (counter.load(std::memory_order_acquire) == target) return;
-        const Clock::time_point until = Clock::now() + spin;
-        for (unsigned n = 1;; ++n) {
-#if defined(__x86_64__) || defined(__i386__)
-            __builtin_ia32_pause();
-#endif
-            if (counter.load(std::memory_order_acquire) == target) {
-                spin = std::min(2 * spin, kMaxSpin);
-                return;
-            }
-            if (n % 32 == 0 && Clock::now() >= until) break;  // a clock read costs about a pause
-        }
-        spin = std::max(spin / 2, kMinSpin);
-        for (unsigned seen; (seen = counter.load(std::memory_order_acquire)) != target;) counter.wait(seen);
-    }
     void loop() {
-        std::chrono::nanoseconds spin = kMaxSpin;
         for (unsigned jobs = 1;; ++jobs) {
-            await(m_started, jobs, spin);
+            m_worker.await(m_started, jobs);
             if (m_stop.load(std::memory_order_relaxed)) return;
             try {
                 m_job();
             } catch (...) {
                 m_error = std::current_exception();
             }
-            m_finished.fetch_add(1, std::memory_order_release);
-            m_finished.notify_one();
+            HandOver::bump(m_finished);
         }
     }
     std::function<void()> m_job;
     std::exception_ptr m_error;
-    std::chrono::nanoseconds m_caller_spin = kMaxSpin;
+    HandOver m_caller, m_worker;  // each side's spin bound
+    const void* m_owner = nullptr;
+    bool m_outstanding = false;  // a job started and not yet waited for (caller's side)
     std::atomic<bool> m_stop{false};
     std::atomic<unsigned> m_started{0}, m_finished{0};
     std::thread m_thread;
@@ -388,6 +415,22 @@ struct Pipeline {
     // the back a piece behind); null: one thread.
     PairWorker* worker = nullptr;
     static constexpr std::size_t kPieceFrames = 4096;
+    // With one chunk of bands on two threads: the pieces of the block whose
+    // front this thread has done and whose back the worker has (a copy of
+    // the pipeline, taken settled, starts afresh).
+    struct PieceCounts {
+        std::atomic<unsigned> fronts{0}, backs{0};
+        std::atomic<bool> abandoned{false};  // this thread stopped at an exception
+        PieceCounts() = default;
+        PieceCounts(const PieceCounts&) {}
+        PieceCounts& operator=(const PieceCounts&) { return *this; }
+    } piece_counts;
+    // Makes x[offset, offset + count) ready (x as run gets it). With the
+    // worker, run calls it piece by piece, in order, just before the piece
+    // is read, so that this thread reads the input while the worker runs
+    // the back of the piece before; otherwise once for the whole block.
+    // Empty: x is ready.
+    using Fill = std::function<void(std::size_t offset, std::size_t count)>;
     // run_split's scratch per side (work, then carrier).
     std::vector<double> split_scratch[2];
 
@@ -411,6 +454,11 @@ struct Pipeline {
     // Runs a bank over `frames` rows: forward with carried state when the
     // signal comes in blocks, forward and backward over the whole signal
     // for zero phase.
+    // Waits for what the worker may still be running (see run).
+    void settle() {
+        if (worker) worker->wait();
+    }
+
     void filter(const SosBank& bank, SosBank::State& state, double* data, std::size_t frames) {
         if (settings.zero_phase) {
             bank.process(data, frames, false);
@@ -480,7 +528,7 @@ struct Pipeline {
     // thread's piece i, whose lines it does not touch); otherwise each side
     // runs the whole block at once.
     void run_split(const detail::FusedBanks& banks, const detail::FusedBlock& rows, std::size_t first,
-                   std::size_t frames, const std::vector<double>& centres_hz) {
+                   std::size_t frames, const std::vector<double>& centres_hz, const Fill& fill) {
         constexpr std::size_t kLanes = SosBank::chunk_lanes;
         const std::size_t chunks = bands.stride() / kLanes;
         const std::size_t split = (chunks + 1) / 2;
@@ -515,6 +563,7 @@ struct Pipeline {
             detail::run_fused(banks, p);
         };
         if (!ordered) {
+            if (fill) fill(0, frames);
             worker->start([&run_piece, pieces] {
                 for (std::size_t i = 0; i < pieces; ++i) run_piece(i, 1);
             });
@@ -531,6 +580,7 @@ struct Pipeline {
             if (i > 0) worker->start([&run_piece, i] { run_piece(i - 1, 1); });
             if (i < pieces) {
                 try {
+                    if (fill) fill(i * piece_frames, std::min(piece_frames, frames - i * piece_frames));
                     run_piece(i, 0);
                 } catch (...) {
                     if (i > 0) worker->wait();
@@ -541,14 +591,22 @@ struct Pipeline {
         }
     }
 
-    // Steps 1–4 for `frames` rows starting at absolute frame `first` (x[0]):
-    // `work` gets the input broadcast to every lane on entry and the
-    // filtered modulated carriers on exit; `carrier` is scratch.
-    // `rows` says what becomes of the band outputs (FusedBlock's fields
-    // from out_sum_sq on; x, carrier, work, frames and analysis_sum_sq are
-    // filled in here): the same with the fused loop or without.
+    // Steps 1–4 for `frames` rows starting at absolute frame `first` (x[0],
+    // made ready by `fill`): `work` gets the input broadcast to every lane
+    // on entry and the filtered modulated carriers on exit; `carrier` is
+    // scratch. `rows` says what becomes of the band outputs (FusedBlock's
+    // fields from out_sum_sq on; x, carrier, work, frames and
+    // analysis_sum_sq are filled in here): the same with the fused loop or
+    // without.
+    // With one chunk of bands on two threads and no sums asked for, the
+    // worker may still be running the back of the last piece when this
+    // returns: beside the next block's reading and first front (which uses
+    // the first piece of `work` and `carrier`, where the last piece of a
+    // block of two or more is not). Its rows and sums of squares are there
+    // after settle(); every other use of the pipeline's state settles first.
     void run(const double* x, std::size_t first, std::size_t frames, std::vector<double>& work,
-             std::vector<double>& carrier, const std::vector<double>& centres_hz, detail::FusedBlock rows) {
+             std::vector<double>& carrier, const std::vector<double>& centres_hz, detail::FusedBlock rows,
+             const Fill& fill = {}) {
         const std::size_t stride = bands.stride();
         double* w = work.data();
         rows.x = x;
@@ -562,18 +620,26 @@ struct Pipeline {
                                      settings.refilter_carrier ? &refilter_state : nullptr,
                                      settings.envelope == EnvelopeMethod::FullWaveRectify};
             if (!worker || frames <= kPieceFrames) {
+                settle();
+                if (fill) fill(0, frames);
                 make_carrier(carrier.data(), first, frames, centres_hz);
                 detail::run_fused(banks, rows);
                 return;
             }
             if (stride / SosBank::chunk_lanes >= 2) {
-                run_split(banks, rows, first, frames, centres_hz);
+                settle();
+                run_split(banks, rows, first, frames, centres_hz, fill);
                 return;
             }
-            // One chunk: piece i's front beside piece i − 1's back (which
-            // makes its carriers first); each piece in its own part of
-            // work/carrier.
-            auto piece = [&](std::size_t i) {
+            // One chunk: this thread runs each piece's front and the worker
+            // its back (which makes its carriers first), each piece in its own
+            // part of work/carrier, as a pipeline: the worker takes piece i
+            // once this thread has published its front, so that within the
+            // block either side may run ahead of the other, and a long piece
+            // on one side (a page fault, the host taking the core for a
+            // while) is made up on the next ones instead of holding up the
+            // other side at every piece.
+            auto piece = [rows, frames, stride](std::size_t i) {
                 detail::FusedBlock p = rows;
                 const std::size_t start = i * kPieceFrames;
                 p.frames = std::min(kPieceFrames, frames - start);
@@ -584,29 +650,55 @@ struct Pipeline {
                 if (p.sum) p.sum += start;
                 return p;
             };
+            auto front = [&](std::size_t i) {
+                const detail::FusedBlock p = piece(i);
+                if (fill) fill(i * kPieceFrames, p.frames);
+                detail::run_fused_front(banks, p);
+            };
             const std::size_t pieces = (frames + kPieceFrames - 1) / kPieceFrames;
-            for (std::size_t i = 0; i <= pieces; ++i) {
-                if (i > 0) {
-                    const detail::FusedBlock back = piece(i - 1);
-                    double* c = carrier.data() + (i - 1) * kPieceFrames * stride;
-                    const std::size_t at = first + (i - 1) * kPieceFrames;
-                    worker->start([this, back, banks, c, at, &centres_hz] {
-                        make_carrier(c, at, back.frames, centres_hz);
-                        detail::run_fused_back(banks, back);
-                    });
-                }
-                if (i < pieces) {
-                    try {
-                        detail::run_fused_front(banks, piece(i));
-                    } catch (...) {
-                        if (i > 0) worker->wait();
-                        throw;
+            // Piece 0's front beside the end of the block before, when its
+            // back was left running, once that is past piece 0.
+            if (worker->running_for(this))
+                worker->caller_side().await(piece_counts.backs, 1);
+            else
+                worker->wait();
+            front(0);
+            worker->wait();
+            piece_counts.fronts.store(1, std::memory_order_relaxed);  // published by start
+            piece_counts.backs.store(0, std::memory_order_relaxed);
+            piece_counts.abandoned.store(false, std::memory_order_relaxed);
+            double* const carriers = carrier.data();
+            worker->start(
+                [this, banks, piece, pieces, first, carriers, stride, &centres_hz] {
+                    HandOver& side = worker->worker_side();
+                    for (std::size_t i = 0; i < pieces; ++i) {
+                        side.await(piece_counts.fronts, static_cast<unsigned>(i + 1));
+                        if (piece_counts.abandoned.load(std::memory_order_relaxed)) return;
+                        const detail::FusedBlock p = piece(i);
+                        make_carrier(carriers + i * kPieceFrames * stride, first + i * kPieceFrames, p.frames,
+                                     centres_hz);
+                        detail::run_fused_back(banks, p);
+                        HandOver::bump(piece_counts.backs);
                     }
+                },
+                this);
+            for (std::size_t i = 1; i < pieces; ++i) {
+                try {
+                    front(i);
+                } catch (...) {
+                    piece_counts.abandoned.store(true, std::memory_order_relaxed);
+                    HandOver::bump(piece_counts.fronts);
+                    worker->wait();
+                    throw;
                 }
-                if (i > 0) worker->wait();
+                HandOver::bump(piece_counts.fronts);
             }
+            // The sums are read when this returns.
+            if (rows.sum) worker->wait();
             return;
         }
+        settle();
+        if (fill) fill(0, frames);
         if (rows.in_sum_sq)
             for (std::size_t n = 0; n < frames; ++n) *rows.in_sum_sq += x[n] * x[n];
         // Padding lanes get the input too; their filters output zero.
@@ -690,19 +782,23 @@ public:
     // The first frame the next replay computes again (and so reads the input from).
     std::size_t replay_from() const { return m_sums_kept ? m_summed : m_stored; }
 
-    // Pass 1 over frames [first, first + count) (x[0] is frame `first`);
-    // `work` and `carrier` are scratch of count × stride.
+    // Pass 1 over frames [first, first + count) (x[0] is frame `first`,
+    // made ready by `fill`, see Pipeline::Fill); `work` and `carrier` are
+    // scratch of count × stride.
     void measure(const double* x, std::size_t first, std::size_t count, std::vector<double>& work,
-                 std::vector<double>& carrier) {
+                 std::vector<double>& carrier, const Pipeline::Fill& fill = {}) {
         // Split at the end of the store and of the sums: replay pipelines start there.
         for (std::size_t edge : {m_stored, m_summed}) {
             if (first < edge && first + count > edge) {
                 const std::size_t head = edge - first;
-                measure(x, first, head, work, carrier);
-                measure(x + head, edge, count - head, work, carrier);
+                measure(x, first, head, work, carrier, fill);
+                Pipeline::Fill rest;
+                if (fill) rest = [&fill, head](std::size_t offset, std::size_t n) { fill(head + offset, n); };
+                measure(x + head, edge, count - head, work, carrier, rest);
                 return;
             }
         }
+        if (first == m_stored || (first == m_summed && m_summed > m_stored)) m_pipeline.settle();
         if (first == m_stored) m_replay_start.emplace(m_pipeline);
         if (first == m_summed && m_summed > m_stored) m_final_start.emplace(m_pipeline);
         detail::FusedBlock rows;
@@ -710,11 +806,12 @@ public:
         rows.in_sum_sq = &m_in_sq;
         if (first < m_stored) rows.rows = rows_at(first);
         rows.lanes = m_lanes;
-        m_pipeline.run(x, first, count, work, carrier, m_centres, rows);
+        m_pipeline.run(x, first, count, work, carrier, m_centres, rows, fill);
     }
 
     // After pass 1 over all `frames`: the band gains and what was measured.
     void finish_measure(std::size_t frames, std::vector<BandInfo>& bands) {
+        m_pipeline.settle();
         m_gains.assign(m_stride, 0.0);  // padding lanes: 0
         const double count = static_cast<double>(frames);
         for (std::size_t b = 0; b < m_lanes; ++b) {
@@ -947,6 +1044,10 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // next is filled (declared before the worker, which may still be
     // writing one when an exception unwinds: it finishes before they go).
     std::vector<float> out[2] = {std::vector<float>(block * nc), std::vector<float>(block * nc)};
+    // So are the pipeline's buffers: the worker may be running the back of
+    // a block's last piece when the next block's reading throws.
+    std::vector<float> interleaved(block * nc);
+    std::vector<double> x(block), work(block * stride), carrier(block * stride), sum(block);
     // Declared after the engines so it stops before they go.
     std::optional<PairWorker> worker;
     if (limits.threads >= 2 && engines.front()->fused() && block > Pipeline::kPieceFrames &&
@@ -954,16 +1055,15 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
         worker.emplace();
         for (auto& engine : engines) engine->use_worker(&*worker);
     }
-    std::vector<float> interleaved(block * nc);
-    std::vector<double> x(block), work(block * stride), carrier(block * stride), sum(block);
-    // Reads frames [first, first + count) of channel c into x.
-    auto deinterleave = [&](std::size_t count, std::size_t c) {
-        for (std::size_t n = 0; n < count; ++n) x[n] = interleaved[n * nc + c];
+    // Reads frames [offset, offset + count) of channel c into x.
+    auto deinterleave = [&](std::size_t offset, std::size_t count, std::size_t c) {
+        for (std::size_t n = offset; n < offset + count; ++n) x[n] = interleaved[n * nc + c];
     };
-    auto read_block = [&](std::size_t count) {
+    // Reads the next `count` frames of the input into the block from `offset`.
+    auto read_frames = [&](std::size_t offset, std::size_t count) {
         std::size_t got = 0;
         while (got < count) {
-            const std::size_t n = input.read(interleaved.data() + got * nc, count - got);
+            const std::size_t n = input.read(interleaved.data() + (offset + got) * nc, count - got);
             if (n == 0)
                 throw InputError(Diagnostic{"", 0, 0, "audio",
                                             fmt::format("expected {} frames, the input ended after fewer", frames)});
@@ -971,15 +1071,16 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
         }
     };
 
-    // Pass 1: measure.
+    // Pass 1: measure. Channel 0's pipeline reads the block piece by piece
+    // as it goes (see Pipeline::Fill); the other channels' find it read.
     input.seek(0);
     for (std::size_t first = 0; first < frames; first += block) {
         const std::size_t count = std::min(block, frames - first);
-        read_block(count);
-        for (std::size_t c = 0; c < nc; ++c) {
-            deinterleave(count, c);
-            engines[c]->measure(x.data(), first, count, work, carrier);
-        }
+        for (std::size_t c = 0; c < nc; ++c)
+            engines[c]->measure(x.data(), first, count, work, carrier, [&, c](std::size_t offset, std::size_t n) {
+                if (c == 0) read_frames(offset, n);
+                deinterleave(offset, n, c);
+            });
     }
     std::vector<std::vector<BandInfo>> bands(nc, setup.bands);
     for (std::size_t c = 0; c < nc; ++c) engines[c]->finish_measure(frames, bands[c]);
@@ -1004,21 +1105,10 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
         for (std::size_t first = 0; first < frames; first += block) {
             const std::size_t count = std::min(block, frames - first);
             const std::size_t from_input = first + count > stored ? first + count - std::max(first, stored) : 0;
-            if (from_input > 0) {
-                // Read the frames past the store into their place in the block.
-                const std::size_t offset = count - from_input;
-                std::size_t got = 0;
-                while (got < from_input) {
-                    const std::size_t n = input.read(interleaved.data() + (offset + got) * nc, from_input - got);
-                    if (n == 0)
-                        throw InputError(Diagnostic{"", 0, 0, "audio",
-                                                    fmt::format("expected {} frames, the input ended after fewer",
-                                                                frames)});
-                    got += n;
-                }
-            }
+            // Read the frames past the store into their place in the block.
+            if (from_input > 0) read_frames(count - from_input, from_input);
             for (std::size_t c = 0; c < nc; ++c) {
-                if (from_input > 0) deinterleave(count, c);
+                if (from_input > 0) deinterleave(0, count, c);
                 sums = engines[c]->kept_sums(first, count);
                 if (!sums) {
                     finish_write();  // the pipeline may need the worker
