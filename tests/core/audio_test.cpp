@@ -6,8 +6,11 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <numbers>
+#include <random>
 
+#include "avsi/core/audio_stream.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 
@@ -87,6 +90,85 @@ TEST(Audio, UnreadableFilesAreInputErrorsNamingTheFile) {
     EXPECT_THROW(read_audio("/nonexistent/x.wav"), InputError);
     EXPECT_THROW(write_audio(fs::temp_directory_path() / (std::to_string(::getpid()) + "_x.mp3"), Audio{8000, 1, {0.0f}}), InputError);
     fs::remove(bogus);
+}
+
+// 16-bit samples made here (float_to_pcm16, then write_pcm16) give the same
+// file, byte for byte, as libsndfile's own conversion (write): on every
+// 16-bit step and half step of [-1.01, 1.01] with six float steps either
+// side, 5 million uniform values in [-1.2, 1.2] and the extremes,
+// infinities and NaN; in one channel and in two.
+TEST(AudioStream, SixteenBitSamplesMadeHereGiveLibsndfilesFile) {
+    std::vector<float> values;
+    for (int k = -33100; k <= 33100; ++k) {
+        for (double at : {k / 32768.0, (k + 0.5) / 32768.0}) {
+            float up = static_cast<float>(at), down = up;
+            values.push_back(up);
+            for (int i = 0; i < 6; ++i) {
+                values.push_back(up = std::nextafter(up, 2.0f));
+                values.push_back(down = std::nextafter(down, -2.0f));
+            }
+        }
+    }
+    std::mt19937 random(3);
+    std::uniform_real_distribution<float> uniform(-1.2f, 1.2f);
+    for (int i = 0; i < 5'000'000; ++i) values.push_back(uniform(random));
+    for (float x : {0.0f, -0.0f, std::numeric_limits<float>::max(), -std::numeric_limits<float>::max(),
+                    std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                    std::numeric_limits<float>::quiet_NaN(), -std::numeric_limits<float>::quiet_NaN(),
+                    std::numeric_limits<float>::denorm_min(), 1e-30f, -1e-30f})
+        values.push_back(x);
+    values.resize(values.size() / 2 * 2);  // whole stereo frames
+    // Converted in uneven pieces, so that both the eight-at-a-time loop and
+    // the one-at-a-time rest see many values.
+    std::vector<std::int16_t> converted(values.size());
+    for (std::size_t done = 0, piece = 1; done < values.size(); done += piece, piece = piece % 29 + 1)
+        float_to_pcm16(values.data() + done, std::min(piece, values.size() - done), converted.data() + done);
+    for (int channels : {1, 2}) {
+        SCOPED_TRACE(channels);
+        const std::size_t frames = values.size() / static_cast<std::size_t>(channels);
+        const std::string stem = "avsi_pcm16_" + std::to_string(::getpid()) + "_" + std::to_string(channels);
+        const fs::path theirs = fs::temp_directory_path() / (stem + "_libsndfile.wav");
+        const fs::path ours = fs::temp_directory_path() / (stem + "_ours.wav");
+        {
+            AudioFileWriter out(theirs, 22050, channels);
+            out.write(values.data(), frames);
+            out.commit();
+        }
+        {
+            AudioFileWriter out(ours, 22050, channels);
+            ASSERT_TRUE(out.takes_pcm16());
+            // In uneven pieces, as a caller's blocks may be.
+            std::size_t done = 0;
+            for (std::size_t piece = 1; done < frames; piece = piece * 3 + 1) {
+                const std::size_t n = std::min(piece, frames - done);
+                out.write_pcm16(converted.data() + done * static_cast<std::size_t>(channels), n);
+                done += n;
+            }
+            out.commit();
+        }
+        EXPECT_EQ(read_text_file(ours), read_text_file(theirs));
+        fs::remove(ours);
+        fs::remove(theirs);
+    }
+}
+
+// Only a 16-bit WAV takes ready-made 16-bit samples.
+TEST(AudioStream, OnlySixteenBitWavTakesSixteenBitSamples) {
+    const fs::path dir = fs::temp_directory_path();
+    const std::string stem = "avsi_takes_" + std::to_string(::getpid());
+    struct Kind {
+        const char* ext;
+        SampleFormat format;
+        bool takes;
+    };
+    for (const Kind& k : {Kind{".wav", SampleFormat::Pcm16, true}, Kind{".wav", SampleFormat::Pcm24, false},
+                          Kind{".wav", SampleFormat::Float32, false}, Kind{".flac", SampleFormat::Pcm16, false}}) {
+        SCOPED_TRACE(std::string(k.ext) + " " + std::to_string(static_cast<int>(k.format)));
+        AudioFileWriter out(dir / (stem + k.ext), 16000, 1, k.format);
+        EXPECT_EQ(out.takes_pcm16(), k.takes);
+    }
+    Audio buffer;
+    EXPECT_FALSE(AudioBufferSink(buffer).takes_pcm16());
 }
 
 }  // namespace

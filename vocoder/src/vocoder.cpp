@@ -1044,6 +1044,11 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // next is filled (declared before the worker, which may still be
     // writing one when an exception unwinds: it finishes before they go).
     std::vector<float> out[2] = {std::vector<float>(block * nc), std::vector<float>(block * nc)};
+    // The same as 16-bit samples, when the output takes them (converted
+    // here, so that the worker only writes).
+    const bool pcm16 = output.takes_pcm16();
+    std::vector<std::int16_t> out16[2];
+    if (pcm16) out16[0].resize(block * nc), out16[1].resize(block * nc);
     // So are the pipeline's buffers: the worker may be running the back of
     // a block's last piece when the next block's reading throws.
     std::vector<float> interleaved(block * nc);
@@ -1176,8 +1181,10 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
             else
                 for (std::size_t n = 0; n < count; ++n) o[n * nc + c] = static_cast<float>(sums[n] * scale);
             if (c + 1 < nc) return;
+            std::int16_t* o16 = out16[current].data();
+            if (pcm16) float_to_pcm16(o, count * nc, o16);
             if (!worker) {
-                output.write(o, count);
+                pcm16 ? output.write_pcm16(o16, count) : output.write(o, count);
                 return;
             }
             if (unflushed >= kWritebackFrames) {
@@ -1185,7 +1192,10 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
                 output.start_writeback();
             }
             finish_write();
-            worker->start([&output, o, count] { output.write(o, count); });
+            if (pcm16)
+                worker->start([&output, o16, count] { output.write_pcm16(o16, count); });
+            else
+                worker->start([&output, o, count] { output.write(o, count); });
             write_pending = true;
             unflushed += count;
             current = 1 - current;

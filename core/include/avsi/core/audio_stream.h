@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 
@@ -45,7 +46,24 @@ public:
     // writes), so that the end waits for less. May be called from another
     // thread than write(), while it runs.
     virtual void start_writeback() {}
+    // Whether the sink stores 16-bit samples and takes them ready made:
+    // write_pcm16 of float_to_pcm16's samples then stores what write()
+    // of the floats would (so the conversion can run on another thread).
+    virtual bool takes_pcm16() const { return false; }
+    // Appends `frames` interleaved frames of 16-bit samples; only when
+    // takes_pcm16().
+    virtual void write_pcm16(const std::int16_t* samples, std::size_t frames);
 };
+
+// Floats to 16-bit samples as libsndfile converts them when it writes a
+// 16-bit file with clipping on (SFC_SET_CLIPPING, as AudioFileWriter sets
+// it): scaled by 2^31, clipped to 32 bits, rounded to the nearest (ties to
+// even), then the low 16 bits dropped (so rounded down); NaN gives -32768.
+// Found by comparing with libsndfile 1.2.0 on 8.2 million values (every
+// 16-bit step and half step, ±6 float steps around each, and 5 million
+// uniform in [-1.2, 1.2]); AudioFileWriter checks it against the
+// libsndfile it runs with before it takes 16-bit samples.
+void float_to_pcm16(const float* in, std::size_t count, std::int16_t* out);
 
 // An Audio buffer as a source (the buffer must outlive it).
 class AudioBufferSource : public AudioSource {
@@ -119,6 +137,10 @@ public:
     void write(const float* samples, std::size_t frames) override;
     // sync_file_range(SYNC_FILE_RANGE_WRITE) of the temporary.
     void start_writeback() override;
+    // A 16-bit WAV in this machine's byte order, with a libsndfile that
+    // converts as float_to_pcm16 does.
+    bool takes_pcm16() const override { return m_takes_pcm16; }
+    void write_pcm16(const std::int16_t* samples, std::size_t frames) override;
     // Closes the file and renames it over the target.
     void commit();
 
@@ -127,6 +149,7 @@ private:
     std::filesystem::path m_path;
     std::unique_ptr<File> m_file;
     int m_channels = 0;
+    bool m_takes_pcm16 = false;
 };
 
 }  // namespace avsi
