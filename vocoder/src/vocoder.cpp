@@ -893,6 +893,14 @@ public:
         return reinterpret_cast<const double*>(m_store.get()) + first;
     }
 
+    // The sums of frames [first, first + count) when this replay (with
+    // `keep`) made them from the stored rows and kept them in the store,
+    // else null: they stay there while later frames are replayed.
+    const double* sums_from_rows(std::size_t first, std::size_t count) const {
+        if (m_sums_kept || first + count > std::min(m_stored, m_sums_written)) return nullptr;
+        return reinterpret_cast<const double*>(m_store.get()) + first;
+    }
+
     double in_sq() const { return m_in_sq; }
 
 private:
@@ -1049,10 +1057,12 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     const bool pcm16 = output.takes_pcm16();
     std::vector<std::int16_t> out16[2];
     if (pcm16) out16[0].resize(block * nc), out16[1].resize(block * nc);
-    // So are the pipeline's buffers: the worker may be running the back of
-    // a block's last piece when the next block's reading throws.
+    // So are the pipeline's buffers (the worker may be running the back of
+    // a block's last piece when the next block's reading throws) and pass
+    // 2's energies and peaks (which it may be adding to).
     std::vector<float> interleaved(block * nc);
     std::vector<double> x(block), work(block * stride), carrier(block * stride), sum(block);
+    std::vector<double> out_sq(nc, 0.0), max_abs(nc, 0.0);
     // Declared after the engines so it stops before they go.
     std::optional<PairWorker> worker;
     if (limits.threads >= 2 && engines.front()->fused() && block > Pipeline::kPieceFrames &&
@@ -1125,19 +1135,37 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
         }
     };
 
-    // Pass 2: the sum's energy and peak per channel, then the gains.
-    std::vector<double> out_sq(nc, 0.0), max_abs(nc, 0.0);
+    // Pass 2: the sum's energy and peak per channel, then the gains. The
+    // energy is one chain of additions in frame order (4 cycles each), as
+    // long as the sums of the stored rows take to make: so with the worker,
+    // a block whose sums came from the stored rows is added up there, from
+    // their copy in the store, while this thread sums the next block's rows
+    // (the worker's jobs run one at a time, in order; a block added up here
+    // waits for the worker first).
+    auto add_up = [](const double* sums_of_block, std::size_t count, double* sq_sum, double* top_abs) {
+        double sq = *sq_sum, top = *top_abs;
+        for (std::size_t n = 0; n < count; ++n) {
+            sq += sums_of_block[n] * sums_of_block[n];
+            top = std::max(top, std::abs(sums_of_block[n]));
+        }
+        *sq_sum = sq;
+        *top_abs = top;
+    };
     replay(
-        [&](std::size_t c, std::size_t, std::size_t count) {
-            double sq = out_sq[c], top = max_abs[c];
-            for (std::size_t n = 0; n < count; ++n) {
-                sq += sums[n] * sums[n];
-                top = std::max(top, std::abs(sums[n]));
+        [&](std::size_t c, std::size_t first, std::size_t count) {
+            if (worker) {
+                if (const double* kept = engines[c]->sums_from_rows(first, count)) {
+                    worker->start([add_up, kept, count, sq = &out_sq[c], top = &max_abs[c]] {
+                        add_up(kept, count, sq, top);
+                    });
+                    return;
+                }
+                worker->wait();
             }
-            out_sq[c] = sq;
-            max_abs[c] = top;
+            add_up(sums, count, &out_sq[c], &max_abs[c]);
         },
         true);
+    if (worker) worker->wait();
     std::vector<double> gain(nc, 1.0);
     std::vector<bool> apply_gain(nc, false);
     double peak = 0.0;
