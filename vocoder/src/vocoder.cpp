@@ -451,14 +451,14 @@ struct Pipeline {
         }
     }
 
-    // Runs a bank over `frames` rows: forward with carried state when the
-    // signal comes in blocks, forward and backward over the whole signal
-    // for zero phase.
     // Waits for what the worker may still be running (see run).
     void settle() {
         if (worker) worker->wait();
     }
 
+    // Runs a bank over `frames` rows: forward with carried state when the
+    // signal comes in blocks, forward and backward over the whole signal
+    // for zero phase.
     void filter(const SosBank& bank, SosBank::State& state, double* data, std::size_t frames) {
         if (settings.zero_phase) {
             bank.process(data, frames, false);
@@ -599,11 +599,11 @@ struct Pipeline {
     // analysis_sum_sq are filled in here): the same with the fused loop or
     // without.
     // With one chunk of bands on two threads and no sums asked for, the
-    // worker may still be running the back of the last piece when this
-    // returns: beside the next block's reading and first front (which uses
-    // the first piece of `work` and `carrier`, where the last piece of a
-    // block of two or more is not). Its rows and sums of squares are there
-    // after settle(); every other use of the pipeline's state settles first.
+    // worker may still be running the backs of the last pieces when this
+    // returns: beside the next block's reading and first front (which waits
+    // until the back is past piece 0, whose part of `work` and `carrier` it
+    // rewrites). Their rows and sums of squares are there after settle();
+    // every other use of the pipeline's state settles first.
     void run(const double* x, std::size_t first, std::size_t frames, std::vector<double>& work,
              std::vector<double>& carrier, const std::vector<double>& centres_hz, detail::FusedBlock rows,
              const Fill& fill = {}) {
