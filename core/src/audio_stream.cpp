@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <climits>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -221,10 +220,13 @@ AudioFileWriter::AudioFileWriter(const std::filesystem::path& path, int rate_hz,
     if (!m_file->handle) throw InputError(path, fmt::format("cannot write audio file: {}", sf_strerror(nullptr)));
     // Clip integer output rather than wrapping around on overshoot.
     sf_command(m_file->handle, SFC_SET_CLIPPING, nullptr, SF_TRUE);
-    m_takes_pcm16 = major == SF_FORMAT_WAV && subtype == SF_FORMAT_PCM_16 &&
-                    sf_command(m_file->handle, SFC_RAW_DATA_NEEDS_ENDSWAP, nullptr, 0) == SF_FALSE &&
-                    libsndfile_writes_as_float_to_pcm16();
+    m_native_pcm16 = major == SF_FORMAT_WAV && subtype == SF_FORMAT_PCM_16 &&
+                     sf_command(m_file->handle, SFC_RAW_DATA_NEEDS_ENDSWAP, nullptr, 0) == SF_FALSE;
 }
+
+// The probe runs on the first ask only, so writers that never take 16-bit
+// samples do not pay for it.
+bool AudioFileWriter::takes_pcm16() const { return m_native_pcm16 && libsndfile_writes_as_float_to_pcm16(); }
 
 AudioFileWriter::~AudioFileWriter() = default;
 
@@ -236,7 +238,7 @@ void AudioFileWriter::write(const float* samples, std::size_t frames) {
 }
 
 void AudioFileWriter::write_pcm16(const std::int16_t* samples, std::size_t frames) {
-    AVSI_ASSERT(m_file && m_file->handle && m_takes_pcm16);
+    AVSI_ASSERT(m_file && m_file->handle && takes_pcm16());
     const auto bytes = static_cast<sf_count_t>(frames * static_cast<std::size_t>(m_channels) * sizeof(std::int16_t));
     if (sf_write_raw(m_file->handle, samples, bytes) != bytes)
         throw InputError(m_path, "cannot write audio file: short write (disk full?)");

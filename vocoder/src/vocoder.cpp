@@ -1105,14 +1105,8 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // With `keep`, the engines keep what sums fit for the next replay.
     // `sums`: the block's sums for `consume` (`sum`, or the engine's store).
     const double* sums = nullptr;
-    // Pass 3 writes its blocks on the worker, when there is one.
-    bool write_pending = false;
-    auto finish_write = [&] {
-        if (write_pending) {
-            write_pending = false;
-            worker->wait();
-        }
-    };
+    // Pass 3 writes its blocks on the worker, when there is one (a
+    // pipeline that needs the worker waits for the write first).
     auto replay = [&](auto&& consume, bool keep) {
         for (auto& engine : engines) engine->begin_replay();
         const std::size_t stored = engines.front()->replay_from();  // the same for every channel
@@ -1126,7 +1120,6 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
                 if (from_input > 0) deinterleave(0, count, c);
                 sums = engines[c]->kept_sums(first, count);
                 if (!sums) {
-                    finish_write();  // the pipeline may need the worker
                     engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep);
                     sums = sum.data();
                 }
@@ -1219,17 +1212,16 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
                 unflushed = 0;
                 output.start_writeback();
             }
-            finish_write();
+            // (start waits for the block before's write.)
             if (pcm16)
                 worker->start([&output, o16, count] { output.write_pcm16(o16, count); });
             else
                 worker->start([&output, o, count] { output.write(o, count); });
-            write_pending = true;
             unflushed += count;
             current = 1 - current;
         },
         false);
-    finish_write();
+    if (worker) worker->wait();
     return report;
 }
 

@@ -139,7 +139,7 @@ public:
     void start_writeback() override;
     // A 16-bit WAV in this machine's byte order, with a libsndfile that
     // converts as float_to_pcm16 does.
-    bool takes_pcm16() const override { return m_takes_pcm16; }
+    bool takes_pcm16() const override;
     void write_pcm16(const std::int16_t* samples, std::size_t frames) override;
     // Closes the file and renames it over the target.
     void commit();
@@ -149,7 +149,7 @@ private:
     std::filesystem::path m_path;
     std::unique_ptr<File> m_file;
     int m_channels = 0;
-    bool m_takes_pcm16 = false;
+    bool m_native_pcm16 = false;  // a 16-bit WAV in this machine's byte order
 };
 
 }  // namespace avsi
