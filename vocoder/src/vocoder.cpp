@@ -260,16 +260,26 @@ namespace {
 
 // The memory of ChannelEngine's store: large ones in 2 MiB-aligned memory
 // that the kernel may back with huge pages (a tenth of the time of a
-// 96 MiB store went to faulting in its 4 KiB pages one by one).
+// 96 MiB store went to faulting in its 4 KiB pages one by one), made
+// resident by make_ready ahead of its first writes.
+//
+// On a virtual machine that hands free memory back to its host (free page
+// reporting, as on the project's machine), the first touch of a huge page
+// the host took back costs the host's page faults as well: about 5 ms for
+// 2 MiB instead of 0.2 ms, and a 96 MiB store then cost 90–235 ms instead
+// of 8 (whole 2 MiB free blocks are what the guest hands back, while 4 KiB
+// pages come first from smaller free blocks, which it keeps: 35–55 ms for
+// 96 MiB, in every run). So each huge page's fault is timed, and after a
+// slow one the rest of the store takes 4 KiB pages.
 class StoreBuffer {
 public:
-    explicit StoreBuffer(std::size_t bytes) {
-        constexpr std::size_t kHuge = std::size_t{2} << 20;
+    explicit StoreBuffer(std::size_t bytes) : m_bytes(bytes) {
         if (bytes >= kHuge) {
             const std::size_t rounded = (bytes + kHuge - 1) / kHuge * kHuge;
             m_data = static_cast<unsigned char*>(std::aligned_alloc(kHuge, rounded));
 #ifdef MADV_HUGEPAGE
-            if (m_data) ::madvise(m_data, rounded, MADV_HUGEPAGE);  // advice only: failure changes nothing
+            // Advice only: failure changes nothing.
+            if (m_data) m_huge = ::madvise(m_data, rounded, MADV_HUGEPAGE) == 0;
 #endif
         } else {
             m_data = static_cast<unsigned char*>(std::malloc(std::max<std::size_t>(bytes, 1)));
@@ -281,8 +291,49 @@ public:
     StoreBuffer& operator=(const StoreBuffer&) = delete;
     unsigned char* get() const { return m_data; }
 
+    // Makes bytes [0, upto) resident before they are first written (called
+    // ahead of the thread that writes them; touches no byte it has written).
+    void make_ready(std::size_t upto) {
+        upto = std::min(upto, m_bytes);
+        while (m_ready < upto) {
+            // A huge page at a time (the kernel faults it in whole), else to
+            // the page that holds byte upto - 1.
+            const std::size_t huge_end = std::min(m_bytes, (m_ready / kHuge + 1) * kHuge);
+            const std::size_t end = m_huge ? huge_end : std::min(huge_end, (upto + kPage - 1) / kPage * kPage);
+            const auto start = std::chrono::steady_clock::now();
+            populate(m_ready, end);
+            if (m_huge && end < m_bytes && std::chrono::steady_clock::now() - start > kSlowHugeFault) {
+#ifdef MADV_NOHUGEPAGE
+                const std::size_t rounded = (m_bytes + kHuge - 1) / kHuge * kHuge;
+                ::madvise(m_data + end, rounded - end, MADV_NOHUGEPAGE);  // advice only, as above
+#endif
+                m_huge = false;
+            }
+            m_ready = end;
+        }
+    }
+
 private:
+    static constexpr std::size_t kHuge = std::size_t{2} << 20;
+    static constexpr std::size_t kPage = 4096;
+    // A huge page's fault takes 0.2 ms when its memory is at hand.
+    static constexpr std::chrono::microseconds kSlowHugeFault{1000};
+
+    // Faults in bytes [from, to) for writing (MADV_POPULATE_WRITE, Linux
+    // 5.14; else a write to each page, of a byte not yet written).
+    void populate(std::size_t from, std::size_t to) {
+#ifdef MADV_POPULATE_WRITE
+        const std::size_t page_from = from / kPage * kPage;
+        if (::madvise(m_data + page_from, to - page_from, MADV_POPULATE_WRITE) == 0) return;
+#endif
+        for (std::size_t at = from; at < to; at = (at / kPage + 1) * kPage)
+            reinterpret_cast<volatile unsigned char*>(m_data)[at] = 0;
+    }
+
     unsigned char* m_data = nullptr;
+    std::size_t m_bytes = 0;
+    std::size_t m_ready = 0;  // bytes [0, m_ready) are resident
+    bool m_huge = false;      // the rest takes huge pages
 };
 
 // Waiting for the other of two threads, which hand over work thousands of
@@ -804,7 +855,10 @@ public:
         detail::FusedBlock rows;
         rows.out_sum_sq = m_out_sum_sq.data();
         rows.in_sum_sq = &m_in_sq;
-        if (first < m_stored) rows.rows = rows_at(first);
+        if (first < m_stored) {
+            rows.rows = rows_at(first);
+            m_store.make_ready((first + count) * m_lanes * sizeof(float));
+        }
         rows.lanes = m_lanes;
         m_pipeline.run(x, first, count, work, carrier, m_centres, rows, fill);
     }
