@@ -367,7 +367,7 @@ __attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void back_di
 [[gnu::always_inline]] inline void rotl(Words& x, int k) { x = (x << k) | (x >> (64 - k)); }
 
 // `valid`: the chunk's lanes that are bands (the rest get 0).
-__attribute__((target_clones("avx2", "default"))) void noise_chunk(std::uint64_t* state, std::uint64_t* draw,
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void noise_chunk(std::uint64_t* state, std::uint64_t* draw,
                                                                      std::size_t valid, std::size_t stride,
                                                                      std::size_t first, std::size_t frames,
                                                                      double* carrier) {
