@@ -888,25 +888,44 @@ public:
         }
     }
 
-    // The level-matched band sum of frames [first, first + count) into `sum`
-    // (x[0] is frame `first`; read only from replay_from() on), in order
-    // from 0. With `band_signals`, also each band's level-matched output.
-    // With `keep`, the sums of frames before `summed` are kept for the next
-    // replay (which then reads them); only in one replay over all frames.
-    void replay(const double* x, std::size_t first, std::size_t count, double* sum, std::vector<double>& work,
-                std::vector<double>& carrier, std::vector<std::vector<double>>* band_signals = nullptr,
-                bool keep = false) {
+    // The level-matched band sum of frames [first, first + count) (x[0] is
+    // frame `first`; read only from replay_from() on), in order from 0:
+    // where it is, `sum` or (with `keep`, for a block wholly in the store)
+    // its place in the store. With `band_signals`, also each band's
+    // level-matched output. With `keep`, the sums of frames before `summed`
+    // are kept for the next replay (which then reads them); only in one
+    // replay over all frames.
+    const double* replay(const double* x, std::size_t first, std::size_t count, double* sum,
+                         std::vector<double>& work, std::vector<double>& carrier,
+                         std::vector<std::vector<double>>* band_signals = nullptr, bool keep = false) {
+        if (keep && m_summed > m_stored && !m_sums_kept && !band_signals && first + count <= m_stored) {
+            AVSI_ASSERT(first == m_sums_written);
+            unsigned char* to = m_store.get() + first * sizeof(double);
+            sum_rows(m_store.get() + first * m_lanes * sizeof(float), count, m_stride > m_lanes, to);
+            m_sums_written += count;
+            return reinterpret_cast<const double*>(to);
+        }
+        replay_into(x, first, count, sum, work, carrier, band_signals, keep);
+        return sum;
+    }
+
+    double in_sq() const { return m_in_sq; }
+
+private:
+    // replay's work, into `sum`.
+    void replay_into(const double* x, std::size_t first, std::size_t count, double* sum, std::vector<double>& work,
+                     std::vector<double>& carrier, std::vector<std::vector<double>>* band_signals, bool keep) {
         const std::size_t from = replay_from();
         if (first < from && first + count > from) {
             const std::size_t head = from - first;
-            replay(x, first, head, sum, work, carrier, band_signals, keep);
-            replay(x + head, from, count - head, sum + head, work, carrier, band_signals, keep);
+            replay_into(x, first, head, sum, work, carrier, band_signals, keep);
+            replay_into(x + head, from, count - head, sum + head, work, carrier, band_signals, keep);
             return;
         }
         if (keep && m_summed > m_stored && first < m_summed && first + count > m_summed) {
             const std::size_t head = m_summed - first;
-            replay(x, first, head, sum, work, carrier, band_signals, keep);
-            replay(x + head, m_summed, count - head, sum + head, work, carrier, band_signals, keep);
+            replay_into(x, first, head, sum, work, carrier, band_signals, keep);
+            replay_into(x + head, m_summed, count - head, sum + head, work, carrier, band_signals, keep);
             return;
         }
         if (m_sums_kept && first < m_summed) {
@@ -918,8 +937,8 @@ public:
             // lanes, whose padding lanes hold +0 with gain 0 and so add
             // +0.0 (which turns a -0 sum into +0).
             const float* rows = rows_at(first);
-            const bool padded = m_stride > m_lanes;
-            sum_rows(rows, count, padded, sum);
+            sum_rows(reinterpret_cast<const unsigned char*>(rows), count, m_stride > m_lanes,
+                     reinterpret_cast<unsigned char*>(sum));
             if (band_signals)
                 for (std::size_t b = 0; b < m_lanes; ++b)
                     for (std::size_t n = 0; n < count; ++n)
@@ -940,6 +959,7 @@ public:
         }
     }
 
+public:
     // The kept sums of frames [first, first + count) when the next replay
     // reads them all from the store, else null.
     const double* kept_sums(std::size_t first, std::size_t count) const {
@@ -955,15 +975,24 @@ public:
         return reinterpret_cast<const double*>(m_store.get()) + first;
     }
 
-    double in_sq() const { return m_in_sq; }
-
 private:
     float* rows_at(std::size_t frame) {
         return reinterpret_cast<float*>(m_store.get()) + frame * m_lanes;
     }
     // sum[n] = Σ_b gains[b]·rows[n][b] in band order from 0.0 (+ 0.0 when
     // padded); four frames at a time, each frame's operations in that order.
-    void sum_rows(const float* rows, std::size_t count, bool padded, double* sum) const {
+    // Through bytes (memcpy, which the compiler keeps in order with every
+    // access that may overlap), so that `sum` may be the store over the rows
+    // themselves: frame n's sum (bytes [8n, 8n + 8)) overwrites only rows of
+    // frames f < 2(n + 1) / lanes ≤ n (sums are kept there from 3 bands
+    // on), read in n's group of four or before it.
+    void sum_rows(const unsigned char* rows, std::size_t count, bool padded, unsigned char* sum) const {
+        auto row = [rows](std::size_t at) {
+            float v;
+            std::memcpy(&v, rows + at * sizeof(float), sizeof v);
+            return static_cast<double>(v);
+        };
+        auto put = [sum](std::size_t n, double v) { std::memcpy(sum + n * sizeof(double), &v, sizeof v); };
         auto run = [&](auto lanes_constant) {
             constexpr std::size_t L = decltype(lanes_constant)::value;
             const std::size_t lanes = L ? L : m_lanes;
@@ -971,14 +1000,13 @@ private:
             for (; n + 4 <= count; n += 4) {
                 double s[4] = {0.0, 0.0, 0.0, 0.0};
                 for (std::size_t b = 0; b < lanes; ++b)
-                    for (std::size_t j = 0; j < 4; ++j)
-                        s[j] += m_gains[b] * static_cast<double>(rows[(n + j) * lanes + b]);
-                for (std::size_t j = 0; j < 4; ++j) sum[n + j] = padded ? s[j] + 0.0 : s[j];
+                    for (std::size_t j = 0; j < 4; ++j) s[j] += m_gains[b] * row((n + j) * lanes + b);
+                for (std::size_t j = 0; j < 4; ++j) put(n + j, padded ? s[j] + 0.0 : s[j]);
             }
             for (; n < count; ++n) {
                 double s = 0.0;
-                for (std::size_t b = 0; b < lanes; ++b) s += m_gains[b] * static_cast<double>(rows[n * lanes + b]);
-                sum[n] = padded ? s + 0.0 : s;
+                for (std::size_t b = 0; b < lanes; ++b) s += m_gains[b] * row(n * lanes + b);
+                put(n, padded ? s + 0.0 : s);
             }
         };
         switch (m_lanes) {
@@ -1173,10 +1201,7 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
             for (std::size_t c = 0; c < nc; ++c) {
                 if (from_input > 0) deinterleave(0, count, c);
                 sums = engines[c]->kept_sums(first, count);
-                if (!sums) {
-                    engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep);
-                    sums = sum.data();
-                }
+                if (!sums) sums = engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep);
                 consume(c, first, count);
             }
         }
