@@ -1,6 +1,7 @@
 // The fused steps 1–4 and the vectorised noise carriers; see fused_pipeline.h.
-// The per-lane arithmetic is written exactly as in filters.cpp's run_chunk
-// (BandPass and LowPass2 kernels) and vocoder.cpp's steps, in the same order.
+// The per-lane arithmetic is written as in filters.cpp's run_chunk (BandPass
+// and LowPass2 kernels) and vocoder.cpp's steps, in the same order (but for
+// one rewrite that gives the same value, see band_pass_section).
 // Compiled without floating-point contraction (vocoder/CMakeLists.txt), so
 // every clone below rounds alike.
 #include "fused_pipeline.h"
@@ -42,8 +43,9 @@ typedef std::uint64_t Words __attribute__((vector_size(kChunk * sizeof(std::uint
     std::memcpy(&v, &bits, sizeof v);
 }
 
-// A bank's coefficients and state for one chunk, in registers.
-template <std::size_t Sections>
+// A bank's coefficients and state for one chunk, in registers. `BandPass`:
+// a2 is kept negated (see band_pass_section).
+template <std::size_t Sections, bool BandPass>
 struct Cascade {
     Lanes a1[Sections], a2[Sections], z1[Sections], z2[Sections], gain;
     double* z = nullptr;
@@ -58,7 +60,7 @@ struct Cascade {
             load(t, c + (s * 5 + 3) * kChunk);
             a1[s] = t;
             load(t, c + (s * 5 + 4) * kChunk);
-            a2[s] = t;
+            a2[s] = BandPass ? -t : t;
             load(t, z + (2 * s) * kChunk);
             z1[s] = t;
             load(t, z + (2 * s + 1) * kChunk);
@@ -76,15 +78,19 @@ struct Cascade {
         }
     }
     // Section s of SosBank::Kind::BandPass (numerator b0·(1, 0, -1), b0 in
-    // the gain) on v.
+    // the gain) on v. z2 = −v − a2·y, as (−a2)·y − v: the same value in
+    // every case (a product's sign is the operands' and x − y is x + (−y),
+    // which commutes), one negation fewer a section.
     [[gnu::always_inline]] void band_pass_section(std::size_t s, Lanes& v) {
+        static_assert(BandPass);
         const Lanes y = v + z1[s];
         z1[s] = z2[s] - a1[s] * y;
-        z2[s] = -v - a2[s] * y;
+        z2[s] = a2[s] * y - v;
         v = y;
     }
     // Section s of SosBank::Kind::LowPass2 (numerator b0·(1, 2, 1)).
     [[gnu::always_inline]] void low_pass_section(std::size_t s, Lanes& v) {
+        static_assert(!BandPass);
         const Lanes y = v + z1[s];
         z1[s] = ((v + v) + z2[s]) - a1[s] * y;
         z2[s] = v - a2[s] * y;
@@ -146,8 +152,8 @@ struct Front {
     // Sections 0–3 the analysis band-pass, 4–5 the envelope low-pass.
     static_assert(kBandSections == 4 && kEnvelopeSections == 2);
     static constexpr std::size_t kLast = 5;  // frame n − 5 leaves step n
-    Cascade<kBandSections> analysis;
-    Cascade<kEnvelopeSections> envelope;
+    Cascade<kBandSections, true> analysis;
+    Cascade<kEnvelopeSections, false> envelope;
     Lanes u[kLast];  // u[k]: what section k gave in the last step
     Lanes analysis_sq;
     double in_sq;
@@ -226,7 +232,7 @@ struct Back {
     static constexpr std::size_t R = Refilter ? kBandSections : 0;
     static constexpr std::size_t kLast = P + (R ? R - 1 : 0);  // frame n − kLast leaves step n
     static_assert(kBandSections > 1);  // so the re-filter's section 0 is never its last
-    Cascade<kBandSections> prefilter, refilter;
+    Cascade<kBandSections, true> prefilter, refilter;
     Lanes pre[kBandSections];  // what prefilter section k gave in the last step
     Lanes re[kBandSections];   // the same for the re-filter
     Lanes out_sq;
