@@ -898,10 +898,22 @@ public:
     const double* replay(const double* x, std::size_t first, std::size_t count, double* sum,
                          std::vector<double>& work, std::vector<double>& carrier,
                          std::vector<std::vector<double>>* band_signals = nullptr, bool keep = false) {
-        if (keep && m_summed > m_stored && !m_sums_kept && !band_signals && first + count <= m_stored) {
+        // Sums kept, of a block wholly in the store or wholly past it:
+        // made in their place in the store.
+        if (keep && m_summed > m_stored && !m_sums_kept && !band_signals &&
+            (first + count <= m_stored || (first >= m_stored && first + count <= m_summed))) {
             AVSI_ASSERT(first == m_sums_written);
             unsigned char* to = m_store.get() + first * sizeof(double);
-            sum_rows(m_store.get() + first * m_lanes * sizeof(float), count, m_stride > m_lanes, to);
+            if (first < m_stored) {
+                sum_rows(m_store.get() + first * m_lanes * sizeof(float), count, m_stride > m_lanes, to);
+            } else {
+                // (Over rows this replay has read: it is past the store.)
+                AVSI_ASSERT(m_replay);
+                detail::FusedBlock rows;
+                rows.gains = m_gains.data();
+                rows.sum = reinterpret_cast<double*>(to);
+                m_replay->run(x, first, count, work, carrier, m_centres, rows);
+            }
             m_sums_written += count;
             return reinterpret_cast<const double*>(to);
         }
