@@ -2,7 +2,9 @@
 
 #include <sndfile.h>
 
+#include <cmath>
 #include <cstdint>
+#include <cstring>
 
 #include <fmt/format.h>
 
@@ -61,7 +63,30 @@ Audio read_audio(const std::filesystem::path& path) {
         throw InputError(path, fmt::format("audio file is truncated: header says {} frames, read {}",
                                            info.frames, read));
     if (info.frames == 0) throw InputError(path, "audio file has no samples");
+    const int encoding = info.format & SF_FORMAT_SUBMASK;
+    if (encoding == SF_FORMAT_FLOAT || encoding == SF_FORMAT_DOUBLE)
+        require_finite_samples(path, audio.samples.data(), audio.samples.size(), info.channels, info.samplerate, 0);
     return audio;
+}
+
+void require_finite_samples(const std::filesystem::path& path, const float* samples, std::size_t count,
+                            int channels, int rate_hz, std::size_t first_frame) {
+    // A float is not finite when its exponent bits are all ones: one pass
+    // without a branch, the search only when it finds one.
+    std::uint32_t any = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+        std::uint32_t bits;
+        std::memcpy(&bits, samples + i, sizeof bits);
+        any |= (~bits & 0x7f800000u) == 0;
+    }
+    if (!any) return;
+    for (std::size_t i = 0; i < count; ++i) {
+        if (std::isfinite(samples[i])) continue;
+        const std::size_t frame = first_frame + i / static_cast<std::size_t>(channels);
+        throw InputError(path.string(), 0, 0, "samples",
+                         fmt::format("expected finite samples, got {} at frame {} ({:.6f} s), channel {}", samples[i],
+                                     frame, static_cast<double>(frame) / rate_hz, i % channels + 1));
+    }
 }
 
 void write_audio(const std::filesystem::path& path, const Audio& audio, SampleFormat format) {

@@ -156,6 +156,8 @@ AudioFileReader::AudioFileReader(const std::filesystem::path& path) : m_path(pat
     m_rate_hz = info.samplerate;
     m_channels = info.channels;
     m_frames = static_cast<std::size_t>(info.frames);
+    const int encoding = info.format & SF_FORMAT_SUBMASK;
+    m_floats = encoding == SF_FORMAT_FLOAT || encoding == SF_FORMAT_DOUBLE;
 }
 
 AudioFileReader::~AudioFileReader() = default;
@@ -167,6 +169,9 @@ std::size_t AudioFileReader::read(float* out, std::size_t frames) {
     if (got != static_cast<sf_count_t>(wanted))
         throw InputError(m_path, fmt::format("audio file is truncated: header says {} frames, read {}", m_frames,
                                              m_position + static_cast<std::size_t>(std::max<sf_count_t>(got, 0))));
+    if (m_floats)
+        require_finite_samples(m_path, out, wanted * static_cast<std::size_t>(m_channels), m_channels, m_rate_hz,
+                               m_position);
     m_position += wanted;
     return wanted;
 }

@@ -92,6 +92,45 @@ TEST(Audio, UnreadableFilesAreInputErrorsNamingTheFile) {
     fs::remove(bogus);
 }
 
+// A float file with a NaN or an infinity is refused, by the whole-file
+// reader and the block reader alike, naming the frame and the channel (a
+// vocoder run on it wrote a file of full-scale negative samples).
+TEST(Audio, FloatFilesWithNonFiniteSamplesAreRefusedNamingTheSample) {
+    const fs::path path = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_nonfinite.wav");
+    for (const float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity()}) {
+        Audio a = make_tone(8000, 2, 1.0);
+        a.samples[5000 * 2 + 1] = bad;  // frame 5000, channel 2
+        write_audio(path, a, SampleFormat::Float32);
+        try {
+            read_audio(path);
+            ADD_FAILURE() << "read_audio accepted " << bad;
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.first().path, path.string());
+            EXPECT_EQ(e.first().field, "samples");
+            EXPECT_NE(e.first().message.find("frame 5000 (0.625000 s), channel 2"), std::string::npos)
+                << e.first().message;
+        }
+        AudioFileReader reader(path);
+        std::vector<float> block(999 * 2);
+        std::size_t read = 0;
+        try {
+            while (const std::size_t n = reader.read(block.data(), 999)) read += n;
+            ADD_FAILURE() << "AudioFileReader accepted " << bad;
+        } catch (const InputError& e) {
+            EXPECT_EQ(read, 4995u);  // the blocks before the one that holds it
+            EXPECT_NE(e.first().message.find("frame 5000 (0.625000 s), channel 2"), std::string::npos)
+                << e.first().message;
+        }
+    }
+    // The same value in 16-bit PCM is a full-scale sample, and reads.
+    Audio a = make_tone(8000, 1, 0.5);
+    a.samples[100] = std::numeric_limits<float>::infinity();
+    write_audio(path, a, SampleFormat::Pcm16);
+    EXPECT_NO_THROW(read_audio(path));
+    fs::remove(path);
+}
+
 // 16-bit samples made here (float_to_pcm16, then write_pcm16) give the same
 // file, byte for byte, as libsndfile's own conversion (write): on every
 // 16-bit step and half step of [-1.01, 1.01] with six float steps either

@@ -27,8 +27,16 @@ struct Audio {
 enum class SampleFormat { Pcm16, Pcm24, Float32 };
 
 // Reads any WAV or FLAC file libsndfile can read (any rate, 1 or more channels).
-// Throws InputError naming the file on failure.
+// Throws InputError naming the file on failure, and for a float file with a
+// sample that is not a finite number (a NaN or an infinity: every level,
+// filter and score computed from it would be one too).
 Audio read_audio(const std::filesystem::path& path);
+
+// Throws that InputError for the first non-finite value of `count`
+// interleaved samples of `channels` channels at `rate_hz`, the first of
+// which is frame `first_frame` of `path`.
+void require_finite_samples(const std::filesystem::path& path, const float* samples, std::size_t count,
+                            int channels, int rate_hz, std::size_t first_frame);
 
 // Writes WAV (.wav) or FLAC (.flac, PCM only) by the file extension. The file
 // is written beside the target and renamed into place, so an existing file is

@@ -106,7 +106,7 @@ public:
     std::size_t frames() const override { return m_frames; }
 
     // As AudioSource::read; throws InputError when the file ends before the
-    // length its header gives.
+    // length its header gives, or (float files) at a non-finite sample.
     std::size_t read(float* out, std::size_t frames) override;
     void seek(std::size_t frame) override;
 
@@ -118,6 +118,7 @@ private:
     int m_channels = 0;
     std::size_t m_frames = 0;
     std::size_t m_position = 0;
+    bool m_floats = false;  // float or double samples (which may be non-finite)
 };
 
 // Writes a WAV (.wav) or FLAC (.flac, PCM only) file block by block, into a
