@@ -890,11 +890,11 @@ public:
 
     // The level-matched band sum of frames [first, first + count) (x[0] is
     // frame `first`; read only from replay_from() on), in order from 0:
-    // where it is, `sum` or (with `keep`, for a block wholly in the store)
-    // its place in the store. With `band_signals`, also each band's
-    // level-matched output. With `keep`, the sums of frames before `summed`
-    // are kept for the next replay (which then reads them); only in one
-    // replay over all frames.
+    // where it is, `sum` or (with `keep`, for a block wholly in the store or
+    // wholly between its end and `summed`) its place in the store. With
+    // `band_signals`, also each band's level-matched output. With `keep`,
+    // the sums of frames before `summed` are kept for the next replay (which
+    // then reads them); only in one replay over all frames.
     const double* replay(const double* x, std::size_t first, std::size_t count, double* sum,
                          std::vector<double>& work, std::vector<double>& carrier,
                          std::vector<std::vector<double>>* band_signals = nullptr, bool keep = false) {
