@@ -266,9 +266,9 @@ namespace {
 // On a virtual machine that hands free memory back to its host (free page
 // reporting, as on the project's machine), the first touch of a huge page
 // the host took back costs the host's page faults as well: about 5 ms for
-// 2 MiB instead of 0.2 ms, and a 96 MiB store then cost 90–235 ms instead
+// 2 MiB instead of 0.2 ms, and a 96 MiB store then cost 87–235 ms instead
 // of 8 (whole 2 MiB free blocks are what the guest hands back, while 4 KiB
-// pages come first from smaller free blocks, which it keeps: 35–55 ms for
+// pages come first from smaller free blocks, which it keeps: 27–58 ms for
 // 96 MiB, in every run). So each huge page's fault is timed, and after a
 // slow one the rest of the store takes 4 KiB pages.
 class StoreBuffer {
@@ -283,6 +283,7 @@ public:
 #endif
         } else {
             m_data = static_cast<unsigned char*>(std::malloc(std::max<std::size_t>(bytes, 1)));
+            m_ready = bytes;  // less than a huge page: faulted in as it is written
         }
         if (!m_data) throw std::bad_alloc();
     }
@@ -980,10 +981,10 @@ public:
     }
 
     // The sums of frames [first, first + count) when this replay (with
-    // `keep`) made them from the stored rows and kept them in the store,
-    // else null: they stay there while later frames are replayed.
-    const double* sums_from_rows(std::size_t first, std::size_t count) const {
-        if (m_sums_kept || first + count > std::min(m_stored, m_sums_written)) return nullptr;
+    // `keep`) has kept them in the store, else null: they stay there while
+    // later frames are replayed.
+    const double* sums_in_store(std::size_t first, std::size_t count) const {
+        if (m_sums_kept || first + count > m_sums_written) return nullptr;
         return reinterpret_cast<const double*>(m_store.get()) + first;
     }
 
@@ -1222,8 +1223,8 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // Pass 2: the sum's energy and peak per channel, then the gains. The
     // energy is one chain of additions in frame order (4 cycles each), as
     // long as the sums of the stored rows take to make: so with the worker,
-    // a block whose sums came from the stored rows is added up there, from
-    // their copy in the store, while this thread sums the next block's rows
+    // a block whose sums are kept in the store is added up there, from the
+    // store, while this thread sums the next block's rows or reads its input
     // (the worker's jobs run one at a time, in order; a block added up here
     // waits for the worker first).
     auto add_up = [](const double* sums_of_block, std::size_t count, double* sq_sum, double* top_abs) {
@@ -1238,7 +1239,7 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     replay(
         [&](std::size_t c, std::size_t first, std::size_t count) {
             if (worker) {
-                if (const double* kept = engines[c]->sums_from_rows(first, count)) {
+                if (const double* kept = engines[c]->sums_in_store(first, count)) {
                     worker->start([add_up, kept, count, sq = &out_sq[c], top = &max_abs[c]] {
                         add_up(kept, count, sq, top);
                     });
