@@ -8,10 +8,11 @@
 #   stoi          avsi stoi of those 9 minutes against their vocoded version
 #   render        avsi render of a sentence to MP4  vs  ffmpeg encoding the same frames (PNG, libx264)
 #   score         avsi score of a 25-subject study (simulated answers to the default protocol's lists)
-# Each median of RUNS runs (hyperfine, default 7, at least 5), the mean user
-# and system CPU, and the peak resident memory of one run (/usr/bin/time).
-# Prints a Markdown table (also written to OUT/table.md, with hyperfine's
-# JSON beside it).
+# Each median of RUNS runs (default 7, at least 5), the mean user and system
+# CPU, and the largest peak resident memory of any run. The tasks run in
+# rounds, each round every task once in turn after a warm-up round
+# (bench/interleave.py, which says why). Prints a Markdown table (also
+# written to OUT/table.md, with each task's JSON beside it).
 #
 #   bench/bench_whole_process.sh [BUILD_DIR]       (default build)
 #   RUNS=9 OUT=out/bench-whole AVSI_BEFORE=/path/to/older/avsi bench/bench_whole_process.sh build
@@ -20,7 +21,7 @@
 # AVSI_BEFORE: another avsi executable timed on the same tasks (e.g. one
 # built from an older commit) for a before/after column.
 #
-# Needs (Debian, installed by scripts/install-deps): hyperfine, sox, ffmpeg,
+# Needs (Debian, installed by scripts/install-deps): sox, ffmpeg,
 # espeak-ng, python3-numpy, python3-scipy. The machine's load is printed
 # before and after; on a shared machine compare CPU time rather than wall time.
 set -euo pipefail
@@ -37,7 +38,7 @@ fi
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 avsi="$(cd "$build_dir" && pwd)/cli/avsi"
 python=/usr/bin/python3  # Debian's, where python3-numpy and python3-scipy install
-for tool in hyperfine sox ffmpeg espeak-ng /usr/bin/time "$python"; do
+for tool in sox ffmpeg espeak-ng "$python"; do
   command -v "$tool" >/dev/null || { echo "bench_whole_process: $tool is missing (see the header)" >&2; exit 1; }
 done
 "$python" -c "import numpy, scipy" 2>/dev/null || {
@@ -107,7 +108,7 @@ if wanted "stoi 9 min"; then
 fi
 
 # --- Timing -----------------------------------------------------------------
-# name|command (hyperfine -N: no shell; quotes group words)
+# name|command (run without a shell; quotes group words)
 tasks=(
   "startup: avsi --version|$avsi --version"
   "synth, phones of a sentence|$avsi synth --phones sentence.tsv --out s1.csv"
@@ -132,30 +133,38 @@ if [[ -n "$before" ]]; then
   )
 fi
 
+# Every selected task once a round, in turn (bench/interleave.py: so that
+# a machine whose speed drifts slows them all alike), after a warm-up round.
+selected="$out/tasks.txt"
+: > "$selected"
+for task in "${tasks[@]}"; do
+  [[ -z "$only" ]] || grep -Eq -- "$only" <<<"${task%%|*}" || continue
+  printf '%s\n' "$task" >> "$selected"
+done
+[[ -s "$selected" ]] || { echo "bench_whole_process: ONLY='$only' selects no task" >&2; exit 1; }
+"$python" "$repo/bench/interleave.py" "$selected" "$out" "$runs" 1
+
 table="$out/table.md"
 {
   echo "| task | median wall (ms) | CPU user + sys (ms) | peak RSS (MiB) |"
   echo "| --- | ---: | ---: | ---: |"
 } > "$table"
 declare -A median cpu
-for task in "${tasks[@]}"; do
+while IFS= read -r task; do
   name="${task%%|*}"
   command="${task#*|}"
-  [[ -z "$only" ]] || grep -Eq -- "$only" <<<"$name" || continue
-  json="$out/$(echo "$name" | tr -c 'A-Za-z0-9' '_').json"
-  if ! hyperfine -N --warmup 1 --runs "$runs" --export-json "$json" "$command" >/dev/null 2>&1; then
+  json="$out/$(printf '%s' "$name" | tr -c 'A-Za-z0-9' '_').json"
+  if "$python" -c "import json,sys; sys.exit('failed' not in json.load(open(sys.argv[1]))['results'][0])" "$json"; then
     # An older executable may not read today's data files: its row says so.
     [[ "$name" == before:* ]] || { echo "bench_whole_process: failed: $command" >&2; exit 1; }
     echo "| $name | failed (\`$command\` exits non-zero) | | |" | tee -a "$table"
     continue
   fi
-  # Peak RSS of one run (KiB), through a shell so the quotes group as above.
-  rss=$(eval "/usr/bin/time -f %M $command" 2>&1 >/dev/null | tail -1)
-  read -r med cpu < <("$python" -c "import json,sys; r=json.load(open(sys.argv[1]))['results'][0]; print(r['median']*1e3, (r['user']+r['system'])*1e3)" "$json")
+  read -r med cpu rss < <("$python" -c "import json,sys; r=json.load(open(sys.argv[1]))['results'][0]; print(r['median']*1e3, (r['user']+r['system'])*1e3, r['max_rss_kib'] / 1024)" "$json")
   median["$name"]=$med
   cpu["$name"]=$cpu
-  printf '| %s | %.1f | %.1f | %.1f |\n' "$name" "$med" "$cpu" "$(echo "$rss / 1024" | bc -l)" | tee -a "$table"
-done
+  printf '| %s | %.1f | %.1f | %.1f |\n' "$name" "$med" "$cpu" "$rss" | tee -a "$table"
+done < "$selected"
 ratio() { "$python" -c "print(f'{$1 / $2:.2f}')"; }
 # "a / b: wall x (CPU y)", medians of wall time, means of CPU time.
 ratios() {

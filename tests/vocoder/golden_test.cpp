@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "avsi/core/files.h"
@@ -147,6 +148,33 @@ TEST(VocoderGolden, StreamingWithAnyBlockAndStoreGivesTheRecordedHashes) {
             const VocoderReport report = detail::vocode_stream(source, sink, c.settings, l);
             EXPECT_EQ(hash_of(out.samples), expected);
             EXPECT_EQ(report.bands.size(), static_cast<std::size_t>(c.settings.bands));
+        }
+    }
+}
+
+// A store of several huge pages (2 MiB), which the worker faults in ahead
+// while it waits and gives back piece by piece in pass 3 (the stores above
+// are smaller, and malloc'd), with a part past it that pass 2 makes again
+// and adds up on the worker: the same samples as one thread with the whole
+// signal stored. Three bands (one chunk: fronts and backs on two threads)
+// and eight in stereo (two chunks, one per thread; pass 3 computes again
+// what its sums did not fit).
+TEST(VocoderGolden, StoreOfSeveralHugePagesOnTwoThreadsGivesTheSameSamples) {
+    VocoderSettings three, eight;
+    eight.bands = 8;
+    for (auto [settings, channels] : {std::pair{three, 1}, std::pair{eight, 2}}) {
+        SCOPED_TRACE(::testing::Message() << settings.bands << " bands, " << channels << " channels");
+        const Audio in = input(channels, 1.0, 40.0);
+        const std::string expected = hash_of(vocode(in, settings).audio.samples);
+        for (unsigned threads : {1u, 2u}) {
+            SCOPED_TRACE(::testing::Message() << threads << " threads");
+            AudioBufferSource source(in);
+            Audio out;
+            out.sample_rate_hz = in.sample_rate_hz;
+            out.channels = in.channels;
+            AudioBufferSink sink(out);
+            detail::vocode_stream(source, sink, settings, detail::StreamLimits{32768, std::size_t{5} << 20, threads});
+            EXPECT_EQ(hash_of(out.samples), expected);
         }
     }
 }

@@ -261,7 +261,11 @@ namespace {
 // The memory of ChannelEngine's store: large ones in 2 MiB-aligned memory
 // that the kernel may back with huge pages (a tenth of the time of a
 // 96 MiB store went to faulting in its 4 KiB pages one by one), made
-// resident by make_ready ahead of its first writes.
+// resident ahead of its first writes: by make_ready on the thread that runs
+// the fronts, and by populate_ahead on the worker, which writes the store,
+// while it waits for a front (a third of pass 1 went to those waits when
+// the fronts' thread made it all resident), both taking the next part from
+// one cursor.
 //
 // On a virtual machine that hands free memory back to its host (free page
 // reporting, as on the project's machine), the first touch of a huge page
@@ -283,7 +287,7 @@ public:
 #endif
         } else {
             m_data = static_cast<unsigned char*>(std::malloc(std::max<std::size_t>(bytes, 1)));
-            m_ready = bytes;  // less than a huge page: faulted in as it is written
+            m_claimed = bytes;  // less than a huge page: faulted in as it is written
         }
         if (!m_data) throw std::bad_alloc();
     }
@@ -292,33 +296,62 @@ public:
     StoreBuffer& operator=(const StoreBuffer&) = delete;
     unsigned char* get() const { return m_data; }
 
-    // Makes bytes [0, upto) resident before they are first written (called
-    // ahead of the thread that writes them; touches no byte it has written).
+    // Sees that bytes [0, upto) are resident, or being faulted in by the
+    // other thread, before they are first written (called ahead of the
+    // thread that writes them; touches no byte it has written), and lets
+    // populate_ahead go on to kAhead bytes further.
     void make_ready(std::size_t upto) {
         upto = std::min(upto, m_bytes);
-        while (m_ready < upto) {
-            // A huge page at a time (the kernel faults it in whole), else to
-            // the page that holds byte upto - 1.
-            const std::size_t huge_end = std::min(m_bytes, (m_ready / kHuge + 1) * kHuge);
-            const std::size_t end = m_huge ? huge_end : std::min(huge_end, (upto + kPage - 1) / kPage * kPage);
-            const auto start = std::chrono::steady_clock::now();
-            populate(m_ready, end);
-            if (m_huge && end < m_bytes && std::chrono::steady_clock::now() - start > kSlowHugeFault) {
-#ifdef MADV_NOHUGEPAGE
-                const std::size_t rounded = (m_bytes + kHuge - 1) / kHuge * kHuge;
-                ::madvise(m_data + end, rounded - end, MADV_NOHUGEPAGE);  // advice only, as above
-#endif
-                m_huge = false;
-            }
-            m_ready = end;
-        }
+        m_limit.store(std::min(m_bytes, upto + kAhead), std::memory_order_relaxed);
+        while (m_claimed.load(std::memory_order_relaxed) < upto) populate_next(upto);
     }
+    // Gives the memory of bytes [0, upto) back to the system, in whole huge
+    // pages (those left go with the store): for a pass that has read them for
+    // the last time, so that freeing them runs beside its work rather than at
+    // the end.
+    void release(std::size_t upto) {
+        if (m_bytes < kHuge) return;  // malloc'd
+        upto = std::min(upto, m_bytes) / kHuge * kHuge;
+        if (upto <= m_released) return;
+        ::madvise(m_data + m_released, upto - m_released, MADV_DONTNEED);  // advice only: failure keeps them
+        m_released = upto;
+    }
+    // Faults in the next part of the store below the limit make_ready set,
+    // if any: whether there was one.
+    bool populate_ahead() { return populate_next(m_limit.load(std::memory_order_relaxed)); }
 
 private:
     static constexpr std::size_t kHuge = std::size_t{2} << 20;
     static constexpr std::size_t kPage = 4096;
+    // 4 KiB pages are faulted in this many bytes at a time (tens of µs).
+    static constexpr std::size_t kSmallStep = std::size_t{64} << 10;
+    static constexpr std::size_t kAhead = std::size_t{1} << 20;
     // A huge page's fault takes 0.2 ms when its memory is at hand.
     static constexpr std::chrono::microseconds kSlowHugeFault{1000};
+
+    // Claims and faults in the next part below `limit`: a huge page (the
+    // kernel faults it in whole), else up to kSmallStep bytes.
+    bool populate_next(std::size_t limit) {
+        std::size_t at = m_claimed.load(std::memory_order_relaxed);
+        for (;;) {
+            if (at >= limit) return false;
+            const bool huge = m_huge.load(std::memory_order_relaxed);
+            const std::size_t huge_end = std::min(m_bytes, (at / kHuge + 1) * kHuge);
+            const std::size_t end =
+                huge ? huge_end : std::min({huge_end, (at / kSmallStep + 1) * kSmallStep, (limit + kPage - 1) / kPage * kPage});
+            if (!m_claimed.compare_exchange_weak(at, end, std::memory_order_relaxed)) continue;
+            const auto start = std::chrono::steady_clock::now();
+            populate(at, end);
+            if (huge && end < m_bytes && std::chrono::steady_clock::now() - start > kSlowHugeFault &&
+                m_huge.exchange(false, std::memory_order_relaxed)) {
+#ifdef MADV_NOHUGEPAGE
+                const std::size_t rounded = (m_bytes + kHuge - 1) / kHuge * kHuge;
+                ::madvise(m_data + end, rounded - end, MADV_NOHUGEPAGE);  // advice only, as above
+#endif
+            }
+            return true;
+        }
+    }
 
     // Faults in bytes [from, to) for writing (MADV_POPULATE_WRITE, Linux
     // 5.14; else a write to each page, of a byte not yet written).
@@ -333,8 +366,10 @@ private:
 
     unsigned char* m_data = nullptr;
     std::size_t m_bytes = 0;
-    std::size_t m_ready = 0;  // bytes [0, m_ready) are resident
-    bool m_huge = false;      // the rest takes huge pages
+    std::atomic<std::size_t> m_claimed{0};  // bytes [0, m_claimed) are resident or being faulted in
+    std::atomic<std::size_t> m_limit{0};    // populate_ahead's bound
+    std::atomic<bool> m_huge{false};        // the rest takes huge pages
+    std::size_t m_released = 0;             // bytes [0, m_released) given back
 };
 
 // Waiting for the other of two threads, which hand over work thousands of
@@ -466,6 +501,10 @@ struct Pipeline {
     // threads (by chunks of bands, run_split; with one chunk, the front and
     // the back a piece behind); null: one thread.
     PairWorker* worker = nullptr;
+    // With one chunk of bands on two threads: the store the worker faults in
+    // ahead while it waits for a front (StoreBuffer::populate_ahead; null:
+    // none).
+    StoreBuffer* ahead = nullptr;
     static constexpr std::size_t kPieceFrames = 4096;
     // With one chunk of bands on two threads: the pieces of the block whose
     // front this thread has done and whose back the worker has (a copy of
@@ -483,6 +522,11 @@ struct Pipeline {
     // the back of the piece before; otherwise once for the whole block.
     // Empty: x is ready.
     using Fill = std::function<void(std::size_t offset, std::size_t count)>;
+    // Given to run with sums asked for: called with the sums of each piece
+    // of the block (where they are, and how many), in order, once they are
+    // there: on the worker when it makes them (and then run does not wait
+    // for them), else on this thread before run returns.
+    using Then = std::function<void(const double* sums, std::size_t count)>;
     // run_split's scratch per side (work, then carrier).
     std::vector<double> split_scratch[2];
 
@@ -655,10 +699,11 @@ struct Pipeline {
     // returns: beside the next block's reading and first front (which waits
     // until the back is past piece 0, whose part of `work` and `carrier` it
     // rewrites). Their rows and sums of squares are there after settle();
-    // every other use of the pipeline's state settles first.
+    // every other use of the pipeline's state settles first. So may the
+    // backs that make sums, when `then` takes them.
     void run(const double* x, std::size_t first, std::size_t frames, std::vector<double>& work,
              std::vector<double>& carrier, const std::vector<double>& centres_hz, detail::FusedBlock rows,
-             const Fill& fill = {}) {
+             const Fill& fill = {}, const Then& then = {}) {
         const std::size_t stride = bands.stride();
         double* w = work.data();
         rows.x = x;
@@ -676,11 +721,13 @@ struct Pipeline {
                 if (fill) fill(0, frames);
                 make_carrier(carrier.data(), first, frames, centres_hz);
                 detail::run_fused(banks, rows);
+                if (then) then(rows.sum, frames);
                 return;
             }
             if (stride / SosBank::chunk_lanes >= 2) {
                 settle();
                 run_split(banks, rows, first, frames, centres_hz, fill);
+                if (then) then(rows.sum, frames);
                 return;
             }
             // One chunk: this thread runs each piece's front and the worker
@@ -721,16 +768,22 @@ struct Pipeline {
             piece_counts.abandoned.store(false, std::memory_order_relaxed);
             double* const carriers = carrier.data();
             worker->start(
-                [this, banks, piece, pieces, first, carriers, stride, &centres_hz] {
+                [this, banks, piece, pieces, first, carriers, stride, &centres_hz, ahead = ahead, then] {
                     HandOver& side = worker->worker_side();
                     for (std::size_t i = 0; i < pieces; ++i) {
-                        side.await(piece_counts.fronts, static_cast<unsigned>(i + 1));
+                        const unsigned target = static_cast<unsigned>(i + 1);
+                        if (ahead)
+                            while (static_cast<int>(piece_counts.fronts.load(std::memory_order_acquire) - target) < 0 &&
+                                   ahead->populate_ahead()) {
+                            }
+                        side.await(piece_counts.fronts, target);
                         if (piece_counts.abandoned.load(std::memory_order_relaxed)) return;
                         const detail::FusedBlock p = piece(i);
                         make_carrier(carriers + i * kPieceFrames * stride, first + i * kPieceFrames, p.frames,
                                      centres_hz);
                         detail::run_fused_back(banks, p);
                         HandOver::bump(piece_counts.backs);
+                        if (then) then(p.sum, p.frames);
                     }
                 },
                 this);
@@ -745,8 +798,8 @@ struct Pipeline {
                 }
                 HandOver::bump(piece_counts.fronts);
             }
-            // The sums are read when this returns.
-            if (rows.sum) worker->wait();
+            // The sums are read when this returns, unless `then` takes them.
+            if (rows.sum && !then) worker->wait();
             return;
         }
         settle();
@@ -786,6 +839,7 @@ struct Pipeline {
                 for (std::size_t b = 0; b < stride; ++b) s += rows.gains[b] * static_cast<float>(w[n * stride + b]);
                 rows.sum[n] = s;
             }
+            if (then) then(rows.sum, frames);
             return;
         }
         if (rows.out_sum_sq) add_squares(w, frames, stride, rows.out_sum_sq);
@@ -850,6 +904,7 @@ public:
                 return;
             }
         }
+        m_pipeline.ahead = nullptr;  // (replay copies start without)
         if (first == m_stored || (first == m_summed && m_summed > m_stored)) m_pipeline.settle();
         if (first == m_stored) m_replay_start.emplace(m_pipeline);
         if (first == m_summed && m_summed > m_stored) m_final_start.emplace(m_pipeline);
@@ -859,6 +914,7 @@ public:
         if (first < m_stored) {
             rows.rows = rows_at(first);
             m_store.make_ready((first + count) * m_lanes * sizeof(float));
+            m_pipeline.ahead = &m_store;
         }
         rows.lanes = m_lanes;
         m_pipeline.run(x, first, count, work, carrier, m_centres, rows, fill);
@@ -895,28 +951,38 @@ public:
     // wholly between its end and `summed`) its place in the store. With
     // `band_signals`, also each band's level-matched output. With `keep`,
     // the sums of frames before `summed` are kept for the next replay (which
-    // then reads them); only in one replay over all frames.
+    // then reads them); only in one replay over all frames. With `then` too,
+    // the sums made in the store go to `then` instead, in order (see
+    // Pipeline::Then; on the worker when there is one), and this returns null.
     const double* replay(const double* x, std::size_t first, std::size_t count, double* sum,
                          std::vector<double>& work, std::vector<double>& carrier,
-                         std::vector<std::vector<double>>* band_signals = nullptr, bool keep = false) {
+                         std::vector<std::vector<double>>* band_signals = nullptr, bool keep = false,
+                         const Pipeline::Then& then = {}) {
         // Sums kept, of a block wholly in the store or wholly past it:
         // made in their place in the store.
         if (keep && m_summed > m_stored && !m_sums_kept && !band_signals &&
             (first + count <= m_stored || (first >= m_stored && first + count <= m_summed))) {
             AVSI_ASSERT(first == m_sums_written);
             unsigned char* to = m_store.get() + first * sizeof(double);
+            const double* sums = reinterpret_cast<const double*>(to);
+            m_sums_written += count;
             if (first < m_stored) {
                 sum_rows(m_store.get() + first * m_lanes * sizeof(float), count, m_stride > m_lanes, to);
-            } else {
-                // (Over rows this replay has read: it is past the store.)
-                AVSI_ASSERT(m_replay);
-                detail::FusedBlock rows;
-                rows.gains = m_gains.data();
-                rows.sum = reinterpret_cast<double*>(to);
-                m_replay->run(x, first, count, work, carrier, m_centres, rows);
+                if (!then) return sums;
+                // On the worker while this thread sums the next block's rows.
+                if (PairWorker* worker = m_pipeline.worker)
+                    worker->start([then, sums, count] { then(sums, count); });
+                else
+                    then(sums, count);
+                return nullptr;
             }
-            m_sums_written += count;
-            return reinterpret_cast<const double*>(to);
+            // (Over rows this replay has read: it is past the store.)
+            AVSI_ASSERT(m_replay);
+            detail::FusedBlock rows;
+            rows.gains = m_gains.data();
+            rows.sum = reinterpret_cast<double*>(to);
+            m_replay->run(x, first, count, work, carrier, m_centres, rows, {}, then);
+            return then ? nullptr : sums;
         }
         replay_into(x, first, count, sum, work, carrier, band_signals, keep);
         return sum;
@@ -980,12 +1046,11 @@ public:
         return reinterpret_cast<const double*>(m_store.get()) + first;
     }
 
-    // The sums of frames [first, first + count) when this replay (with
-    // `keep`) has kept them in the store, else null: they stay there while
-    // later frames are replayed.
-    const double* sums_in_store(std::size_t first, std::size_t count) const {
-        if (m_sums_kept || first + count > m_sums_written) return nullptr;
-        return reinterpret_cast<const double*>(m_store.get()) + first;
+    // In the last replay, once the sums of frames before `frame` are read
+    // for the last time: their part of the store is given back (when the
+    // replay reads kept sums; otherwise the store goes at the end).
+    void done_with(std::size_t frame) {
+        if (m_sums_kept) m_store.release(std::min(frame, m_summed) * sizeof(double));
     }
 
 private:
@@ -1202,7 +1267,9 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     const double* sums = nullptr;
     // Pass 3 writes its blocks on the worker, when there is one (a
     // pipeline that needs the worker waits for the write first).
-    auto replay = [&](auto&& consume, bool keep) {
+    // `then_of(c)`: channel c's Pipeline::Then for the sums made in the store
+    // (which then skip `consume`).
+    auto replay = [&](auto&& consume, bool keep, auto&& then_of) {
         for (auto& engine : engines) engine->begin_replay();
         const std::size_t stored = engines.front()->replay_from();  // the same for every channel
         if (stored < frames) input.seek(stored);
@@ -1214,7 +1281,11 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
             for (std::size_t c = 0; c < nc; ++c) {
                 if (from_input > 0) deinterleave(0, count, c);
                 sums = engines[c]->kept_sums(first, count);
-                if (!sums) sums = engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep);
+                if (!sums) {
+                    sums = engines[c]->replay(x.data(), first, count, sum.data(), work, carrier, nullptr, keep,
+                                              then_of(c));
+                    if (!sums) continue;
+                }
                 consume(c, first, count);
             }
         }
@@ -1223,10 +1294,12 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // Pass 2: the sum's energy and peak per channel, then the gains. The
     // energy is one chain of additions in frame order (4 cycles each), as
     // long as the sums of the stored rows take to make: so with the worker,
-    // a block whose sums are kept in the store is added up there, from the
-    // store, while this thread sums the next block's rows or reads its input
-    // (the worker's jobs run one at a time, in order; a block added up here
-    // waits for the worker first).
+    // the sums made in the store are added up there, by the worker: a stored
+    // block's while this thread sums the next block's rows, and a block past
+    // the store piece by piece after each piece's back, so that this thread
+    // goes on to the next block's input and fronts without waiting for the
+    // last back (the worker's jobs run one at a time, in order; a block
+    // added up here waits for the worker first).
     auto add_up = [](const double* sums_of_block, std::size_t count, double* sq_sum, double* top_abs) {
         double sq = *sq_sum, top = *top_abs;
         for (std::size_t n = 0; n < count; ++n) {
@@ -1237,19 +1310,15 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
         *top_abs = top;
     };
     replay(
-        [&](std::size_t c, std::size_t first, std::size_t count) {
-            if (worker) {
-                if (const double* kept = engines[c]->sums_in_store(first, count)) {
-                    worker->start([add_up, kept, count, sq = &out_sq[c], top = &max_abs[c]] {
-                        add_up(kept, count, sq, top);
-                    });
-                    return;
-                }
-                worker->wait();
-            }
+        [&](std::size_t c, std::size_t, std::size_t count) {
+            if (worker) worker->wait();
             add_up(sums, count, &out_sq[c], &max_abs[c]);
         },
-        true);
+        true,
+        [&](std::size_t c) -> Pipeline::Then {
+            if (!worker) return {};
+            return [add_up, sq = &out_sq[c], top = &max_abs[c]](const double* s, std::size_t n) { add_up(s, n, sq, top); };
+        });
     if (worker) worker->wait();
     std::vector<double> gain(nc, 1.0);
     std::vector<bool> apply_gain(nc, false);
@@ -1286,7 +1355,7 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     constexpr std::size_t kWritebackFrames = std::size_t{1} << 21;
     std::size_t unflushed = 0;
     replay(
-        [&](std::size_t c, std::size_t, std::size_t count) {
+        [&](std::size_t c, std::size_t first, std::size_t count) {
             float* o = out[current].data();
             const double g = gain[c];
             if (apply_gain[c])
@@ -1304,15 +1373,25 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
                 unflushed = 0;
                 output.start_writeback();
             }
-            // (start waits for the block before's write.)
+            // (start waits for the block before's write.) The worker then
+            // gives back the store's memory of the sums read so far.
+            auto done_with = [&engines, end = first + count] {
+                for (auto& engine : engines) engine->done_with(end);
+            };
             if (pcm16)
-                worker->start([&output, o16, count] { output.write_pcm16(o16, count); });
+                worker->start([&output, o16, count, done_with] {
+                    output.write_pcm16(o16, count);
+                    done_with();
+                });
             else
-                worker->start([&output, o, count] { output.write(o, count); });
+                worker->start([&output, o, count, done_with] {
+                    output.write(o, count);
+                    done_with();
+                });
             unflushed += count;
             current = 1 - current;
         },
-        false);
+        false, [](std::size_t) { return Pipeline::Then{}; });
     if (worker) worker->wait();
     return report;
 }
