@@ -38,6 +38,11 @@ void AudioBufferSource::seek(std::size_t frame) {
     m_position = frame;
 }
 
+std::size_t AudioSource::read_pcm16(std::int16_t*, std::size_t) {
+    AVSI_ASSERT(!"read_pcm16 on a source that does not give 16-bit samples");
+    return 0;
+}
+
 void AudioSink::write_pcm16(const std::int16_t*, std::size_t) {
     AVSI_ASSERT(!"write_pcm16 on a sink that does not take 16-bit samples");
 }
@@ -157,18 +162,32 @@ AudioFileReader::AudioFileReader(const std::filesystem::path& path) : m_path(pat
     m_channels = info.channels;
     m_frames = static_cast<std::size_t>(info.frames);
     const int encoding = info.format & SF_FORMAT_SUBMASK;
+    const int container = info.format & SF_FORMAT_TYPEMASK;
     m_floats = encoding == SF_FORMAT_FLOAT || encoding == SF_FORMAT_DOUBLE;
+    m_pcm16 = encoding == SF_FORMAT_PCM_16 && (container == SF_FORMAT_WAV || container == SF_FORMAT_WAVEX);
 }
 
 AudioFileReader::~AudioFileReader() = default;
 
+void AudioFileReader::expect_read(std::size_t wanted, long long got) const {
+    if (got != static_cast<long long>(wanted))
+        throw InputError(m_path, fmt::format("audio file is truncated: header says {} frames, read {}", m_frames,
+                                             m_position + static_cast<std::size_t>(std::max<long long>(got, 0))));
+}
+
+std::size_t AudioFileReader::read_pcm16(std::int16_t* out, std::size_t frames) {
+    AVSI_ASSERT(m_pcm16);
+    const std::size_t wanted = std::min(frames, m_frames - m_position);
+    if (wanted == 0) return 0;
+    expect_read(wanted, sf_readf_short(m_file->handle, out, static_cast<sf_count_t>(wanted)));
+    m_position += wanted;
+    return wanted;
+}
+
 std::size_t AudioFileReader::read(float* out, std::size_t frames) {
     const std::size_t wanted = std::min(frames, m_frames - m_position);
     if (wanted == 0) return 0;
-    const sf_count_t got = sf_readf_float(m_file->handle, out, static_cast<sf_count_t>(wanted));
-    if (got != static_cast<sf_count_t>(wanted))
-        throw InputError(m_path, fmt::format("audio file is truncated: header says {} frames, read {}", m_frames,
-                                             m_position + static_cast<std::size_t>(std::max<sf_count_t>(got, 0))));
+    expect_read(wanted, sf_readf_float(m_file->handle, out, static_cast<sf_count_t>(wanted)));
     if (m_floats)
         require_finite_samples(m_path, out, wanted * static_cast<std::size_t>(m_channels), m_channels, m_rate_hz,
                                m_position);

@@ -9,6 +9,8 @@
 #include <limits>
 #include <numbers>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "avsi/core/audio_stream.h"
 #include "avsi/core/error.h"
@@ -208,6 +210,60 @@ TEST(AudioStream, OnlySixteenBitWavTakesSixteenBitSamples) {
     }
     Audio buffer;
     EXPECT_FALSE(AudioBufferSink(buffer).takes_pcm16());
+}
+
+// A 16-bit WAV gives its 16-bit samples, each s with read()'s float
+// exactly s / 32768: every value from -32768 to 32767, in one channel and
+// in two, read in uneven pieces both ways; the other files give floats only.
+TEST(AudioStream, SixteenBitWavGivesSamplesWhoseFloatsAreThemOver32768) {
+    std::vector<std::int16_t> every;
+    for (int v = -32768; v <= 32767; ++v) every.push_back(static_cast<std::int16_t>(v));
+    for (int channels : {1, 2}) {
+        SCOPED_TRACE(channels);
+        const fs::path path = fs::temp_directory_path() /
+                              ("avsi_gives_" + std::to_string(::getpid()) + "_" + std::to_string(channels) + ".wav");
+        const std::size_t frames = every.size() / static_cast<std::size_t>(channels);
+        {
+            AudioFileWriter out(path, 16000, channels);
+            ASSERT_TRUE(out.takes_pcm16());
+            out.write_pcm16(every.data(), frames);
+            out.commit();
+        }
+        AudioFileReader floats(path), shorts(path);
+        ASSERT_TRUE(shorts.gives_pcm16());
+        std::vector<float> f(every.size());
+        std::vector<std::int16_t> s(every.size());
+        std::size_t done_f = 0, done_s = 0;
+        for (std::size_t piece = 1; done_f < frames; piece = piece * 3 + 1)
+            done_f += floats.read(f.data() + done_f * channels, std::min(piece, frames - done_f));
+        for (std::size_t piece = 2; done_s < frames; piece = piece * 5 + 3)
+            done_s += shorts.read_pcm16(s.data() + done_s * channels, std::min(piece, frames - done_s));
+        EXPECT_EQ(shorts.read_pcm16(s.data(), 1), 0u);  // at the end
+        EXPECT_EQ(s, every);
+        std::size_t differing = 0;
+        for (std::size_t i = 0; i < every.size(); ++i) differing += f[i] != static_cast<float>(s[i] / 32768.0);
+        EXPECT_EQ(differing, 0u);
+        fs::remove(path);
+    }
+    const fs::path dir = fs::temp_directory_path();
+    const std::string stem = "avsi_gives_" + std::to_string(::getpid());
+    for (auto [ext, format] : {std::pair{".wav", SampleFormat::Pcm24}, std::pair{".wav", SampleFormat::Float32},
+                               std::pair{".flac", SampleFormat::Pcm16}}) {
+        const fs::path path = dir / (stem + ext);
+        {
+            AudioFileWriter out(path, 16000, 1, format);
+            const float half = 0.5f;
+            out.write(&half, 1);
+            out.commit();
+        }
+        EXPECT_FALSE(AudioFileReader(path).gives_pcm16()) << ext << " " << static_cast<int>(format);
+        fs::remove(path);
+    }
+    Audio buffer;
+    buffer.sample_rate_hz = 16000;
+    buffer.channels = 1;
+    buffer.samples = {0.5f};
+    EXPECT_FALSE(AudioBufferSource(buffer).gives_pcm16());
 }
 
 }  // namespace

@@ -1220,7 +1220,13 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     // So are the pipeline's buffers (the worker may be running the back of
     // a block's last piece when the next block's reading throws) and pass
     // 2's energies and peaks (which it may be adding to).
-    std::vector<float> interleaved(block * nc);
+    // The input's frames as read: its 16-bit samples when it gives them
+    // (libsndfile's floats of those are s·2^-15, exact, and so is s·2^-15
+    // as a double: the same x, without a conversion inside libsndfile and
+    // an 8 KiB read per 4096 samples), else floats.
+    const bool pcm16_in = input.gives_pcm16();
+    std::vector<float> interleaved(pcm16_in ? 0 : block * nc);
+    std::vector<std::int16_t> interleaved16(pcm16_in ? block * nc : 0);
     std::vector<double> x(block), work(block * stride), carrier(block * stride), sum(block);
     std::vector<double> out_sq(nc, 0.0), max_abs(nc, 0.0);
     // Declared after the engines so it stops before they go.
@@ -1232,13 +1238,17 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
     }
     // Reads frames [offset, offset + count) of channel c into x.
     auto deinterleave = [&](std::size_t offset, std::size_t count, std::size_t c) {
-        for (std::size_t n = offset; n < offset + count; ++n) x[n] = interleaved[n * nc + c];
+        if (pcm16_in)
+            for (std::size_t n = offset; n < offset + count; ++n) x[n] = interleaved16[n * nc + c] * (1.0 / 32768.0);
+        else
+            for (std::size_t n = offset; n < offset + count; ++n) x[n] = interleaved[n * nc + c];
     };
     // Reads the next `count` frames of the input into the block from `offset`.
     auto read_frames = [&](std::size_t offset, std::size_t count) {
         std::size_t got = 0;
         while (got < count) {
-            const std::size_t n = input.read(interleaved.data() + (offset + got) * nc, count - got);
+            const std::size_t n = pcm16_in ? input.read_pcm16(interleaved16.data() + (offset + got) * nc, count - got)
+                                           : input.read(interleaved.data() + (offset + got) * nc, count - got);
             if (n == 0)
                 throw InputError(Diagnostic{"", 0, 0, "audio",
                                             fmt::format("expected {} frames, the input ended after fewer", frames)});

@@ -34,6 +34,12 @@ public:
     virtual std::size_t read(float* out, std::size_t frames) = 0;
     // Moves to frame `frame` (at most frames()).
     virtual void seek(std::size_t frame) = 0;
+    // Whether read_pcm16 gives 16-bit samples s whose read() floats are
+    // s / 32768 exactly (a 16-bit PCM file), so that a caller may take
+    // those and convert them itself (on the way to doubles, say).
+    virtual bool gives_pcm16() const { return false; }
+    // As read, into 16-bit samples; only when gives_pcm16().
+    virtual std::size_t read_pcm16(std::int16_t* out, std::size_t frames);
 };
 
 // Where block-wise processing writes its output, in order.
@@ -109,9 +115,14 @@ public:
     // length its header gives, or (float files) at a non-finite sample.
     std::size_t read(float* out, std::size_t frames) override;
     void seek(std::size_t frame) override;
+    // A 16-bit PCM WAV: libsndfile's floats are its samples times 2^-15.
+    bool gives_pcm16() const override { return m_pcm16; }
+    std::size_t read_pcm16(std::int16_t* out, std::size_t frames) override;
 
 private:
     struct File;
+    // Checks that sf_readf_* gave `got` of the `wanted` frames.
+    void expect_read(std::size_t wanted, long long got) const;
     std::filesystem::path m_path;
     std::unique_ptr<File> m_file;
     int m_rate_hz = 0;
@@ -119,6 +130,7 @@ private:
     std::size_t m_frames = 0;
     std::size_t m_position = 0;
     bool m_floats = false;  // float or double samples (which may be non-finite)
+    bool m_pcm16 = false;   // see gives_pcm16
 };
 
 // Writes a WAV (.wav) or FLAC (.flac, PCM only) file block by block, into a
