@@ -22,6 +22,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "sndfile_checks.h"
 
 namespace avsi {
 
@@ -161,6 +162,7 @@ AudioFileReader::AudioFileReader(const std::filesystem::path& path) : m_path(pat
     m_rate_hz = info.samplerate;
     m_channels = info.channels;
     m_frames = static_cast<std::size_t>(info.frames);
+    require_whole_data_chunk(path, m_file->handle, m_frames, m_rate_hz);
     const int encoding = info.format & SF_FORMAT_SUBMASK;
     const int container = info.format & SF_FORMAT_TYPEMASK;
     m_floats = encoding == SF_FORMAT_FLOAT || encoding == SF_FORMAT_DOUBLE;

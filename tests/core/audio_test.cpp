@@ -94,6 +94,41 @@ TEST(Audio, UnreadableFilesAreInputErrorsNamingTheFile) {
     fs::remove(bogus);
 }
 
+// A WAV cut short (a copy that stopped) is refused by both readers, naming
+// both lengths (libsndfile reads what is there and says so only in its
+// log); a WAV whose sizes are the 0xFFFFFFFF placeholder of a writer that
+// could not go back to fill them in reads.
+TEST(Audio, TruncatedWavIsRefusedNamingBothLengths) {
+    const fs::path whole = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_whole.wav");
+    const fs::path cut = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_cut.wav");
+    write_audio(whole, make_tone(16000, 1, 1.0));
+    const std::string bytes = read_text_file(whole);  // 44-byte header, 32000 bytes of samples
+    write_text_file(cut, bytes.substr(0, 44 + 8000));
+    const std::string expected = "its header declares 32000 bytes of audio, the file holds 8000 (0.25 s of 1.00 s)";
+    try {
+        read_audio(cut);
+        ADD_FAILURE() << "read_audio accepted a truncated file";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.first().path, cut.string());
+        EXPECT_NE(e.first().message.find(expected), std::string::npos) << e.first().message;
+    }
+    try {
+        AudioFileReader reader(cut);
+        ADD_FAILURE() << "AudioFileReader accepted a truncated file";
+    } catch (const InputError& e) {
+        EXPECT_NE(e.first().message.find(expected), std::string::npos) << e.first().message;
+    }
+    std::string placeholder = bytes;
+    const std::size_t data = placeholder.find("data");
+    ASSERT_NE(data, std::string::npos);
+    for (std::size_t at : {std::size_t{4}, data + 4}) placeholder.replace(at, 4, "\xff\xff\xff\xff");
+    write_text_file(cut, placeholder);
+    EXPECT_EQ(read_audio(cut).frames(), 16000u);
+    EXPECT_EQ(AudioFileReader(cut).frames(), 16000u);
+    fs::remove(whole);
+    fs::remove(cut);
+}
+
 // A float file with a NaN or an infinity is refused, by the whole-file
 // reader and the block reader alike, naming the frame and the channel (a
 // vocoder run on it wrote a file of full-scale negative samples).
