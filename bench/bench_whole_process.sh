@@ -9,7 +9,7 @@
 #   render        avsi render of a sentence to MP4  vs  ffmpeg encoding the same frames (PNG, libx264)
 #   score         avsi score of a 25-subject study (simulated answers to the default protocol's lists)
 # Each median of RUNS runs (default 7, at least 5), the mean user and system
-# CPU, and the largest peak resident memory of any run. The tasks run in
+# CPU, and the peak resident memory of one more run (/usr/bin/time). The tasks run in
 # rounds, each round every task once in turn after a warm-up round
 # (bench/interleave.py, which says why). Prints a Markdown table (also
 # written to OUT/table.md, with each task's JSON beside it).
@@ -21,8 +21,8 @@
 # AVSI_BEFORE: another avsi executable timed on the same tasks (e.g. one
 # built from an older commit) for a before/after column.
 #
-# Needs (Debian, installed by scripts/install-deps): sox, ffmpeg,
-# espeak-ng, python3-numpy, python3-scipy. The machine's load is printed
+# Needs (Debian, installed by scripts/install-deps): sox, ffmpeg, espeak-ng,
+# time, python3-numpy, python3-scipy. The machine's load is printed
 # before and after; on a shared machine compare CPU time rather than wall time.
 set -euo pipefail
 
@@ -38,7 +38,7 @@ fi
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 avsi="$(cd "$build_dir" && pwd)/cli/avsi"
 python=/usr/bin/python3  # Debian's, where python3-numpy and python3-scipy install
-for tool in sox ffmpeg espeak-ng "$python"; do
+for tool in sox ffmpeg espeak-ng /usr/bin/time "$python"; do
   command -v "$tool" >/dev/null || { echo "bench_whole_process: $tool is missing (see the header)" >&2; exit 1; }
 done
 "$python" -c "import numpy, scipy" 2>/dev/null || {

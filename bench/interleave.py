@@ -11,8 +11,10 @@ character but letters and digits as `_`):
     {"results": [{"command", "median", "mean", "min", "max", "user",
                   "system", "max_rss_kib", "times"}]}
 
-(seconds; user and system are means over the timed runs, max_rss_kib the
-largest peak resident memory of any run, from wait4).
+(seconds; user and system are means over the timed runs; max_rss_kib the
+peak resident memory of one more run under /usr/bin/time: wait4's figure
+for a child spawned from this script starts at the script's own size,
+about 10 MiB, which the kernel carries over through exec).
 
 Why rounds and not each command's runs back to back (as hyperfine does): a
 machine whose speed drifts, such as a virtual machine whose host takes its
@@ -25,12 +27,14 @@ import os
 import re
 import shlex
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 
 
 def run_once(argv):
-    """Wall seconds, user and system CPU seconds, peak RSS (KiB) of one run."""
+    """Wall seconds, user and system CPU seconds of one run."""
     devnull = os.open(os.devnull, os.O_RDWR)
     try:
         start = time.perf_counter()
@@ -43,7 +47,17 @@ def run_once(argv):
     code = os.waitstatus_to_exitcode(status)
     if code != 0:
         raise RuntimeError(f"`{shlex.join(argv)}` exited with {code}")
-    return wall, usage.ru_utime, usage.ru_stime, usage.ru_maxrss
+    return wall, usage.ru_utime, usage.ru_stime
+
+
+def peak_rss_kib(argv):
+    """Peak resident memory (KiB) of one run, measured by GNU time."""
+    with tempfile.NamedTemporaryFile(mode="r", suffix=".rss") as out:
+        done = subprocess.run(["/usr/bin/time", "-f", "%M", "-o", out.name] + argv,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        if done.returncode != 0:
+            raise RuntimeError(f"`{shlex.join(argv)}` exited with {done.returncode} under /usr/bin/time")
+        return int(out.read().split()[-1])
 
 
 def main():
@@ -80,6 +94,15 @@ def main():
             if timed:
                 samples[name].append(sample)
     print(file=sys.stderr)
+    if not os.access("/usr/bin/time", os.X_OK):
+        sys.exit("interleave.py: /usr/bin/time is missing (apt-get install time)")
+    rss = {}
+    for name, argv in tasks:
+        if name not in failed:
+            try:
+                rss[name] = peak_rss_kib(argv)
+            except RuntimeError as e:
+                failed[name] = str(e)
     os.makedirs(out_dir, exist_ok=True)
     for name, argv in tasks:
         path = os.path.join(out_dir, re.sub(r"[^A-Za-z0-9]", "_", name) + ".json")
@@ -95,7 +118,7 @@ def main():
                 "max": max(times),
                 "user": statistics.fmean(s[1] for s in samples[name]),
                 "system": statistics.fmean(s[2] for s in samples[name]),
-                "max_rss_kib": max(s[3] for s in samples[name]),
+                "max_rss_kib": rss[name],
                 "times": times,
             }
         with open(path, "w") as f:
