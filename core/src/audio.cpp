@@ -57,6 +57,7 @@ Audio read_audio(const std::filesystem::path& path) {
         throw InputError(path.string(), 0, 0, "frames",
                          fmt::format("expected at most {} samples in all channels, got a header declaring {} frames of {} channels",
                                      max_declared_count, info.frames, info.channels));
+    require_whole_data_chunk(path, file, static_cast<std::size_t>(info.frames), info.samplerate);
     Audio audio;
     audio.sample_rate_hz = info.samplerate;
     audio.channels = info.channels;
@@ -68,7 +69,6 @@ Audio read_audio(const std::filesystem::path& path) {
         throw InputError(path, fmt::format("audio file is truncated: header says {} frames, read {}",
                                            info.frames, read));
     if (info.frames == 0) throw InputError(path, "audio file has no samples");
-    require_whole_data_chunk(path, file, static_cast<std::size_t>(info.frames), info.samplerate);
     const int encoding = info.format & SF_FORMAT_SUBMASK;
     if (encoding == SF_FORMAT_FLOAT || encoding == SF_FORMAT_DOUBLE)
         require_finite_samples(path, audio.samples.data(), audio.samples.size(), info.channels, info.samplerate, 0);
