@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
+#include "avsi/core/log.h"
 
 namespace avsi {
 
@@ -38,12 +39,15 @@ fs::path temp_name_for(const fs::path& target) {
            fmt::format(".{}.tmp{}-{}", target.filename().string(), ::getpid(), counter++);
 }
 
-void fsync_path(const fs::path& path) {
-    const int fd = ::open(path.c_str(), O_RDONLY);
-    if (fd >= 0) {
-        ::fsync(fd);
-        ::close(fd);
-    }
+// Flushes `path` (a file or a folder) to disk: 0, or the errno of what
+// failed. EINVAL counts as done: the file system cannot sync it (some FUSE
+// and network mounts), and there is nothing more to wait for.
+int fsync_path(const fs::path& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return errno;
+    const int error = ::fsync(fd) == 0 ? 0 : errno;
+    ::close(fd);
+    return error == EINVAL ? 0 : error;
 }
 }  // namespace
 
@@ -64,12 +68,21 @@ AtomicFile::~AtomicFile() {
 }
 
 void AtomicFile::commit() {
-    fsync_path(m_temp);
+    // A write the disk refused (EIO, or no space for what was delayed)
+    // shows only here: then the file stays as it was, and the temporary goes.
+    if (const int error = fsync_path(m_temp))
+        throw InputError(m_target, fmt::format("cannot write: {} while flushing it to disk; the file was not "
+                                               "replaced",
+                                               std::strerror(error)));
     std::error_code ec;
     fs::rename(m_temp, m_target, ec);
     if (ec) throw InputError(m_target, fmt::format("cannot write: {}", ec.message()));
     m_committed = true;
-    if (m_target.has_parent_path()) fsync_path(m_target.parent_path());
+    if (m_target.has_parent_path())
+        if (const int error = fsync_path(m_target.parent_path()))
+            log_warning("{}: written, but its folder could not be flushed to disk ({}): a crash now could "
+                        "lose the new name",
+                        m_target.string(), std::strerror(error));
 }
 
 void write_text_file(const fs::path& path, std::string_view content) {
