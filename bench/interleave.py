@@ -76,6 +76,8 @@ def main():
             tasks.append((name, shlex.split(command)))
     if not tasks:
         sys.exit(f"{tasks_path}: no tasks")
+    if not os.access("/usr/bin/time", os.X_OK):
+        sys.exit("interleave.py: /usr/bin/time is missing (apt-get install time)")
     # A command that fails is dropped from later rounds (its JSON says so).
     failed = {}
     samples = {name: [] for name, _ in tasks}
@@ -94,8 +96,6 @@ def main():
             if timed:
                 samples[name].append(sample)
     print(file=sys.stderr)
-    if not os.access("/usr/bin/time", os.X_OK):
-        sys.exit("interleave.py: /usr/bin/time is missing (apt-get install time)")
     rss = {}
     for name, argv in tasks:
         if name not in failed:
