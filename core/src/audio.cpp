@@ -37,38 +37,49 @@ std::vector<float> Audio::mono() const {
     return out;
 }
 
-Audio read_audio(const std::filesystem::path& path) {
-    SF_INFO info{};
+SNDFILE* open_audio_file(const std::filesystem::path& path, SF_INFO& info) {
+    info = SF_INFO{};
     SNDFILE* file = sf_open(path.c_str(), SFM_READ, &info);
     if (!file) {
         if (!std::filesystem::exists(path)) throw InputError(path, "cannot open audio file: no such file");
         throw InputError(path, fmt::format("cannot read audio file: {} (supported: WAV and FLAC, "
                                            "PCM or float)", sf_strerror(nullptr)));
     }
+    try {
+        if (info.samplerate <= 0 || info.channels <= 0 || info.frames < 0)
+            throw InputError(path, "audio file has no valid sample rate or channel count");
+        if (info.frames == 0) throw InputError(path, "audio file has no samples");
+        require_whole_data_chunk(path, file, static_cast<std::size_t>(info.frames), info.samplerate);
+    } catch (...) {
+        sf_close(file);
+        throw;
+    }
+    // Float reads of float files must not be rescaled; PCM maps to [-1, 1).
+    sf_command(file, SFC_SET_NORM_FLOAT, nullptr, SF_TRUE);
+    return file;
+}
+
+Audio read_audio(const std::filesystem::path& path) {
+    SF_INFO info;
+    SNDFILE* file = open_audio_file(path, info);
     struct Closer {
         SNDFILE* file;
         ~Closer() { sf_close(file); }
     } closer{file};
-    if (info.samplerate <= 0 || info.channels <= 0 || info.frames < 0)
-        throw InputError(path, "audio file has no valid sample rate or channel count");
     // The header's length is allocated at once: bounded first (a FLAC header
     // may claim 2^36 frames in a few bytes).
     if (static_cast<std::uint64_t>(info.frames) > max_declared_count / static_cast<std::uint64_t>(info.channels))
         throw InputError(path.string(), 0, 0, "frames",
                          fmt::format("expected at most {} samples in all channels, got a header declaring {} frames of {} channels",
                                      max_declared_count, info.frames, info.channels));
-    require_whole_data_chunk(path, file, static_cast<std::size_t>(info.frames), info.samplerate);
     Audio audio;
     audio.sample_rate_hz = info.samplerate;
     audio.channels = info.channels;
     audio.samples.resize(static_cast<std::size_t>(info.frames) * static_cast<std::size_t>(info.channels));
-    // Float reads of float files must not be rescaled; PCM maps to [-1, 1).
-    sf_command(file, SFC_SET_NORM_FLOAT, nullptr, SF_TRUE);
     const sf_count_t read = sf_readf_float(file, audio.samples.data(), info.frames);
     if (read != info.frames)
         throw InputError(path, fmt::format("audio file is truncated: header says {} frames, read {}",
                                            info.frames, read));
-    if (info.frames == 0) throw InputError(path, "audio file has no samples");
     const int encoding = info.format & SF_FORMAT_SUBMASK;
     if (encoding == SF_FORMAT_FLOAT || encoding == SF_FORMAT_DOUBLE)
         require_finite_samples(path, audio.samples.data(), audio.samples.size(), info.channels, info.samplerate, 0);

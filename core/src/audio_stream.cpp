@@ -147,22 +147,11 @@ struct AudioFileReader::File {
 };
 
 AudioFileReader::AudioFileReader(const std::filesystem::path& path) : m_path(path), m_file(std::make_unique<File>()) {
-    SF_INFO info{};
-    m_file->handle = sf_open(path.c_str(), SFM_READ, &info);
-    if (!m_file->handle) {
-        if (!std::filesystem::exists(path)) throw InputError(path, "cannot open audio file: no such file");
-        throw InputError(path, fmt::format("cannot read audio file: {} (supported: WAV and FLAC, "
-                                           "PCM or float)", sf_strerror(nullptr)));
-    }
-    if (info.samplerate <= 0 || info.channels <= 0 || info.frames < 0)
-        throw InputError(path, "audio file has no valid sample rate or channel count");
-    if (info.frames == 0) throw InputError(path, "audio file has no samples");
-    // Float reads of float files must not be rescaled; PCM maps to [-1, 1).
-    sf_command(m_file->handle, SFC_SET_NORM_FLOAT, nullptr, SF_TRUE);
+    SF_INFO info;
+    m_file->handle = open_audio_file(path, info);
     m_rate_hz = info.samplerate;
     m_channels = info.channels;
     m_frames = static_cast<std::size_t>(info.frames);
-    require_whole_data_chunk(path, m_file->handle, m_frames, m_rate_hz);
     const int encoding = info.format & SF_FORMAT_SUBMASK;
     const int container = info.format & SF_FORMAT_TYPEMASK;
     m_floats = encoding == SF_FORMAT_FLOAT || encoding == SF_FORMAT_DOUBLE;
