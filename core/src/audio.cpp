@@ -37,6 +37,44 @@ std::vector<float> Audio::mono() const {
     return out;
 }
 
+namespace {
+
+// Throws InputError when `file`'s header declares more audio data than the
+// file holds (a copy cut short: libsndfile then reads what is there and
+// says so only in its log, as `data : <declared bytes> (should be <bytes
+// present>)`). `present_frames` at `rate_hz` is what it found. The
+// placeholder sizes of writers that could not go back to fill them in (0
+// and 0xFFFFFFFF) pass.
+void require_whole_data_chunk(const std::filesystem::path& path, SNDFILE* file, std::size_t present_frames,
+                              int rate_hz) {
+    std::string text(8192, '\0');
+    sf_command(file, SFC_GET_LOG_INFO, text.data(), static_cast<int>(text.size()));
+    const std::string_view log(text.c_str());
+    constexpr std::string_view kData = "data : ", kShould = " (should be ";
+    for (std::size_t at = 0; at < log.size();) {
+        const std::size_t end = std::min(log.find('\n', at), log.size());
+        const std::string_view line = log.substr(at, end - at);
+        at = end + 1;
+        if (!line.starts_with(kData)) continue;
+        const std::size_t should = line.find(kShould);
+        if (should == std::string_view::npos) continue;
+        std::uint64_t declared = 0, present = 0;
+        const std::string_view d = line.substr(kData.size(), should - kData.size());
+        const std::string_view p = line.substr(should + kShould.size());
+        if (std::from_chars(d.data(), d.data() + d.size(), declared).ec != std::errc() ||
+            std::from_chars(p.data(), p.data() + p.size(), present).ec != std::errc())
+            continue;
+        if (declared == 0 || declared == 0xFFFFFFFFu || present == 0 || declared <= present) continue;
+        const double seconds = static_cast<double>(present_frames) / rate_hz;
+        throw InputError(path, fmt::format("audio file is truncated: its header declares {} bytes of audio, the "
+                                           "file holds {} ({:.2f} s of {:.2f} s)",
+                                           declared, present, seconds,
+                                           seconds * static_cast<double>(declared) / static_cast<double>(present)));
+    }
+}
+
+}  // namespace
+
 SNDFILE* open_audio_file(const std::filesystem::path& path, SF_INFO& info) {
     info = SF_INFO{};
     SNDFILE* file = sf_open(path.c_str(), SFM_READ, &info);
@@ -80,38 +118,9 @@ Audio read_audio(const std::filesystem::path& path) {
     if (read != info.frames)
         throw InputError(path, fmt::format("audio file is truncated: header says {} frames, read {}",
                                            info.frames, read));
-    const int encoding = info.format & SF_FORMAT_SUBMASK;
-    if (encoding == SF_FORMAT_FLOAT || encoding == SF_FORMAT_DOUBLE)
+    if (has_float_samples(info))
         require_finite_samples(path, audio.samples.data(), audio.samples.size(), info.channels, info.samplerate, 0);
     return audio;
-}
-
-void require_whole_data_chunk(const std::filesystem::path& path, SNDFILE* file, std::size_t present_frames,
-                              int rate_hz) {
-    std::string text(8192, '\0');
-    sf_command(file, SFC_GET_LOG_INFO, text.data(), static_cast<int>(text.size()));
-    const std::string_view log(text.c_str());
-    constexpr std::string_view kData = "data : ", kShould = " (should be ";
-    for (std::size_t at = 0; at < log.size();) {
-        const std::size_t end = std::min(log.find('\n', at), log.size());
-        const std::string_view line = log.substr(at, end - at);
-        at = end + 1;
-        if (!line.starts_with(kData)) continue;
-        const std::size_t should = line.find(kShould);
-        if (should == std::string_view::npos) continue;
-        std::uint64_t declared = 0, present = 0;
-        const std::string_view d = line.substr(kData.size(), should - kData.size());
-        const std::string_view p = line.substr(should + kShould.size());
-        if (std::from_chars(d.data(), d.data() + d.size(), declared).ec != std::errc() ||
-            std::from_chars(p.data(), p.data() + p.size(), present).ec != std::errc())
-            continue;
-        if (declared == 0 || declared == 0xFFFFFFFFu || present == 0 || declared <= present) continue;
-        const double seconds = static_cast<double>(present_frames) / rate_hz;
-        throw InputError(path, fmt::format("audio file is truncated: its header declares {} bytes of audio, the "
-                                           "file holds {} ({:.2f} s of {:.2f} s)",
-                                           declared, present, seconds,
-                                           seconds * static_cast<double>(declared) / static_cast<double>(present)));
-    }
 }
 
 void require_finite_samples(const std::filesystem::path& path, const float* samples, std::size_t count,

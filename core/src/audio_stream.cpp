@@ -152,10 +152,10 @@ AudioFileReader::AudioFileReader(const std::filesystem::path& path) : m_path(pat
     m_rate_hz = info.samplerate;
     m_channels = info.channels;
     m_frames = static_cast<std::size_t>(info.frames);
-    const int encoding = info.format & SF_FORMAT_SUBMASK;
     const int container = info.format & SF_FORMAT_TYPEMASK;
-    m_floats = encoding == SF_FORMAT_FLOAT || encoding == SF_FORMAT_DOUBLE;
-    m_pcm16 = encoding == SF_FORMAT_PCM_16 && (container == SF_FORMAT_WAV || container == SF_FORMAT_WAVEX);
+    m_floats = has_float_samples(info);
+    m_pcm16 = (info.format & SF_FORMAT_SUBMASK) == SF_FORMAT_PCM_16 &&
+              (container == SF_FORMAT_WAV || container == SF_FORMAT_WAVEX);
 }
 
 AudioFileReader::~AudioFileReader() = default;
