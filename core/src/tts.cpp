@@ -8,8 +8,6 @@
 // obstruent onsets are aligned to the audio (onsets.h).
 #include "avsi/core/tts.h"
 
-#include <espeak-ng/speak_lib.h>
-
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -30,6 +28,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/core/onsets.h"
+#include "espeak_library.h"
 #include "festival_tts.h"
 #include "wire.h"
 
@@ -50,6 +49,9 @@ struct Collector {
     long end_sample = -1;
     int word = 0;
 };
+
+// espeak-ng's functions (loaded on first use: espeak_library.h).
+const detail::EspeakLibrary& espeak() { return detail::espeak_library(); }
 
 std::mutex g_espeak_mutex;  // espeak-ng's state is global and not thread-safe
 Collector* g_collector = nullptr;
@@ -75,18 +77,18 @@ int synth_callback(short* wav, int count, espeak_EVENT* events) {
 // Initialises espeak-ng once (caller holds the mutex).
 void ensure_initialized() {
     if (g_sample_rate_hz > 0) return;
-    const int rate = espeak_Initialize(AUDIO_OUTPUT_SYNCHRONOUS, 0, nullptr,
-                                       espeakINITIALIZE_PHONEME_EVENTS | espeakINITIALIZE_DONT_EXIT);
+    const int rate = espeak().Initialize(AUDIO_OUTPUT_SYNCHRONOUS, 0, nullptr,
+                                         espeakINITIALIZE_PHONEME_EVENTS | espeakINITIALIZE_DONT_EXIT);
     if (rate <= 0)
         throw std::runtime_error("espeak-ng could not be initialised (is espeak-ng-data installed?)");
     g_sample_rate_hz = rate;
-    espeak_SetSynthCallback(synth_callback);
+    espeak().SetSynthCallback(synth_callback);
 }
 
 // The language codes of the installed English voices ("en-us", "en-gb-x-rp", …).
 std::vector<std::string> english_voice_languages() {
     std::vector<std::string> out;
-    for (const espeak_VOICE** v = espeak_ListVoices(nullptr); v && *v; ++v) {
+    for (const espeak_VOICE** v = espeak().ListVoices(nullptr); v && *v; ++v) {
         // `languages`: repeated [priority byte][language\0], ending with a 0 byte.
         for (const char* p = (*v)->languages; p && *p; p += std::strlen(p + 1) + 2) {
             const std::string language(p + 1);
@@ -105,13 +107,13 @@ std::string select_voice(const std::string& voice) {
     const auto english = english_voice_languages();
     std::string list;
     for (const auto& l : english) list += (list.empty() ? "" : ", ") + l;
-    if (voice.empty() || espeak_SetVoiceByName(voice.c_str()) != EE_OK) {
+    if (voice.empty() || espeak().SetVoiceByName(voice.c_str()) != EE_OK) {
         const std::string close = closest_match(voice, english);
         throw InputError("tts", 0, 0, "voice",
                          fmt::format("unknown espeak-ng voice \"{}\"{}; English voices: {}", voice,
                                      close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close), list));
     }
-    const espeak_VOICE* current = espeak_GetCurrentVoice();
+    const espeak_VOICE* current = espeak().GetCurrentVoice();
     const std::string language = current && current->languages ? std::string(current->languages + 1) : "";
     const std::string identifier = current && current->identifier ? current->identifier : "";
     if (language.rfind("en", 0) != 0)
@@ -136,7 +138,7 @@ std::vector<StressToken> stress_tokens(const std::string& text, const PhoneInven
     const void* pointer = text.c_str();
     const int mode = static_cast<int>('|') << 8;  // ASCII names, '|' between phonemes
     while (pointer) {
-        const char* out = espeak_TextToPhonemes(&pointer, espeakCHARS_UTF8, mode);
+        const char* out = espeak().TextToPhonemes(&pointer, espeakCHARS_UTF8, mode);
         if (!out) break;
         std::string clause(out);
         std::size_t i = 0;
@@ -207,13 +209,13 @@ std::string child_synthesis(const std::string& text, const TtsSettings& settings
     try {
         Synthesis r;
         r.variant = select_voice(settings.voice);
-        espeak_SetParameter(espeakRATE, settings.rate_wpm, 0);
-        espeak_SetParameter(espeakPITCH, settings.pitch, 0);
+        espeak().SetParameter(espeakRATE, settings.rate_wpm, 0);
+        espeak().SetParameter(espeakPITCH, settings.pitch, 0);
         r.tokens = stress_tokens(text, inventory);
         g_collector = &r.collector;
-        const espeak_ERROR status = espeak_Synth(text.c_str(), text.size() + 1, 0, POS_CHARACTER, 0,
-                                                 espeakCHARS_UTF8, nullptr, nullptr);
-        espeak_Synchronize();
+        const espeak_ERROR status = espeak().Synth(text.c_str(), text.size() + 1, 0, POS_CHARACTER, 0,
+                                                   espeakCHARS_UTF8, nullptr, nullptr);
+        espeak().Synchronize();
         g_collector = nullptr;
         if (status != EE_OK) throw std::runtime_error(fmt::format("espeak-ng failed to synthesise (error {})", int(status)));
         w.i64(kOk);
@@ -529,7 +531,7 @@ TtsVoiceInfo describe_tts_voice(const TtsSettings& settings) {
         // Names espeak-ng accepts beyond the language codes are checked when
         // the voice is selected; an unknown one fails there with the list.
         bool known = false;
-        for (const espeak_VOICE** v = espeak_ListVoices(nullptr); v && *v && !known; ++v)
+        for (const espeak_VOICE** v = espeak().ListVoices(nullptr); v && *v && !known; ++v)
             known = ((*v)->name && settings.voice == (*v)->name) ||
                     ((*v)->identifier && settings.voice == (*v)->identifier);
         if (!known) {
@@ -541,7 +543,7 @@ TtsVoiceInfo describe_tts_voice(const TtsSettings& settings) {
                                          settings.voice, close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close), list));
         }
     }
-    info.engine_version = espeak_Info(nullptr);
+    info.engine_version = espeak().Info(nullptr);
     return info;
 }
 

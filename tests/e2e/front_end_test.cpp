@@ -92,6 +92,28 @@ TEST(FrontEnd, LightHelpersLoadNoHeavyLibrary) {
     EXPECT_TRUE(torch);
 }
 
+// The speech engines are loaded only by a process that speaks: espeak-ng with
+// dlopen on the first utterance, Festival in its own server, avsi-festival.
+// No helper links them, so `avsi synth --phones` and the rest never pay
+// their 35 libraries at start-up.
+TEST(FrontEnd, NoHelperLinksASpeechEngine) {
+    const std::regex engine("espeak|estools|estbase|eststring|festival", std::regex::icase);
+    std::size_t checked = 0;
+    for (const auto& entry : fs::directory_iterator(helpers)) {
+        const std::string name = entry.path().filename().string();
+        if (name == "avsi-festival") continue;
+        ++checked;
+        for (const std::string& library : needed(entry.path()))
+            EXPECT_FALSE(std::regex_search(library, engine)) << name << " needs " << library;
+    }
+    EXPECT_GE(checked, 7u) << "expected the helpers in " << helpers;
+    // The Festival server does link them (the check above can fail).
+    bool estools = false;
+    for (const std::string& library : needed(helpers / "avsi-festival"))
+        estools |= library.find("estools") != std::string::npos;
+    EXPECT_TRUE(estools);
+}
+
 TEST(FrontEnd, VersionAndHelpComeFromTheFrontEnd) {
     const test::CliResult version = test::run_avsi("--version", work_dir());
     EXPECT_EQ(version.exit_code, 0);
