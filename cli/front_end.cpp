@@ -8,7 +8,6 @@
 // load no heavy library, and each command loads only what its helper links.
 // Why helper executables rather than plugins or lazy loading:
 // docs/cli-design.md.
-#include <limits.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -21,6 +20,7 @@
 #include <vector>
 
 #include "app.h"
+#include "avsi/core/executable_folder.h"
 
 namespace avsi::cli {
 namespace {
@@ -35,18 +35,6 @@ constexpr Entry kRegistry[] = {
 #include "registry.inc"
 };
 
-// The folder of this executable (from /proc/self/exe, so symlinks and a
-// relative argv[0] do not matter); empty if it cannot be read.
-std::string own_folder() {
-    char path[PATH_MAX];
-    const ssize_t n = ::readlink("/proc/self/exe", path, sizeof path - 1);
-    if (n <= 0) return {};
-    path[n] = '\0';
-    std::string folder(path);
-    const std::size_t slash = folder.rfind('/');
-    return slash == std::string::npos ? std::string() : folder.substr(0, slash);
-}
-
 // Where helpers are looked for, first match wins: $AVSI_EXEC_PATH (a folder,
 // as git's GIT_EXEC_PATH), then libexec/ beside this executable (the build
 // tree: build/cli/avsi, build/cli/libexec/), then ../libexec/avsi/ (an
@@ -54,7 +42,7 @@ std::string own_folder() {
 std::vector<std::string> helper_folders() {
     std::vector<std::string> folders;
     if (const char* env = std::getenv("AVSI_EXEC_PATH"); env && *env) folders.emplace_back(env);
-    const std::string own = own_folder();
+    const std::string own = executable_folder();
     if (!own.empty()) {
         folders.push_back(own + "/libexec");
         folders.push_back(own + "/../libexec/avsi");

@@ -7,7 +7,6 @@
 #include "festival_tts.h"
 
 #include <fcntl.h>
-#include <limits.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/socket.h>
@@ -25,6 +24,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
+#include "avsi/core/executable_folder.h"
 #include "festival_protocol.h"
 #include "wire.h"
 
@@ -40,17 +40,6 @@ struct Request {
     std::string text;
 };
 
-// The folder of this executable (from /proc/self/exe); empty if unreadable.
-std::string own_folder() {
-    char path[PATH_MAX];
-    const ssize_t n = ::readlink("/proc/self/exe", path, sizeof path - 1);
-    if (n <= 0) return {};
-    path[n] = '\0';
-    std::string folder(path);
-    const std::size_t slash = folder.rfind('/');
-    return slash == std::string::npos ? std::string() : folder.substr(0, slash);
-}
-
 // The avsi-festival executable, first found of: $AVSI_EXEC_PATH (as the front
 // end looks for its helpers), beside this executable (the helpers in
 // build/cli/libexec or an installed libexec/avsi), the build tree's (tests
@@ -58,7 +47,7 @@ std::string own_folder() {
 std::string server_path() {
     std::vector<std::string> candidates;
     if (const char* env = std::getenv("AVSI_EXEC_PATH"); env && *env) candidates.push_back(std::string(env) + "/avsi-festival");
-    if (const std::string own = own_folder(); !own.empty()) candidates.push_back(own + "/avsi-festival");
+    if (const std::string own = executable_folder(); !own.empty()) candidates.push_back(own + "/avsi-festival");
     if (std::find(candidates.begin(), candidates.end(), AVSI_FESTIVAL_SERVER_BUILD_PATH) == candidates.end())
         candidates.emplace_back(AVSI_FESTIVAL_SERVER_BUILD_PATH);
     for (const auto& path : candidates)
