@@ -8,6 +8,8 @@
 // obstruent onsets are aligned to the audio (onsets.h).
 #include "avsi/core/tts.h"
 
+#include <fcntl.h>
+#include <signal.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -18,6 +20,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <mutex>
 #include <stdexcept>
 #include <tuple>
@@ -131,16 +134,24 @@ struct StressToken {
     std::optional<bool> stress;
 };
 
-// espeak_TextToPhonemes output for the whole text, split into mnemonics with
-// their stress marks separated. Caller holds the mutex.
-std::vector<StressToken> stress_tokens(const std::string& text, const PhoneInventory& inventory) {
-    std::vector<StressToken> tokens;
+// espeak_TextToPhonemes output for the whole text, one string per clause
+// ('|' between phonemes). Caller holds the mutex.
+std::vector<std::string> phoneme_clauses(const std::string& text) {
+    std::vector<std::string> clauses;
     const void* pointer = text.c_str();
     const int mode = static_cast<int>('|') << 8;  // ASCII names, '|' between phonemes
     while (pointer) {
         const char* out = espeak().TextToPhonemes(&pointer, espeakCHARS_UTF8, mode);
         if (!out) break;
-        std::string clause(out);
+        clauses.emplace_back(out);
+    }
+    return clauses;
+}
+
+// The clauses split into mnemonics with their stress marks separated.
+std::vector<StressToken> stress_tokens(const std::vector<std::string>& clauses, const PhoneInventory& inventory) {
+    std::vector<StressToken> tokens;
+    for (const std::string& clause : clauses) {
         std::size_t i = 0;
         while (i < clause.size()) {
             std::size_t j = i;
@@ -197,21 +208,21 @@ std::vector<bool> align_stress(const std::vector<EspeakEvent>& events, const std
 
 struct Synthesis {
     Collector collector;
-    std::vector<StressToken> tokens;
+    std::vector<std::string> clauses;  // espeak_TextToPhonemes, for the stress marks
     std::string variant;
 };
 
 enum : std::int64_t { kOk = 0, kInputError = 1, kFailure = 2 };
 
 // In the child: the whole synthesis, serialised.
-std::string child_synthesis(const std::string& text, const TtsSettings& settings, const PhoneInventory& inventory) {
+std::string child_synthesis(const std::string& text, const TtsSettings& settings) {
     detail::WireWriter w;
     try {
         Synthesis r;
         r.variant = select_voice(settings.voice);
         espeak().SetParameter(espeakRATE, settings.rate_wpm, 0);
         espeak().SetParameter(espeakPITCH, settings.pitch, 0);
-        r.tokens = stress_tokens(text, inventory);
+        r.clauses = phoneme_clauses(text);
         g_collector = &r.collector;
         const espeak_ERROR status = espeak().Synth(text.c_str(), text.size() + 1, 0, POS_CHARACTER, 0,
                                                    espeakCHARS_UTF8, nullptr, nullptr);
@@ -220,11 +231,8 @@ std::string child_synthesis(const std::string& text, const TtsSettings& settings
         if (status != EE_OK) throw std::runtime_error(fmt::format("espeak-ng failed to synthesise (error {})", int(status)));
         w.i64(kOk);
         w.str(r.variant);
-        w.i64(static_cast<std::int64_t>(r.tokens.size()));
-        for (const auto& t : r.tokens) {
-            w.str(t.base);
-            w.i64(t.stress ? (*t.stress ? 1 : 0) : -1);
-        }
+        w.i64(static_cast<std::int64_t>(r.clauses.size()));
+        for (const auto& c : r.clauses) w.str(c);
         w.i64(static_cast<std::int64_t>(r.collector.phonemes.size()));
         for (const auto& e : r.collector.phonemes) {
             w.str(e.mnemonic);
@@ -247,10 +255,30 @@ std::string child_synthesis(const std::string& text, const TtsSettings& settings
     return w.data();
 }
 
-// Caller holds the mutex and has initialised espeak-ng.
-Synthesis synthesize_isolated(const std::string& text, const TtsSettings& settings, const PhoneInventory& inventory) {
+}  // namespace
+
+namespace detail {
+// A child synthesising one utterance: its process and the read end of the
+// pipe its answer comes through (PendingSpeech::State holds one).
+struct EspeakChild {
+    pid_t pid = -1;
+    int fd = -1;
+    int rate_hz = 0;
+};
+}  // namespace detail
+
+namespace {
+
+using detail::EspeakChild;
+
+// Forks the child for `text`. Caller holds the mutex and has initialised
+// espeak-ng. Both pipe ends are close-on-exec and the parent's write end is
+// closed before the mutex is released, so no other child (all are forked
+// under the mutex) or executed program holds it: the answer ends at the
+// child's exit.
+EspeakChild fork_child(const std::string& text, const TtsSettings& settings) {
     int fds[2];
-    if (::pipe(fds) != 0) throw std::runtime_error(fmt::format("tts: pipe failed: {}", std::strerror(errno)));
+    if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error(fmt::format("tts: pipe failed: {}", std::strerror(errno)));
     const pid_t pid = ::fork();
     if (pid < 0) {
         ::close(fds[0]);
@@ -259,7 +287,7 @@ Synthesis synthesize_isolated(const std::string& text, const TtsSettings& settin
     }
     if (pid == 0) {  // child
         ::close(fds[0]);
-        const std::string message = child_synthesis(text, settings, inventory);
+        const std::string message = child_synthesis(text, settings);
         std::size_t done = 0;
         while (done < message.size()) {
             const ssize_t n = ::write(fds[1], message.data() + done, message.size() - done);
@@ -270,18 +298,36 @@ Synthesis synthesize_isolated(const std::string& text, const TtsSettings& settin
         ::_exit(0);  // no destructors or atexit handlers of the parent's state
     }
     ::close(fds[1]);
+    return {pid, fds[0], g_sample_rate_hz};
+}
+
+// Ends a child whose answer will not be read.
+void abandon_child(EspeakChild& child) {
+    if (child.fd >= 0) ::close(child.fd);
+    if (child.pid > 0) {
+        ::kill(child.pid, SIGKILL);
+        while (::waitpid(child.pid, nullptr, 0) < 0 && errno == EINTR) {
+        }
+    }
+    child = {};
+}
+
+// Reads the child's answer and reaps it.
+Synthesis collect_child(EspeakChild& child) {
     std::string message;
     char buffer[1 << 16];
     for (;;) {
-        const ssize_t n = ::read(fds[0], buffer, sizeof buffer);
+        const ssize_t n = ::read(child.fd, buffer, sizeof buffer);
         if (n < 0 && errno == EINTR) continue;
         if (n <= 0) break;
         message.append(buffer, static_cast<std::size_t>(n));
     }
-    ::close(fds[0]);
+    ::close(child.fd);
+    child.fd = -1;
     int wstatus = 0;
-    while (::waitpid(pid, &wstatus, 0) < 0 && errno == EINTR) {
+    while (::waitpid(child.pid, &wstatus, 0) < 0 && errno == EINTR) {
     }
+    child.pid = -1;
     if (!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0 || message.empty())
         throw std::runtime_error(fmt::format("tts: the espeak-ng child process failed (status {})", wstatus));
 
@@ -295,12 +341,8 @@ Synthesis synthesize_isolated(const std::string& text, const TtsSettings& settin
     if (kind != kOk) throw std::runtime_error(r.str());
     Synthesis out;
     out.variant = r.str();
-    out.tokens.resize(r.count(2 * sizeof(std::int64_t)));
-    for (auto& t : out.tokens) {
-        t.base = r.str();
-        const std::int64_t stress = r.i64();
-        if (stress >= 0) t.stress = stress == 1;
-    }
+    out.clauses.resize(r.count(sizeof(std::int64_t)));
+    for (auto& c : out.clauses) c = r.str();
     out.collector.phonemes.resize(r.count(3 * sizeof(std::int64_t)));
     for (auto& e : out.collector.phonemes) {
         e.mnemonic = r.str();
@@ -361,27 +403,27 @@ TtsResult pad_edges(std::vector<SamplePhone> phones, std::vector<short> samples,
     return result;
 }
 
-TtsResult synthesize_espeak(const std::string& text, const TtsSettings& settings) {
+// Step 1: checks the settings and starts the utterance in a child process
+// (see fork_child).
+EspeakChild start_espeak(const std::string& text, const TtsSettings& settings) {
     if (settings.rate_wpm < espeakRATE_MINIMUM || settings.rate_wpm > espeakRATE_MAXIMUM)
         throw InputError("tts", 0, 0, "rate_wpm",
                          fmt::format("expected words per minute in [{}, {}], got {}", espeakRATE_MINIMUM,
                                      espeakRATE_MAXIMUM, settings.rate_wpm));
     if (settings.pitch < 0 || settings.pitch > 99)
         throw InputError("tts", 0, 0, "pitch", fmt::format("expected a pitch in [0, 99], got {}", settings.pitch));
-    const PhoneInventory& inventory = PhoneInventory::builtin();
+    std::lock_guard lock(g_espeak_mutex);
+    ensure_initialized();
+    return fork_child(text, settings);
+}
 
-    // Step 1: synthesise in a child process, collecting samples, events and
-    // stress (see synthesize_isolated).
-    Synthesis synthesis;
-    int rate_hz = 0;
-    {
-        std::lock_guard lock(g_espeak_mutex);
-        ensure_initialized();
-        rate_hz = g_sample_rate_hz;
-        synthesis = synthesize_isolated(text, settings, inventory);
-    }
+// Steps 2 to 4: the child's samples, events and stress as phones.
+TtsResult finish_espeak(EspeakChild& child, const std::string& text, const TtsSettings& settings) {
+    const PhoneInventory& inventory = PhoneInventory::builtin();  // read while the child speaks
+    const int rate_hz = child.rate_hz;
+    Synthesis synthesis = collect_child(child);
     Collector& collector = synthesis.collector;
-    const std::vector<StressToken>& tokens = synthesis.tokens;
+    const std::vector<StressToken> tokens = stress_tokens(synthesis.clauses, inventory);
     const std::string& variant = synthesis.variant;
     const std::string where = fmt::format("text \"{}\" (espeak-ng voice {})", text, settings.voice);
     if (collector.phonemes.empty() || collector.samples.empty())
@@ -554,17 +596,46 @@ std::vector<std::string> installed_tts_voices(TtsEngine engine) {
     return english_voice_languages();
 }
 
-TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings) {
+struct PendingSpeech::State {
+    std::string text;
+    TtsSettings settings;
+    EspeakChild child;  // espeak-ng: the child speaking it; Festival: none (spoken in get)
+
+    State(std::string t, TtsSettings s) : text(std::move(t)), settings(std::move(s)) {}
+    State(const State&) = delete;
+    State& operator=(const State&) = delete;
+    ~State() { abandon_child(child); }
+};
+
+PendingSpeech::PendingSpeech(std::unique_ptr<State> state) : m_state(std::move(state)) {}
+PendingSpeech::PendingSpeech(PendingSpeech&&) noexcept = default;
+PendingSpeech& PendingSpeech::operator=(PendingSpeech&&) noexcept = default;
+PendingSpeech::~PendingSpeech() = default;
+
+TtsResult PendingSpeech::get() {
+    if (!m_state) throw std::logic_error("PendingSpeech::get: the speech was already taken");
+    const std::unique_ptr<State> state = std::move(m_state);
+    TtsResult result = state->settings.engine == TtsEngine::Festival
+                           ? synthesize_festival(state->text, state->settings)
+                           : finish_espeak(state->child, state->text, state->settings);
+    if (state->settings.align_onsets) align_obstruent_onsets(result.audio, result.phones);
+    return result;
+}
+
+PendingSpeech start_speech(const std::string& text, const TtsSettings& settings) {
     if (text.find_first_not_of(" \t\r\n") == std::string::npos)
         throw InputError("tts", 0, 0, "text", "expected some text to speak, got an empty string");
     for (const auto& [name, value] : {std::pair{"lead_silence_s", settings.lead_silence_s},
                                       std::pair{"trail_silence_s", settings.trail_silence_s}})
         if (!(value >= 0.0 && value <= 60.0))
             throw InputError("tts", 0, 0, name, fmt::format("expected seconds in [0, 60], got {}", value));
-    TtsResult result = settings.engine == TtsEngine::Festival ? synthesize_festival(text, settings)
-                                                              : synthesize_espeak(text, settings);
-    if (settings.align_onsets) align_obstruent_onsets(result.audio, result.phones);
-    return result;
+    auto state = std::make_unique<PendingSpeech::State>(text, settings);
+    if (settings.engine == TtsEngine::Espeak) state->child = start_espeak(text, settings);
+    return PendingSpeech(std::move(state));
+}
+
+TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings) {
+    return start_speech(text, settings).get();
 }
 
 }  // namespace avsi

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <future>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -187,22 +187,22 @@ void run_synthesis(const SynthesisSettings& s) {
                                      guess.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", guess)));
     }
 
-    // The text is spoken on another thread while the model loads: most of
-    // what `synth --text` takes is espeak-ng's (loading the library, reading
-    // its voices, a child process), and the model file is read meanwhile.
-    // A bad model is still the error reported first.
-    std::future<TtsResult> speaking;
+    // An espeak-ng voice speaks the text in its own process while the model
+    // loads (most of what `synth --text` takes is espeak-ng's: its library,
+    // its voice files, the child process). A bad model is still the error
+    // reported first.
+    std::optional<PendingSpeech> speaking;
     if (have_text) {
         TtsSettings tts;
         tts.voice = s.voice;
-        speaking = std::async(std::launch::async, [text = s.text, tts] { return synthesize_speech(text, tts); });
+        speaking.emplace(start_speech(s.text, tts));
     }
     const auto model = load_model(s.model_path);
     PhoneSequence phones;
     if (have_phones) {
         phones = read_phones(s.phones_path);
     } else {
-        TtsResult speech = speaking.get();
+        TtsResult speech = speaking->get();
         phones = std::move(speech.phones);
         if (!s.wav_path.empty()) write_audio(s.wav_path, speech.audio);
     }

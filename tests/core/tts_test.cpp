@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <thread>
 
@@ -172,6 +173,64 @@ TEST(Tts, SpeechDoesNotDependOnWhatWasSpokenBefore) {
         EXPECT_EQ(again.phones[i].start_s, first.phones[i].start_s);
         EXPECT_EQ(again.phones[i].end_s, first.phones[i].end_s);
     }
+}
+
+// Zombie children of this process (State "Z" in /proc/<pid>/status).
+int zombie_children() {
+    int zombies = 0;
+    for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+        const std::string name = entry.path().filename().string();
+        if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+        std::ifstream status(entry.path() / "status");
+        std::string line, state;
+        long parent = -1;
+        while (std::getline(status, line)) {
+            if (line.rfind("State:", 0) == 0) state = line.substr(6);
+            if (line.rfind("PPid:", 0) == 0) parent = std::stol(line.substr(5));
+        }
+        if (parent == ::getpid() && state.find('Z') != std::string::npos) ++zombies;
+    }
+    return zombies;
+}
+
+// start_speech returns while the child speaks; several can be pending at
+// once, taken in any order, each the same as synthesize_speech gives.
+TEST(Tts, PendingSpeechGivesWhatSynthesizeSpeechGives) {
+    const TtsResult want = synthesize_speech("The boy fell from the window.");
+    TtsSettings slow;
+    slow.rate_wpm = 120;
+    const TtsResult want_slow = synthesize_speech("Come here John.", slow);
+    PendingSpeech first = start_speech("The boy fell from the window.");
+    PendingSpeech second = start_speech("Come here John.", slow);
+    const TtsResult got_slow = second.get();
+    const TtsResult got = first.get();
+    EXPECT_EQ(got.audio.samples, want.audio.samples);
+    EXPECT_EQ(got.phones, want.phones);
+    EXPECT_EQ(got_slow.audio.samples, want_slow.audio.samples);
+    EXPECT_EQ(got_slow.phones, want_slow.phones);
+    EXPECT_THROW(first.get(), std::logic_error);
+    // The child's errors come from get(): the voice is checked there.
+    TtsSettings unknown;
+    unknown.voice = "en-xx";
+    PendingSpeech bad = start_speech("Hello.", unknown);
+    EXPECT_THROW(bad.get(), InputError);
+    // Empty text is refused at once.
+    EXPECT_THROW(start_speech("  "), InputError);
+}
+
+// Speech started and never taken ends with its owner: the child is ended
+// and reaped, not left running or as a zombie.
+TEST(Tts, PendingSpeechNotTakenLeavesNoChild) {
+    const int before = zombie_children();
+    {
+        PendingSpeech a = start_speech("An utterance nobody waits for.");
+        PendingSpeech b = start_speech("Nor for this one.");
+        PendingSpeech moved = std::move(b);
+    }
+    EXPECT_EQ(zombie_children(), before);
+    // And the next utterance is unaffected.
+    const TtsResult again = synthesize_speech("The boy fell from the window.");
+    EXPECT_EQ(again.audio.samples, synthesize_speech("The boy fell from the window.").audio.samples);
 }
 
 // --- Festival --------------------------------------------------------------

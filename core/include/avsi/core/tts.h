@@ -26,6 +26,7 @@
 //   // r.phones: sil K AH1 M HH IH1 R JH AA1 N sil, r.audio: 32000 Hz mono
 #pragma once
 
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -82,6 +83,32 @@ TtsVoiceInfo describe_tts_voice(const TtsSettings& settings);
 // The installed voices the front end can use with `engine` (espeak-ng: the
 // English voices; Festival: voice.list), sorted.
 std::vector<std::string> installed_tts_voices(TtsEngine engine);
+
+// Speech started by start_speech, to be taken with get(). Movable; destroying
+// it untaken ends the synthesis.
+class PendingSpeech {
+public:
+    PendingSpeech(PendingSpeech&&) noexcept;
+    PendingSpeech& operator=(PendingSpeech&&) noexcept;
+    ~PendingSpeech();
+
+    // The result, as synthesize_speech gives it, or its error; once.
+    TtsResult get();
+
+    struct State;  // tts.cpp
+
+private:
+    explicit PendingSpeech(std::unique_ptr<State> state);
+    friend PendingSpeech start_speech(const std::string& text, const TtsSettings& settings);
+    std::unique_ptr<State> m_state;
+};
+
+// Starts synthesising `text` and returns: an espeak-ng voice speaks it in
+// its child process while the caller goes on (`avsi synth --text` loads its
+// model meanwhile); a Festival voice speaks it in get(). Throws here for
+// empty text or silences out of range, and from get() what else
+// synthesize_speech throws.
+PendingSpeech start_speech(const std::string& text, const TtsSettings& settings = {});
 
 // Synthesises `text`; with `align_onsets`, the phone times are the engine's
 // with each vowel-to-obstruent boundary moved to the audio's onset. Throws InputError for an unknown or non-English voice,
