@@ -1,4 +1,4 @@
-// `avsi synth`: phones (a label file, or text through espeak-ng) → control
+// `avsi synth`: phones (a label file, or text through espeak-ng or Festival) → control
 // model → articulatory trajectory (CSV or MPEG-4 FAP), optionally with an
 // SVG plot of one parameter's dominance functions and trajectory.
 #include <filesystem>
@@ -21,9 +21,17 @@ const bool registered_synth = register_command({
                        "Model file (JSON: rule, cohen-massaro, mpeg4-cohen-massaro or ohman)")
             ->capture_default_str();
         sub.add_option("--phones", o->phones_path, "Timed phones: .tsv, .TextGrid or .lab")->capture_default_str();
-        sub.add_option("--text", o->text, "Text to synthesise with espeak-ng (instead of --phones)")
+        sub.add_option("--text", o->text, "Text to synthesise (instead of --phones; see --tts)")
             ->capture_default_str();
-        sub.add_option("--voice", o->voice, "espeak-ng voice for --text")->capture_default_str();
+        CLI::Option* tts = sub.add_option("--tts", o->tts,
+                                          "Synthesiser and voice for --text: espeak:<voice> (en-us, en, en-gb-x-rp, "
+                                          "...) or festival:<voice> (cmu_us_slt_arctic_hts, kal_diphone); avsi phones "
+                                          "--list-voices shows the installed ones")
+                               ->capture_default_str();
+        auto voice = std::make_shared<std::string>();
+        CLI::Option* voice_option =
+            sub.add_option("--voice", *voice, "An espeak-ng voice for --text; the same as --tts espeak:<voice>");
+        voice_option->excludes(tts);
         sub.add_option("--wav", o->wav_path, "Write the synthesised speech here (with --text)")
             ->capture_default_str();
         auto* fps = sub.add_option("--fps", o->fps, "Frame rate of the trajectory")->capture_default_str();
@@ -36,8 +44,9 @@ const bool registered_synth = register_command({
             ->capture_default_str();
         sub.add_option("--plot", o->plot_path, "Write an SVG plot of one parameter here")->capture_default_str();
         sub.add_option("--param", o->plot_param, "Parameter to plot (snake_case name)")->capture_default_str();
-        return [o, fps] {
+        return [o, fps, voice] {
             o->fps_given = fps->count() > 0;
+            if (!voice->empty()) o->tts = "espeak:" + *voice;
             synth::run_synthesis(*o);
             return 0;
         };

@@ -544,6 +544,11 @@ void set_tts_voice(TtsSettings& settings, std::string_view spec, std::string_vie
                          fmt::format("expected \"espeak:<voice>\" or \"festival:<voice>\" (e.g. \"espeak:en-us\", "
                                      "\"festival:cmu_us_slt_arctic_hts\"), got \"{}\"",
                                      spec));
+    if (voice.rfind("espeak:", 0) == 0 || voice.rfind("festival:", 0) == 0)  // "espeak:" + --voice festival:x
+        throw InputError(std::string(where), 0, 0, "tts",
+                         fmt::format("\"{}\" names an engine twice; for this voice give \"{}\" alone (as --tts, "
+                                     "not --voice, which takes an espeak-ng voice)",
+                                     spec, voice));
     if (voice.empty() || voice.find_first_of(" \t\n\"'()") != std::string_view::npos)
         throw InputError(std::string(where), 0, 0, "tts",
                          fmt::format("expected a voice name after \"{}:\", got \"{}\"", engine, spec));

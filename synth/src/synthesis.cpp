@@ -188,13 +188,13 @@ void run_synthesis(const SynthesisSettings& s) {
     }
 
     // An espeak-ng voice speaks the text in its own process while the model
-    // loads (most of what `synth --text` takes is espeak-ng's: its library,
+    // loads (a Festival voice speaks in get()) (most of what `synth --text` takes is espeak-ng's: its library,
     // its voice files, the child process). A bad model is still the error
     // reported first.
     std::optional<PendingSpeech> speaking;
     if (have_text) {
         TtsSettings tts;
-        tts.voice = s.voice;
+        set_tts_voice(tts, s.tts, "--tts");
         speaking.emplace(start_speech(s.text, tts));
     }
     const auto model = load_model(s.model_path);

@@ -270,6 +270,14 @@ TEST(TtsVoiceSpec, ParsesEngineAndVoice) {
         }
     }
     EXPECT_EQ(tts_voice_spec(s), "espeak:en-gb-x-rp");  // unchanged by the failures
+    // A Festival voice given where an espeak-ng voice goes (`--voice festival:x`
+    // becomes "espeak:festival:x") says what to give instead.
+    try {
+        set_tts_voice(s, "espeak:festival:kal_diphone", "--tts");
+        ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("give \"festival:kal_diphone\" alone"), std::string::npos) << e.what();
+    }
 }
 
 TEST(TtsFestival, ComeHereJohnGivesItsPhonesCoveringTheAudio) {

@@ -165,6 +165,33 @@ TEST_F(SynthCli, TextToCsvAndFapFollowTheFrameRule) {
     EXPECT_EQ(stream.frames.size(), frame_count(duration_s, 90.0));
 }
 
+// --tts picks the synthesiser as for `avsi phones`: a Festival voice's
+// trajectory covers the phones Festival gives, and its audio is the same.
+// --voice is an espeak-ng voice, the same as --tts espeak:<voice>.
+TEST_F(SynthCli, TextWithAFestivalVoiceFollowsItsPhones) {
+    RunResult r = run_avsi(dir, "phones --text 'Come here John.' --tts festival:kal_diphone --wav " +
+                                    quote(dir / "p.wav") + " --out " + quote(dir / "p.tsv"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const double duration_s = read_phones(dir / "p.tsv").back().end_s;
+    r = run_avsi(dir, "synth --text 'Come here John.' --tts festival:kal_diphone --wav " + quote(dir / "s.wav") +
+                          " --out " + quote(dir / "t.csv"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(read_text_file(dir / "s.wav"), read_text_file(dir / "p.wav"));
+    EXPECT_EQ(read_trajectory_csv(dir / "t.csv").size(), frame_count(duration_s, 60.0));
+
+    r = run_avsi(dir, "synth --text 'Come here John.' --voice en-us --out " + quote(dir / "v.csv"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    r = run_avsi(dir, "synth --text 'Come here John.' --tts espeak:en-us --out " + quote(dir / "w.csv"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(read_text_file(dir / "v.csv"), read_text_file(dir / "w.csv"));
+    EXPECT_EQ(run_avsi(dir, "synth --text hi --voice en --tts espeak:en --out x.csv").exit_code, 2);
+    // A Festival voice given as --voice says what to give instead.
+    r = run_avsi(dir, "synth --text hi --voice festival:kal_diphone --out " + quote(dir / "x.csv"));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find("give \"festival:kal_diphone\" alone (as --tts"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "x.csv"));
+}
+
 TEST_F(SynthCli, BadInputsGiveFileLineAndExitCode1) {
     // A phone line without its label (line 3 of the file).
     const fs::path bad_tsv = fs::path(AVSI_TEST_DATA_DIR) / "core" / "malformed.tsv";

@@ -18,7 +18,7 @@ struct SynthesisSettings {
     std::filesystem::path model_path;
     std::filesystem::path phones_path;   // .tsv, .TextGrid or .lab; or
     std::string text;                    // text for the TTS front end
-    std::string voice = "en-us";         // TTS voice (with text)
+    std::string tts = "espeak:en-us";    // TTS engine and voice (with text), as set_tts_voice reads it
     std::filesystem::path wav_path;      // TTS audio out (with text), optional
     double fps = 60.0;
     std::filesystem::path out_path;
