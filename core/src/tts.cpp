@@ -104,17 +104,24 @@ std::vector<std::string> english_voice_languages() {
     return out;
 }
 
-// Selects the voice; returns the phone-map variant ("" for en-us tables, "en"
-// for the non-rhotic English tables). Caller holds the mutex.
-std::string select_voice(const std::string& voice) {
-    const auto english = english_voice_languages();
+// The English voices as a list for an error message.
+std::string english_voice_list() {
     std::string list;
-    for (const auto& l : english) list += (list.empty() ? "" : ", ") + l;
+    for (const auto& l : english_voice_languages()) list += (list.empty() ? "" : ", ") + l;
+    return list;
+}
+
+// Selects the voice; returns the phone-map variant ("" for en-us tables, "en"
+// for the non-rhotic English tables). Caller holds the mutex. The installed
+// voices are listed only for an error: espeak_SetVoiceByName lists them
+// itself unless this process already has (start_espeak).
+std::string select_voice(const std::string& voice) {
     if (voice.empty() || espeak().SetVoiceByName(voice.c_str()) != EE_OK) {
-        const std::string close = closest_match(voice, english);
+        const std::string close = closest_match(voice, english_voice_languages());
         throw InputError("tts", 0, 0, "voice",
                          fmt::format("unknown espeak-ng voice \"{}\"{}; English voices: {}", voice,
-                                     close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close), list));
+                                     close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close),
+                                     english_voice_list()));
     }
     const espeak_VOICE* current = espeak().GetCurrentVoice();
     const std::string language = current && current->languages ? std::string(current->languages + 1) : "";
@@ -123,7 +130,7 @@ std::string select_voice(const std::string& voice) {
         throw InputError("tts", 0, 0, "voice",
                          fmt::format("voice \"{}\" speaks \"{}\"; the phone mapping covers English voices "
                                      "only: {}",
-                                     voice, language, list));
+                                     voice, language, english_voice_list()));
     std::string id_lower = identifier;
     for (char& c : id_lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     return id_lower.find("en-us") != std::string::npos ? "" : "en";
@@ -414,6 +421,12 @@ EspeakChild start_espeak(const std::string& text, const TtsSettings& settings) {
         throw InputError("tts", 0, 0, "pitch", fmt::format("expected a pitch in [0, 99], got {}", settings.pitch));
     std::lock_guard lock(g_espeak_mutex);
     ensure_initialized();
+    // Finding a voice by name reads every installed voice file (190 of them,
+    // about 3.5 ms) unless the voices are listed already. The first child
+    // lists them itself while this process goes on; before the second, this
+    // process lists them once, and every later child finds the list made.
+    static int forked = 0;
+    if (forked++ == 1) espeak().ListVoices(nullptr);
     return fork_child(text, settings);
 }
 

@@ -233,6 +233,30 @@ TEST(Tts, PendingSpeechNotTakenLeavesNoChild) {
     EXPECT_EQ(again.audio.samples, synthesize_speech("The boy fell from the window.").audio.samples);
 }
 
+// The first utterance of a process (its child reads espeak-ng's voice files
+// itself) and a later one (the process listed the voices before forking)
+// are the same speech, to the sample.
+TEST(Tts, FirstUtteranceOfAProcessIsTheSameAsALaterOne) {
+    if (!std::filesystem::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
+    const std::string text = "She sells sea shells by the sea shore.";
+    (void)synthesize_speech("One.");
+    (void)synthesize_speech("Two.");
+    const TtsResult later = synthesize_speech(text);
+    const auto dir = std::filesystem::temp_directory_path() / ("avsi_tts_first_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string command = std::string(AVSI_CLI_PATH) + " phones --text '" + text + "' --wav " +
+                                (dir / "s.wav").string() + " --out " + (dir / "s.tsv").string() + " 2>/dev/null";
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+    const Audio first = read_audio(dir / "s.wav");
+    const PhoneSequence first_phones = read_phones(dir / "s.tsv");
+    std::filesystem::remove_all(dir);
+    ASSERT_EQ(first.samples.size(), later.audio.samples.size());
+    for (std::size_t i = 0; i < first.samples.size(); ++i)
+        ASSERT_NEAR(first.samples[i], later.audio.samples[i], 1.0 / 32768) << i;  // 16-bit WAV
+    ASSERT_EQ(first_phones.size(), later.phones.size());
+    for (std::size_t i = 0; i < first_phones.size(); ++i) EXPECT_EQ(first_phones[i].symbol, later.phones[i].symbol);
+}
+
 // --- Festival --------------------------------------------------------------
 
 TtsSettings festival(const std::string& voice = "cmu_us_slt_arctic_hts") {
