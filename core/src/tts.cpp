@@ -59,6 +59,7 @@ const detail::EspeakLibrary& espeak() { return detail::espeak_library(); }
 std::mutex g_espeak_mutex;  // espeak-ng's state is global and not thread-safe
 Collector* g_collector = nullptr;
 int g_sample_rate_hz = 0;
+int g_children_forked = 0;  // by start_espeak
 
 int synth_callback(short* wav, int count, espeak_EVENT* events) {
     if (!g_collector) return 1;
@@ -425,8 +426,7 @@ EspeakChild start_espeak(const std::string& text, const TtsSettings& settings) {
     // about 3.5 ms) unless the voices are listed already. The first child
     // lists them itself while this process goes on; before the second, this
     // process lists them once, and every later child finds the list made.
-    static int forked = 0;
-    if (forked++ == 1) espeak().ListVoices(nullptr);
+    if (g_children_forked++ == 1) espeak().ListVoices(nullptr);
     return fork_child(text, settings);
 }
 

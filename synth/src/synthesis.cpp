@@ -188,9 +188,10 @@ void run_synthesis(const SynthesisSettings& s) {
     }
 
     // An espeak-ng voice speaks the text in its own process while the model
-    // loads (a Festival voice speaks in get()) (most of what `synth --text` takes is espeak-ng's: its library,
-    // its voice files, the child process). A bad model is still the error
-    // reported first.
+    // loads: most of what `synth --text` takes is espeak-ng's (its library,
+    // its voice files, the child process). A Festival voice speaks in get().
+    // A bad --tts or empty text is refused first; then a bad model, before
+    // anything the utterance itself gets wrong (an unknown voice).
     std::optional<PendingSpeech> speaking;
     if (have_text) {
         TtsSettings tts;

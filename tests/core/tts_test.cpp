@@ -21,6 +21,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/onsets.h"
+#include "../cli_run.h"
 
 namespace avsi {
 namespace {
@@ -244,9 +245,11 @@ TEST(Tts, FirstUtteranceOfAProcessIsTheSameAsALaterOne) {
     const TtsResult later = synthesize_speech(text);
     const auto dir = std::filesystem::temp_directory_path() / ("avsi_tts_first_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
-    const std::string command = std::string(AVSI_CLI_PATH) + " phones --text '" + text + "' --wav " +
-                                (dir / "s.wav").string() + " --out " + (dir / "s.tsv").string() + " 2>/dev/null";
-    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+    const test::CliResult r = test::run_avsi("phones --text " + test::shell_quote(text) + " --wav " +
+                                                 test::shell_quote((dir / "s.wav").string()) + " --out " +
+                                                 test::shell_quote((dir / "s.tsv").string()),
+                                             dir);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
     const Audio first = read_audio(dir / "s.wav");
     const PhoneSequence first_phones = read_phones(dir / "s.tsv");
     std::filesystem::remove_all(dir);

@@ -95,9 +95,8 @@ public:
     // The result, as synthesize_speech gives it, or its error; once.
     TtsResult get();
 
-    struct State;  // tts.cpp
-
 private:
+    struct State;  // tts.cpp
     explicit PendingSpeech(std::unique_ptr<State> state);
     friend PendingSpeech start_speech(const std::string& text, const TtsSettings& settings);
     std::unique_ptr<State> m_state;
