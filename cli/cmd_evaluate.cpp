@@ -39,7 +39,7 @@ const bool registered_evaluate = register_command({
         sub.add_flag("!--no-phonetic", *phonetic,
                      "Leave out the phonetic columns (bilabial closure and labiodental contact measured on the head)");
         sub.add_flag("--closure-hold", s->closure_hold,
-                     "Also score each model with the closure hold (closure = \"hold\" in a protocol), as <name>+hold");
+                     "Also score each model under the closure constraint (closure = \"hold\" in a protocol), as <name>+hold");
         return [s, seed, fraction, seed_opt, fraction_opt, head, phonetic] {
             if (seed_opt->count()) s->split_seed = *seed;
             if (fraction_opt->count()) s->test_fraction = *fraction;
@@ -49,6 +49,12 @@ const bool registered_evaluate = register_command({
                 loaded = std::make_shared<const stimuli::Head>(stimuli::load_head(head->obj, head->rig));
                 meter = std::make_shared<const stimuli::ArticulationMeter>(*loaded);
                 s->articulation = [meter, loaded](const synth::Trajectory& t) { return meter->measure(t); };
+                s->lip_tasks = [meter, loaded](const synth::Frame& frame) {
+                    stimuli::Pose pose;
+                    pose.params = frame;
+                    const auto m = meter->measure(pose);
+                    return synth::LipTaskMeasures{m.aperture_max_mm, m.lip_to_incisors_mm};
+                };
                 s->articulation_head = head->rig == stimuli::default_head_rig() ? "the built-in head"
                                                                                 : head->rig.filename().string();
             }

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <map>
 #include <set>
 
 #include <fmt/format.h>
@@ -80,6 +81,104 @@ void read_tts(const ConfigSection& corpus, CorpusSettings& out, DiagnosticList& 
     }
     out.tts_engine = settings.engine;
     out.tts_voice = settings.voice;
+}
+
+// A model condition's post-processing policy, as a reader of the methods
+// section would name it.
+std::string policy_text(const ProtocolCondition& c) {
+    return c.closure_hold ? fmt::format("closure = \"hold\" with closure_transition_s = {:g}", c.closure_transition_s)
+                          : std::string("closure = \"off\"");
+}
+
+std::string joined(const std::vector<std::string>& names) {
+    std::string out;
+    for (std::size_t i = 0; i < names.size(); ++i)
+        out += (i == 0 ? "" : i + 1 == names.size() ? " and " : ", ") + names[i];
+    return out;
+}
+
+bool same_file(const fs::path& a, const fs::path& b) {
+    std::error_code ea, eb;
+    const fs::path ca = fs::weakly_canonical(a, ea), cb = fs::weakly_canonical(b, eb);
+    return (ea || eb) ? a.lexically_normal() == b.lexically_normal() : ca == cb;
+}
+
+// The fair-comparison rule (DESIGN.md, "Validity checks"): the model
+// conditions share one post-processing policy, except declared variants
+// (variant_of), which must be the same model as their base under another
+// policy, so that the policy is a factor of the design.
+void check_condition_policies(const Protocol& p, const std::vector<const ConfigSection*>& sections,
+                              DiagnosticList& problems) {
+    std::map<std::string, std::vector<std::string>> by_policy;  // policy → base model conditions
+    const ConfigSection* first_section = nullptr;  // the first held base condition's
+    std::string first_name;
+    for (std::size_t i = 0; i < p.conditions.size() && i < sections.size(); ++i) {
+        const ProtocolCondition& c = p.conditions[i];
+        const ConfigSection& section = *sections[i];
+        if (c.variant_of.empty()) {
+            if (c.face != FaceMode::Model) continue;
+            by_policy[policy_text(c)].push_back(c.name);
+            if (c.closure_hold && !first_section) {
+                first_section = &section;
+                first_name = c.name;
+            }
+            continue;
+        }
+        if (c.face != FaceMode::Model) {
+            section.report("variant_of", "only a model condition can be a policy variant (it needs face = \"model\")",
+                           problems);
+            continue;
+        }
+        const int base_index = p.condition_index(c.variant_of);
+        if (base_index < 0) {
+            std::string message = fmt::format("expected the name of a [[condition]], got \"{}\"", c.variant_of);
+            const std::string hint = closest_match(c.variant_of, p.condition_names());
+            if (!hint.empty()) message += " (did you mean \"" + hint + "\"?)";
+            section.report("variant_of", message, problems);
+            continue;
+        }
+        const ProtocolCondition& base = p.conditions[static_cast<std::size_t>(base_index)];
+        if (&base == &c)
+            section.report("variant_of", "a condition cannot be a variant of itself", problems);
+        else if (!base.variant_of.empty())
+            section.report("variant_of",
+                           fmt::format("\"{}\" is itself a variant: name the condition that shows the model as "
+                                       "trained{}",
+                                       base.name,
+                                       p.condition_index(base.variant_of) >= 0
+                                           ? fmt::format(" (variant_of = \"{}\")", base.variant_of)
+                                           : std::string()),
+                           problems);
+        else if (base.face != FaceMode::Model || base.model.empty() || c.model.empty() ||
+                 !same_file(base.model, c.model))
+            section.report("variant_of",
+                           fmt::format("a policy variant shows the same model as its base under another policy, but "
+                                       "\"{}\" {}", base.name,
+                                       base.face != FaceMode::Model ? std::string("has no model")
+                                                                    : "uses " + base.model.filename().string() +
+                                                                          ", this condition " +
+                                                                          c.model.filename().string()),
+                           problems);
+        else if (policy_text(base) == policy_text(c))
+            section.report("variant_of",
+                           fmt::format("the same model under the same policy as \"{}\" ({}): a variant differs "
+                                       "from its base in its post-processing",
+                                       base.name, policy_text(c)),
+                           problems);
+    }
+    if (by_policy.size() < 2) return;
+    std::string parts;
+    for (const auto& [policy, names] : by_policy)
+        parts += fmt::format("{}{} on {}", parts.empty() ? "" : "; ", policy, joined(names));
+    const ConfigSection& at = first_section ? *first_section : *sections.front();
+    const std::string example = first_section ? first_name : p.conditions.front().name;
+    at.report(first_section ? "closure" : "name",
+              fmt::format("the model conditions are post-processed differently ({}): a policy must apply to every "
+                          "model condition alike, or be a declared factor of the design. Show each model as "
+                          "trained and add the held one as its own condition (name = \"{}+hold\", the same "
+                          "model, closure = \"hold\", variant_of = \"{}\")",
+                          parts, example, example),
+              problems);
 }
 
 }  // namespace
@@ -211,6 +310,7 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
             c->report("closure", "the closure mechanism acts on a control model: it needs face = \"model\"", problems);
         if (c->has("closure_transition_s") && !cond.closure_hold)
             c->report("closure_transition_s", "only used with closure = \"hold\"", problems);
+        cond.variant_of = c->get_string("variant_of", "", problems);
         if (const ConfigSection* layers = c->get_table("layers", problems)) {
             cond.layers = *layers;
             if (cond.face != FaceMode::Model)
@@ -221,6 +321,7 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         p.conditions.push_back(std::move(cond));
     }
     const std::vector<std::string> condition_names = p.condition_names();
+    check_condition_policies(p, conditions, problems);
 
     // [vocoder] — validated by the vocoder module.
     if (const ConfigSection* v = root.get_table("vocoder", problems))

@@ -303,7 +303,7 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
             throw InputError(mpath, fmt::format("expected a JSON object (an avsi articulatory corpus manifest), got {}",
                                                 j.dump().substr(0, 40)));
         static const std::vector<std::string> top = {"format", "version", "name", "split", "sensor_mapping",
-                                                     "utterances", "description", "generator"};
+                                                     "utterances", "description", "generator", "synthetic"};
         for (const auto& [key, value] : j.items())
             if (std::find(top.begin(), top.end(), key) == top.end()) {
                 const std::string hint = closest_match(key, top);
@@ -316,6 +316,10 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
                          fmt::format("expected \"avsi-articulatory-corpus\", got {}",
                                      j.contains("format") ? j["format"].dump() : "nothing"));
         if (j.contains("name") && j["name"].is_string()) corpus.name = j["name"].get<std::string>();
+        if (j.contains("synthetic")) {
+            if (j["synthetic"].is_boolean()) corpus.synthetic = j["synthetic"].get<bool>();
+            else problems.add(mpath, 0, 0, "synthetic", fmt::format("expected true or false, got {}", j["synthetic"].dump()));
+        }
         if (j.contains("split")) {
             const json& s = j["split"];
             if (s.contains("seed") && s["seed"].is_number_unsigned()) corpus.split_seed = s["seed"].get<std::uint64_t>();
@@ -443,11 +447,12 @@ std::vector<CorpusUtterance> load_corpus_utterances(const ArticulatoryCorpus& co
 }
 
 void write_corpus_manifest(const fs::path& dir, const std::string& name, const std::vector<CorpusEntry>& entries,
-                           std::uint64_t split_seed, double test_fraction) {
+                           std::uint64_t split_seed, double test_fraction, bool synthetic) {
     json j;
     j["format"] = "avsi-articulatory-corpus";
     j["version"] = 1;
     j["name"] = name;
+    if (synthetic) j["synthetic"] = true;
     j["split"] = {{"seed", split_seed}, {"test_fraction", test_fraction}};
     j["utterances"] = json::array();
     for (const auto& e : entries) {

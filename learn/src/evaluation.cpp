@@ -13,7 +13,6 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/synth/control_model.h"
-#include "avsi/synth/target_hold.h"
 #include "svg_plot.h"
 
 namespace avsi::learn {
@@ -124,7 +123,7 @@ std::optional<Trajectory> complete_track(const ParamTrack& track) {
 }
 
 // Adds one utterance: the model's checks, and its errors against the reference's measures.
-void add_phonetic(PhoneticSums& sums, const PhoneSequence& phones, double fps,
+void add_phonetic(PhoneticSums& sums, const std::string& utterance, const PhoneSequence& phones, double fps,
                   const std::vector<synth::ArticulationMeasures>& model,
                   const std::vector<synth::ArticulationMeasures>* reference) {
     const auto summary = synth::check_articulation(phones, fps, model);
@@ -133,6 +132,14 @@ void add_phonetic(PhoneticSums& sums, const PhoneSequence& phones, double fps,
     sums.scores.labiodentals += summary.labiodentals;
     sums.scores.labiodentals_reached += summary.labiodentals_reached;
     ++sums.scores.utterances;
+    for (const auto& seg : summary.segments) {
+        auto& worst = seg.kind == synth::SegmentClass::Bilabial ? sums.scores.worst_bilabials
+                                                                : sums.scores.worst_labiodentals;
+        worst.push_back({utterance, seg.phone, seg.start_s, seg.end_s, seg.best_mm});
+        std::stable_sort(worst.begin(), worst.end(),
+                         [](const PhoneticSegment& a, const PhoneticSegment& b) { return a.distance_mm > b.distance_mm; });
+        if (worst.size() > PhoneticScores::worst_segments_kept) worst.pop_back();
+    }
     if (!reference) return;
     for (const auto& seg : summary.segments)
         for (std::size_t k = 0; k < model.size() && k < reference->size(); ++k) {
@@ -176,7 +183,7 @@ std::vector<ModelScores> evaluate_predictors(const std::vector<CorpusUtterance>&
                 Trajectory predicted;
                 predicted.fps = u.track.fps;
                 predicted.frames = frames;
-                add_phonetic(phonetic, u.phones, u.track.fps, articulation(predicted),
+                add_phonetic(phonetic, u.id, u.phones, u.track.fps, articulation(predicted),
                              reference[i] ? &*reference[i] : nullptr);
             }
         }
@@ -192,7 +199,7 @@ PhoneticScores reference_phonetic_scores(const std::vector<CorpusUtterance>& utt
     for (const auto& u : utterances)
         if (const auto track = complete_track(u.track)) {
             const auto m = articulation(*track);
-            add_phonetic(sums, u.phones, track->fps, m, &m);
+            add_phonetic(sums, u.id, u.phones, track->fps, m, &m);
         }
     return sums.finish();
 }
@@ -274,6 +281,19 @@ std::string phonetic_markdown(const PhoneticScores& reference, const std::vector
     md += phonetic_row("reference data", reference);
     for (const auto& m : scores)
         if (m.phonetic) md += phonetic_row(m.name, *m.phonetic);
+    return md;
+}
+
+std::string worst_segments_markdown(const std::vector<ModelScores>& scores) {
+    std::string md = "| model | segment | utterance | phone | time (s) | distance (mm) |\n| --- | --- | --- | --- | ---: | ---: |\n";
+    for (const auto& m : scores) {
+        if (!m.phonetic) continue;
+        for (const auto* list : {&m.phonetic->worst_bilabials, &m.phonetic->worst_labiodentals})
+            for (const auto& w : *list)
+                md += fmt::format("| {} | {} | {} | {} | {:.3f} – {:.3f} | {:.2f} |\n", m.name,
+                                  list == &m.phonetic->worst_bilabials ? "lip aperture" : "lower lip to incisors",
+                                  w.utterance, w.phone, w.start_s, w.end_s, w.distance_mm);
+    }
     return md;
 }
 
@@ -384,10 +404,15 @@ EvaluationResult run_evaluation(const EvaluationSettings& settings) {
         predictors.push_back({std::move(name), [m](const PhoneSequence& phones, std::span<const double> times,
                                                    std::vector<Frame>& out) { m->evaluate(phones, times, out); }});
     };
+    if (settings.closure_hold && !settings.lip_tasks)
+        throw InputError("", 0, 0, "--closure-hold",
+                         "the closure constraint measures the lips on a head: leave out --no-phonetic");
     for (const auto& path : settings.models) {
         std::shared_ptr<const ControlModel> model = load_model(path);
         add(model, path.stem().string());
-        if (settings.closure_hold) add(with_target_hold(model, TargetHoldSettings{}), path.stem().string() + "+hold");
+        if (settings.closure_hold)
+            add(std::make_shared<ClosureConstrainedModel>(model, settings.lip_tasks, ClosureSettings{}),
+                path.stem().string() + "+hold");
     }
     log_info("evaluating {} model(s) on {} {} utterances of {}", models.size(), ids.size(), settings.subset,
              corpus.name);
@@ -402,6 +427,11 @@ EvaluationResult run_evaluation(const EvaluationSettings& settings) {
         "test fraction {}).",
         corpus.name, corpus.hash.substr(0, 12), settings.subset, utterances.size(), split.seed, split.test_fraction);
     result.markdown = scores_markdown(result.scores, caption);
+    if (corpus.synthetic)
+        result.markdown +=
+            "\nThis corpus is synthetic (its manifest says \"synthetic\": true): the table checks the training "
+            "pipeline — how well each model learns a speaker whose mechanism none of them shares — and is not a "
+            "replication of Table 2 of the reference study, which needs real articulography (docs/articulography.md).\n";
     const fs::path base = settings.out;
     if (settings.articulation) {
         result.reference = reference_phonetic_scores(utterances, settings.articulation);
@@ -412,6 +442,11 @@ EvaluationResult run_evaluation(const EvaluationSettings& settings) {
             "reference track's measures over the segments' frames.\n\n{}",
             settings.articulation_head.empty() ? std::string("the head") : settings.articulation_head,
             phonetic_markdown(*result.reference, result.scores));
+        result.markdown += fmt::format(
+            "\nFor a trained model these are results, not constraints: how often it closes the lips for /p b m/ and "
+            "brings the lower lip to the upper incisors for /f v/ in running speech. The worst segments of each "
+            "model:\n\n{}",
+            worst_segments_markdown(result.scores));
         write_text_file(fs::path(base.string() + "_phonetic.csv"), phonetic_csv(*result.reference, result.scores));
     }
     write_text_file(fs::path(base.string() + ".md"), result.markdown);

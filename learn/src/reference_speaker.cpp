@@ -1,14 +1,17 @@
-// The synthetic reference speaker (reference_speaker.h): critically damped
-// articulator dynamics toward phone targets with anticipatory onset, over
+// The synthetic reference speaker (reference_speaker.h): overlapping phone
+// gestures on lip and jaw tract variables (task dynamics, Saltzman & Munhall
+// 1989), solved to the parameters through the built-in head's geometry, over
 // espeak-ng-timed English sentences.
 #include "avsi/learn/reference_speaker.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <map>
 #include <optional>
 
+#include <Eigen/Dense>
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
@@ -23,248 +26,88 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double U = std::numeric_limits<double>::quiet_NaN();  // unspecified
+constexpr std::size_t LA = static_cast<std::size_t>(TractVariable::LipAperture);
+constexpr std::size_t LW = static_cast<std::size_t>(TractVariable::LipWidth);
+constexpr std::size_t UP = static_cast<std::size_t>(TractVariable::UpperProtrusion);
+constexpr std::size_t LP = static_cast<std::size_t>(TractVariable::LowerProtrusion);
+constexpr std::size_t JO = static_cast<std::size_t>(TractVariable::JawOpening);
 
-// Targets in study order: jaw_rotation, lip_rounding, upper_lip_retraction,
-// upper_lip_raise, lower_lip_retraction, lower_lip_depression,
-// mouth_corner_stretch_left, mouth_corner_stretch_right, jaw_thrust,
-// jaw_shift. The right corner is the left one × 0.9 (a slight asymmetry);
-// jaw_shift is always 0 (it only drifts). U = unspecified (next vowel's).
-using Target = std::array<double, param_count>;
+// The source speaker's rest values in task_targets.tsv (its header):
+// lips touching, 54 mm wide, protrusion 0, jaw 2.2 mm below teeth together.
+constexpr double source_rest_width_mm = 54.0;
+constexpr double source_rest_jaw_mm = 2.2;
 
-Target t(double jaw, double round, double ulret, double ulraise, double llret, double lldep, double corner,
-         double thrust) {
-    return {jaw, round, ulret, ulraise, llret, lldep, corner, std::isnan(corner) ? U : 0.9 * corner, thrust, 0.0};
-}
+// Blending strengths (Saltzman & Munhall's α) and the rest attractor's.
+constexpr double consonant_strength = 100.0;
+constexpr double vowel_strength = 1.0;
+constexpr double rest_strength = 0.01;
+constexpr double ramp_s = 0.010;  // raised-cosine activation ramps
 
-struct PhoneTargets {
-    Target first;
-    std::optional<Target> second;  // diphthongs: target of the second half
+using TaskVector = std::array<double, tract_variable_count>;
+
+// A gesture: an activation interval, its targets on the face (mm), its
+// blending strength, and its duration-limited stiffness.
+struct Gesture {
+    double on_s, off_s;
+    std::array<std::optional<double>, tract_variable_count> target;
+    double strength;
+    bool consonant;
 };
 
-const std::map<std::string, PhoneTargets, std::less<>>& target_table() {
-    static const std::map<std::string, PhoneTargets, std::less<>> table = [] {
-        const Target AA = t(0.85, 0.00, 0.10, 0.25, 0.05, 0.35, 0.10, -0.10);
-        const Target AE = t(0.75, -0.30, 0.30, 0.30, 0.20, 0.40, 0.45, 0.00);
-        const Target AH = t(0.60, 0.00, 0.10, 0.20, 0.05, 0.25, 0.15, 0.00);
-        const Target AO = t(0.70, 0.55, -0.40, 0.15, -0.35, 0.25, -0.20, -0.05);
-        const Target EH = t(0.55, -0.25, 0.30, 0.25, 0.20, 0.30, 0.40, 0.00);
-        const Target ER = t(0.35, 0.40, -0.30, 0.10, -0.25, 0.10, -0.10, 0.00);
-        const Target IH = t(0.30, -0.35, 0.35, 0.15, 0.25, 0.15, 0.50, 0.03);
-        const Target IY = t(0.20, -0.45, 0.45, 0.15, 0.35, 0.10, 0.70, 0.05);
-        const Target UH = t(0.30, 0.60, -0.50, 0.05, -0.45, 0.05, -0.30, 0.00);
-        const Target UW = t(0.20, 0.90, -0.80, 0.00, -0.70, 0.00, -0.45, 0.00);
-        const Target OW1 = t(0.55, 0.60, -0.45, 0.10, -0.40, 0.15, -0.25, -0.03);
-        std::map<std::string, PhoneTargets, std::less<>> m;
-        m["AA"] = {AA, {}};
-        m["AE"] = {AE, {}};
-        m["AH"] = {AH, {}};
-        m["AO"] = {AO, {}};
-        m["EH"] = {EH, {}};
-        m["ER"] = {ER, {}};
-        m["IH"] = {IH, {}};
-        m["IY"] = {IY, {}};
-        m["UH"] = {UH, {}};
-        m["UW"] = {UW, {}};
-        m["AW"] = {AA, UH};
-        m["AY"] = {AA, IH};
-        m["EY"] = {EH, IY};
-        m["OW"] = {OW1, UW};
-        m["OY"] = {AO, IY};
-        // Consonants: what the place of articulation constrains.
-        // Bilabials aim beyond contact (a virtual target: the lips stop each
-        // other, Löfqvist & Gracco 1997), ~3-4 mm of overlap on the built-in head.
-        m["P"] = {t(0.04, U, U, -0.40, U, -0.50, U, U), {}};
-        m["B"] = {t(0.05, U, U, -0.38, U, -0.48, U, U), {}};
-        m["M"] = {t(0.06, U, U, -0.35, U, -0.46, U, U), {}};
-        // Labiodentals: the lower lip under the upper incisors, the upper lip
-        // raised off them, little rounding (protruded lips would leave the teeth).
-        m["F"] = {t(0.12, 0.15, U, 0.45, 0.75, 0.00, U, -0.05), {}};
-        m["V"] = {t(0.12, 0.15, U, 0.42, 0.72, 0.02, U, -0.05), {}};
-        m["TH"] = {t(0.18, U, U, 0.10, U, 0.15, U, 0.05), {}};
-        m["DH"] = {t(0.16, U, U, 0.08, U, 0.12, U, 0.05), {}};
-        m["T"] = {t(0.15, U, U, U, U, U, U, 0.05), {}};
-        m["D"] = {t(0.15, U, U, U, U, U, U, 0.05), {}};
-        m["N"] = {t(0.15, U, U, U, U, U, U, 0.03), {}};
-        m["L"] = {t(0.22, U, U, U, U, U, U, 0.00), {}};
-        m["S"] = {t(0.07, U, U, 0.10, U, 0.05, 0.30, 0.15), {}};
-        m["Z"] = {t(0.08, U, U, 0.10, U, 0.05, 0.28, 0.15), {}};
-        m["SH"] = {t(0.10, 0.60, -0.60, 0.20, -0.50, 0.20, -0.30, 0.10), {}};
-        m["ZH"] = {t(0.10, 0.55, -0.55, 0.20, -0.45, 0.20, -0.28, 0.10), {}};
-        m["CH"] = {t(0.10, 0.60, -0.60, 0.20, -0.50, 0.20, -0.30, 0.10), {}};
-        m["JH"] = {t(0.10, 0.55, -0.55, 0.20, -0.45, 0.20, -0.28, 0.10), {}};
-        m["K"] = {t(0.28, U, U, U, U, U, U, U), {}};
-        m["G"] = {t(0.28, U, U, U, U, U, U, U), {}};
-        m["NG"] = {t(0.25, U, U, U, U, U, U, U), {}};
-        m["HH"] = {t(U, U, U, U, U, U, U, U), {}};
-        m["R"] = {t(0.20, 0.45, -0.35, 0.10, -0.30, 0.05, -0.15, 0.00), {}};
-        m["W"] = {t(0.12, 0.95, -0.80, 0.00, -0.70, -0.05, -0.45, 0.00), {}};
-        m["Y"] = {t(0.15, -0.30, 0.30, U, 0.25, U, 0.40, 0.03), {}};
-        m["sil"] = {Target{}, {}};
-        return m;
-    }();
-    return table;
+// Activation at t: 0 before on − ramp/2, 1 from on + ramp/2 to off − ramp/2.
+double activation(const Gesture& g, double t) {
+    auto rise = [](double x) { return x <= -0.5 ? 0.0 : x >= 0.5 ? 1.0 : 0.5 - 0.5 * std::cos(M_PI * (x + 0.5)); };
+    return std::min(rise((t - g.on_s) / ramp_s), rise((g.off_s - t) / ramp_s));
 }
 
-const PhoneTargets& targets_of(const Phone& phone) {
-    const auto it = target_table().find(phone.symbol);
-    if (it == target_table().end())
-        throw InputError("", 0, 0, "phone",
-                         fmt::format("the reference speaker has no targets for phone \"{}\"", phone.symbol));
-    return it->second;
+// A source-speaker target (task_targets.tsv) as a tract-variable value on the face.
+double on_face(std::size_t tv, double source_mm, const TaskGeometry& geometry) {
+    switch (static_cast<TractVariable>(tv)) {
+        case TractVariable::LipWidth: return geometry.at_rest_mm[LW] * source_mm / source_rest_width_mm;
+        case TractVariable::JawOpening: return geometry.at_rest_mm[JO] + (source_mm - source_rest_jaw_mm);
+        default: return source_mm;  // aperture (0 = contact) and protrusion from rest carry over
+    }
 }
 
 bool is_vowel_symbol(const std::string& s) { return PhoneInventory::builtin().is_vowel(s); }
 
-// The constriction task of a consonant: what the speaker makes sure it
-// reaches however short the segment (see the planning in
-// simulate_reference_speaker).
-enum class Task { None, LipClosure, Labiodental };
-
-// A command segment: from start_s, the target vector (fully specified). The
-// parameters of its task take over `extra_lead_s` earlier than their
-// anticipation says (a planned early gesture).
-struct Command {
-    double start_s;
-    Target target;
-    double extra_lead_s = 0.0;
-    Task task = Task::None;
-    double centre_s = 0.0;
-};
-
-// The speaker's task variables, linear in the parameters near rest as the
-// built-in head's rig makes them (mm; the stimuli tests measure the corpus
-// on the head itself). Lip aperture (Saltzman & Munhall's LA): jaw 20.9 mm
-// per unit at the lips, lower lip depression 6, upper lip raise 5, upper lip
-// retraction 0.8, lower lip retraction −3.5. Lower lip height (up positive),
-// which brings the lower lip to the upper incisors: −20.9 jaw + 3.5 lower lip
-// retraction − 6 lower lip depression.
-double lip_aperture_mm(const Frame& f) {
-    return 20.9 * f[index(Param::JawRotation)] + 0.8 * f[index(Param::UpperLipRetraction)] +
-           5.0 * f[index(Param::UpperLipRaise)] - 3.5 * f[index(Param::LowerLipRetraction)] +
-           6.0 * f[index(Param::LowerLipDepression)];
-}
-double lower_lip_height_mm(const Frame& f) {
-    return -20.9 * f[index(Param::JawRotation)] + 3.5 * f[index(Param::LowerLipRetraction)] -
-           6.0 * f[index(Param::LowerLipDepression)];
-}
-
-// How far `f` is from achieving the command's task (≤ 0: achieved).
-double task_shortfall_mm(const Command& c, const Frame& f, double closure_margin_mm) {
-    switch (c.task) {
-        case Task::LipClosure: return lip_aperture_mm(f) + closure_margin_mm;
-        case Task::Labiodental: return lower_lip_height_mm(c.target) - lower_lip_height_mm(f) - 1.0;
-        case Task::None: return 0.0;
-    }
-    return 0.0;
-}
-
-// The parameters a task's gesture moves early.
-bool task_parameter(Task task, std::size_t p) {
-    switch (task) {
-        case Task::LipClosure:
-            return p == index(Param::JawRotation) || p == index(Param::UpperLipRaise) ||
-                   p == index(Param::LowerLipDepression);
-        case Task::Labiodental:
-            return p == index(Param::JawRotation) || p == index(Param::LowerLipRetraction) ||
-                   p == index(Param::LowerLipDepression);
-        case Task::None: return false;
-    }
-    return false;
-}
-
-// The piecewise-constant command sequence for an utterance (before leads).
-std::vector<Command> commands(const PhoneSequence& phones, const UtteranceVariation& v) {
-    std::vector<Command> out;
+// The gestures of an utterance, with the variation's articulation scale and stress.
+std::vector<Gesture> gestures(const PhoneSequence& phones, const std::map<std::string, PhoneGestures, std::less<>>& table,
+                              const UtteranceVariation& v, const TaskGeometry& geometry) {
+    std::vector<Gesture> out;
     for (std::size_t i = 0; i < phones.size(); ++i) {
         const Phone& ph = phones[i];
-        const PhoneTargets& pt = targets_of(ph);
+        const auto it = table.find(ph.symbol);
+        if (it == table.end())
+            throw InputError("", 0, 0, "phone",
+                             fmt::format("the reference speaker has no gesture targets for phone \"{}\" "
+                                         "(protocols/reference/task_targets.tsv)",
+                                         ph.symbol));
         const bool vowel = is_vowel_symbol(ph.symbol);
-        auto resolve = [&](Target tgt) {
-            // Unspecified: the next vowel's (first) target, or neutral if a pause comes first.
-            for (std::size_t p = 0; p < param_count; ++p) {
-                if (!std::isnan(tgt[p])) continue;
-                double fill = 0.0;
-                for (std::size_t j = i + 1; j < phones.size(); ++j) {
-                    if (phones[j].symbol == "sil") break;
-                    if (is_vowel_symbol(phones[j].symbol)) {
-                        fill = targets_of(phones[j]).first[p];
-                        break;
-                    }
-                }
-                tgt[p] = fill;
+        const bool consonant = !vowel && ph.symbol != "sil";
+        const double stress = vowel ? (ph.stressed ? 1.10 : 0.85) : 1.0;
+        double on = ph.start_s;
+        // Onset consonant and nucleus in phase: the vowel starts with the consonant before it.
+        if (vowel && i > 0 && phones[i - 1].symbol != "sil" && !is_vowel_symbol(phones[i - 1].symbol))
+            on = phones[i - 1].start_s;
+        auto make = [&](const GestureTargets& t, double from, double to) {
+            Gesture g{from, to, {}, consonant ? consonant_strength : vowel_strength, consonant};
+            for (std::size_t tv = 0; tv < tract_variable_count; ++tv) {
+                if (!t.target_mm[tv]) continue;
+                const double rest = geometry.at_rest_mm[tv];
+                // Vowels are hypo- or hyperarticulated (scale, stress);
+                // consonants make their constrictions as they are.
+                const double scale = consonant ? 1.0 : stress * v.articulation_scale;
+                g.target[tv] = rest + (on_face(tv, *t.target_mm[tv], geometry) - rest) * scale;
             }
-            const double stress = vowel ? (ph.stressed ? 1.10 : 0.85) : 1.0;
-            for (std::size_t p = 0; p < param_count; ++p) {
-                const ParamInfo& info = params()[p];
-                const double x = info.neutral + (tgt[p] - info.neutral) * stress * v.articulation_scale + v.offset[p];
-                tgt[p] = std::clamp(x, info.min, info.max);
-            }
-            return tgt;
+            return g;
         };
-        Command first{ph.start_s, resolve(pt.first)};
-        if (ph.symbol == "P" || ph.symbol == "B" || ph.symbol == "M") first.task = Task::LipClosure;
-        if (ph.symbol == "F" || ph.symbol == "V") first.task = Task::Labiodental;
-        first.centre_s = ph.centre_s();
-        out.push_back(first);
-        if (pt.second) out.push_back({ph.centre_s(), resolve(*pt.second)});
-    }
-    return out;
-}
-
-}  // namespace
-
-const std::array<ArticulatorDynamics, param_count>& reference_dynamics() {
-    static const std::array<ArticulatorDynamics, param_count> d{{
-        {0.028, 0.030},  // jaw_rotation
-        {0.035, 0.070},  // lip_rounding: slow, long anticipatory rounding
-        {0.032, 0.060},  // upper_lip_retraction
-        {0.018, 0.020},  // upper_lip_raise: fast lip closure
-        {0.030, 0.055},  // lower_lip_retraction
-        {0.018, 0.020},  // lower_lip_depression
-        {0.030, 0.040},  // mouth_corner_stretch_left
-        {0.030, 0.040},  // mouth_corner_stretch_right
-        {0.040, 0.030},  // jaw_thrust
-        {0.045, 0.000},  // jaw_shift (drift only)
-    }};
-    return d;
-}
-
-namespace {
-
-// The noise-free trajectories of the commands (frames k/fps up to `frames`).
-std::vector<Frame> simulate_commands(const std::vector<Command>& cmds, const UtteranceVariation& variation,
-                                     const ReferenceSpeakerSettings& settings, std::size_t frames) {
-    std::vector<Frame> out(frames, Frame{});
-    const double dt = settings.simulation_step_s;
-    for (std::size_t p = 0; p < param_count; ++p) {
-        const ArticulatorDynamics& dyn = reference_dynamics()[p];
-        const double tau = dyn.time_constant_s * (variation.time_constant_scale[p] > 0 ? variation.time_constant_scale[p] : 1.0);
-        // A command takes over at start_s minus its lead; an early gesture
-        // may take over before the commands just ahead of it, which it then
-        // skips (the jaw closes for /b/ without first going to /l/'s height).
-        // The gesture after a constriction does not release it before
-        // hold_s after the constriction's centre (a stop is released, not
-        // anticipated away).
-        const double hold_s = settings.closure_hold_s;
-        auto takes_over = [&](std::size_t j) {
-            const Command& c = cmds[j];
-            double t = c.start_s - dyn.anticipation_s - (task_parameter(c.task, p) ? c.extra_lead_s : 0.0);
-            if (j > 0 && task_parameter(cmds[j - 1].task, p)) t = std::max(t, cmds[j - 1].centre_s + hold_s);
-            return t;
-        };
-        const double lookahead = settings.max_closure_lead_s;
-        double x = cmds.front().target[p], v = 0.0;  // start at rest on the first (silence) target
-        std::size_t c = 0, k = 0;
-        for (double time = 0.0; k < frames; time += dt) {
-            // Sample every frame whose time has been reached.
-            while (k < frames && static_cast<double>(k) / settings.fps <= time + 1e-12) out[k++][p] = x;
-            for (std::size_t j = c + 1; j < cmds.size() && cmds[j].start_s - dyn.anticipation_s - lookahead <= time; ++j)
-                if (takes_over(j) <= time) c = j;
-            const double u = cmds[c].target[p];
-            // Semi-implicit Euler on x'' = (u − x)/τ² − 2x'/τ (stable for dt ≪ τ).
-            v += dt * ((u - x) / (tau * tau) - 2.0 * v / tau);
-            x += dt * v;
+        const PhoneGestures& pg = it->second;
+        if (pg.second) {
+            out.push_back(make(pg.first, on, ph.centre_s()));
+            out.push_back(make(*pg.second, ph.centre_s(), ph.end_s));
+        } else {
+            out.push_back(make(pg.first, on, ph.end_s));
         }
     }
     return out;
@@ -272,42 +115,183 @@ std::vector<Frame> simulate_commands(const std::vector<Command>& cmds, const Utt
 
 }  // namespace
 
+std::string_view tract_variable_name(TractVariable tv) {
+    switch (tv) {
+        case TractVariable::LipAperture: return "lip_aperture";
+        case TractVariable::LipWidth: return "lip_width";
+        case TractVariable::UpperProtrusion: return "upper_protrusion";
+        case TractVariable::LowerProtrusion: return "lower_protrusion";
+        case TractVariable::JawOpening: return "jaw_opening";
+        case TractVariable::Count: break;
+    }
+    return "?";
+}
+
+const std::array<double, tract_variable_count>& reference_time_constants() {
+    // Lips and jaw: aperture fastest, protrusion slowest (rounding builds up
+    // over a syllable), width and jaw between.
+    static const std::array<double, tract_variable_count> tau{0.020, 0.035, 0.040, 0.040, 0.025};
+    return tau;
+}
+
+std::map<std::string, PhoneGestures, std::less<>> read_task_targets(const fs::path& path_in) {
+    const fs::path path =
+        path_in.empty() ? fs::path(AVSI_PROTOCOLS_DIR) / "reference" / "task_targets.tsv" : path_in;
+    const std::string text = read_text_file(path);
+    static const std::array<const char*, tract_variable_count> columns{
+        "lip_aperture_mm", "lip_width_mm", "upper_protrusion_mm", "lower_protrusion_mm", "jaw_opening_mm"};
+    std::map<std::string, PhoneGestures, std::less<>> out;
+    std::vector<std::string> header;
+    std::size_t pos = 0;
+    int line_no = 0;
+    while (pos < text.size()) {
+        std::size_t eol = text.find('\n', pos);
+        if (eol == std::string::npos) eol = text.size();
+        const std::string line = text.substr(pos, eol - pos);
+        pos = eol + 1;
+        ++line_no;
+        if (line.empty() || line[0] == '#') continue;
+        std::vector<std::string> fields;
+        for (std::size_t a = 0;;) {
+            const std::size_t b = line.find('\t', a);
+            fields.push_back(line.substr(a, b == std::string::npos ? std::string::npos : b - a));
+            if (b == std::string::npos) break;
+            a = b + 1;
+        }
+        if (header.empty()) {
+            header = fields;
+            for (const char* c : columns)
+                if (std::find(header.begin(), header.end(), c) == header.end())
+                    throw InputError(path, line_no, 1, c, "missing column");
+            continue;
+        }
+        if (fields.size() != header.size())
+            throw InputError(path, line_no, 1, "",
+                             fmt::format("expected {} tab-separated fields, got {}", header.size(), fields.size()));
+        GestureTargets g;
+        for (std::size_t tv = 0; tv < tract_variable_count; ++tv) {
+            const auto c = static_cast<std::size_t>(std::find(header.begin(), header.end(), columns[tv]) - header.begin());
+            const std::string& f = fields[c];
+            if (f == "-") continue;
+            char* end = nullptr;
+            const double v = std::strtod(f.c_str(), &end);
+            if (f.empty() || end != f.c_str() + f.size() || !std::isfinite(v) || std::fabs(v) > 100.0)
+                throw InputError(path, line_no, 1, columns[tv],
+                                 fmt::format("expected millimetres in [-100, 100] or \"-\", got \"{}\"", f));
+            g.target_mm[tv] = v;
+        }
+        std::string phone = fields[0];
+        const auto dot = phone.find('.');
+        if (dot != std::string::npos) {
+            const std::string part = phone.substr(dot + 1);
+            phone = phone.substr(0, dot);
+            if (part == "1") out[phone].first = g;
+            else if (part == "2") out[phone].second = g;
+            else throw InputError(path, line_no, 1, "phone", fmt::format("expected PHONE, PHONE.1 or PHONE.2, got \"{}\"", fields[0]));
+        } else {
+            out[phone].first = g;
+        }
+    }
+    if (out.empty()) throw InputError(path, "no phones in the gesture target table");
+    return out;
+}
+
+const TaskGeometry& builtin_head_task_geometry() {
+    static const TaskGeometry g = [] {
+        TaskGeometry t;
+        // Measured on the built-in head with `avsi measure` (central
+        // differences of ±0.1 per parameter; tests/stimuli checks them
+        // against the head). Lip aperture and protrusion with the jaw at
+        // 0.5, clear of the lips' contact (at rest the lips touch and the
+        // contact halves the aperture's slope); width, protrusion and jaw
+        // opening at rest, the lower lip's and the jaw's slopes averaged over
+        // both poses. Columns in study order: jaw_rotation, lip_rounding,
+        // upper_lip_retraction, upper_lip_raise, lower_lip_retraction,
+        // lower_lip_depression, corner_left, corner_right, jaw_thrust, jaw_shift.
+        t.mm_per_unit = {{
+            {19.52, 1.87, -0.37, 5.22, -4.25, 12.27, 0.22, 0.00, 0.11, 0.01},    // lip aperture
+            {-8.17, -11.42, -1.00, 2.35, -0.84, -0.23, 3.92, 3.92, 0.00, -0.11}, // lip width
+            {0.07, 2.68, -6.82, 0.72, -0.20, 0.00, -0.03, -0.03, 0.00, 0.00},    // upper lip protrusion
+            {-13.48, 5.62, -1.40, 0.00, -3.62, -2.49, 0.08, -0.24, 6.39, 0.00},  // lower lip protrusion
+            {21.41, 0.00, 0.00, 0.00, 0.00, 0.00, 0.00, 0.00, -3.93, 0.00},      // jaw opening
+        }};
+        t.at_rest_mm = {0.14, 46.58, 0.0, 0.0, 0.0};
+        // Moving the jaw costs more than moving the lips; jaw_thrust and
+        // jaw_shift are left to posture and drift.
+        t.cost = {4.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1e6, 1e6};
+        return t;
+    }();
+    return g;
+}
+
+Frame parameters_of_tract_variables(const TaskVector& z, const TaskGeometry& geometry) {
+    using Eigen::Index;
+    Eigen::Matrix<double, tract_variable_count, param_count> J;
+    Eigen::Matrix<double, param_count, 1> w_inv;
+    Eigen::Matrix<double, tract_variable_count, 1> dz;
+    for (std::size_t r = 0; r < tract_variable_count; ++r) {
+        for (std::size_t c = 0; c < param_count; ++c) J(Index(r), Index(c)) = geometry.mm_per_unit[r][c];
+        dz(Index(r)) = z[r] - geometry.at_rest_mm[r];
+    }
+    for (std::size_t c = 0; c < param_count; ++c) w_inv(Index(c)) = 1.0 / geometry.cost[c];
+    const Eigen::Matrix<double, param_count, tract_variable_count> WJt = w_inv.asDiagonal() * J.transpose();
+    const Eigen::Matrix<double, tract_variable_count, tract_variable_count> A = J * WJt;
+    const Eigen::Matrix<double, param_count, 1> dp = WJt * A.ldlt().solve(dz);
+    Frame f{};
+    for (std::size_t c = 0; c < param_count; ++c) f[c] = params()[c].neutral + dp(Index(c));
+    return f;
+}
+
+std::vector<TaskVector> simulate_tract_variables(const PhoneSequence& phones, const UtteranceVariation& variation,
+                                                 const ReferenceSpeakerSettings& settings) {
+    AVSI_ASSERT(!phones.empty() && settings.fps > 0 && settings.simulation_step_s > 0);
+    const TaskGeometry& geometry = builtin_head_task_geometry();
+    const auto table = read_task_targets(settings.targets_path);
+    const std::vector<Gesture> gs = gestures(phones, table, variation, geometry);
+    const std::size_t frames = frame_count(phones.back().end_s, settings.fps);
+    std::vector<TaskVector> out(frames);
+    const double dt = settings.simulation_step_s;
+    TaskVector z = geometry.at_rest_mm, v{};
+    std::array<double, tract_variable_count> tau{};
+    for (std::size_t tv = 0; tv < tract_variable_count; ++tv)
+        tau[tv] = reference_time_constants()[tv] *
+                  (variation.time_constant_scale[tv] > 0 ? variation.time_constant_scale[tv] : 1.0);
+    std::size_t first = 0, k = 0;
+    for (double time = 0.0; k < frames; time += dt) {
+        while (k < frames && static_cast<double>(k) / settings.fps <= time + 1e-12) out[k++] = z;
+        while (first < gs.size() && gs[first].off_s + ramp_s < time) ++first;
+        for (std::size_t tv = 0; tv < tract_variable_count; ++tv) {
+            double num = rest_strength * geometry.at_rest_mm[tv], den = rest_strength, stiff_tau = tau[tv];
+            for (std::size_t g = first; g < gs.size() && gs[g].on_s - ramp_s <= time; ++g) {
+                if (!gs[g].target[tv]) continue;
+                const double a = activation(gs[g], time) * gs[g].strength;
+                if (a <= 0.0) continue;
+                num += a * *gs[g].target[tv];
+                den += a;
+                if (gs[g].consonant) stiff_tau = std::min(stiff_tau, (gs[g].off_s - gs[g].on_s) / 6.0);
+            }
+            const double target = num / den;
+            const double t = std::max(stiff_tau, 4.0 * dt);  // stable for the step
+            // Semi-implicit Euler on z'' = (z* − z)/τ² − 2z'/τ.
+            v[tv] += dt * ((target - z[tv]) / (t * t) - 2.0 * v[tv] / t);
+            z[tv] += dt * v[tv];
+        }
+    }
+    return out;
+}
+
 ParamTrack simulate_reference_speaker(const PhoneSequence& phones, const UtteranceVariation& variation,
                                       const ReferenceSpeakerSettings& settings, Rng& rng) {
-    AVSI_ASSERT(!phones.empty() && settings.fps > 0 && settings.simulation_step_s > 0);
-    std::vector<Command> cmds = commands(phones, variation);
-    const double end_s = phones.back().end_s;
-    const std::size_t frames = frame_count(end_s, settings.fps);
+    const auto z = simulate_tract_variables(phones, variation, settings);
     ParamTrack track;
     track.fps = settings.fps;
     track.start_s = 0.0;
     track.present.fill(true);
-
-    // Speakers close the lips for every bilabial and bring the lower lip to
-    // the upper incisors for every /f v/, however short the segment: each
-    // such gesture starts early enough that its task is achieved from
-    // closure_hold_s before the segment's centre to closure_hold_s after it
-    // (the lip aperture closure_margin_mm beyond contact; the lower lip
-    // within 1 mm of its labiodental height), found by lengthening its lead
-    // 5 ms at a time, up to max_closure_lead_s.
-    track.frames = simulate_commands(cmds, variation, settings, frames);
-    auto achieved = [&](const Command& c) {
-        for (double t : {c.centre_s - settings.closure_hold_s, c.centre_s, c.centre_s + settings.closure_hold_s}) {
-            const auto k = std::min(frames - 1, static_cast<std::size_t>(std::lround(std::max(t, 0.0) * settings.fps)));
-            if (task_shortfall_mm(c, track.frames[k], settings.closure_margin_mm) > 0.0) return false;
-        }
-        return true;
-    };
-    for (int round = 0; round < 64; ++round) {
-        bool changed = false;
-        for (auto& c : cmds) {
-            if (c.task == Task::None || achieved(c)) continue;
-            if (c.extra_lead_s + 0.005 > settings.max_closure_lead_s) continue;
-            c.extra_lead_s += 0.005;
-            changed = true;
-        }
-        if (!changed) break;
-        track.frames = simulate_commands(cmds, variation, settings, frames);
+    track.frames.resize(z.size());
+    for (std::size_t k = 0; k < z.size(); ++k) {
+        Frame f = parameters_of_tract_variables(z[k]);
+        for (std::size_t p = 0; p < param_count; ++p) f[p] = std::clamp(f[p] + variation.offset[p], params()[p].min, params()[p].max);
+        track.frames[k] = f;
     }
     if (variation.add_noise) {
         // Slow jaw_shift drift: an AR(1) process with a 0.5 s correlation time.
@@ -370,10 +354,9 @@ std::size_t write_reference_corpus(const fs::path& out_dir, const ReferenceSpeak
 
         UtteranceVariation v;
         v.articulation_scale = std::max(0.5, rng.normal(1.0, s.articulation_scale_sd));
-        for (std::size_t p = 0; p < param_count; ++p) {
-            v.offset[p] = rng.normal(0.0, s.offset_sd * params()[p].range());
-            v.time_constant_scale[p] = 1.0 + rng.uniform(-s.time_constant_jitter, s.time_constant_jitter);
-        }
+        for (std::size_t p = 0; p < param_count; ++p) v.offset[p] = rng.normal(0.0, s.offset_sd * params()[p].range());
+        for (std::size_t tv = 0; tv < tract_variable_count; ++tv)
+            v.time_constant_scale[tv] = 1.0 + rng.uniform(-s.time_constant_jitter, s.time_constant_jitter);
         v.add_noise = true;
         const ParamTrack track = simulate_reference_speaker(speech.phones, v, s, rng);
 
@@ -390,16 +373,19 @@ std::size_t write_reference_corpus(const fs::path& out_dir, const ReferenceSpeak
     }
     progress.finish();
     write_text_file(out_dir / "sentences.tsv", table);
-    write_corpus_manifest(out_dir, "avsi-reference-speaker", entries, s.split_seed, s.test_fraction);
+    write_corpus_manifest(out_dir, "avsi-reference-speaker", entries, s.split_seed, s.test_fraction, true);
     write_text_file(
         out_dir / "README.md",
         fmt::format("# avsi synthetic reference speaker\n\n"
                     "Generated by `avsi corpus reference` (seed {}, {} utterances, {} fps) from\n"
                     "{}.\n\n"
-                    "Trajectories come from critically damped second-order articulator dynamics\n"
-                    "driven toward per-phone targets with anticipatory onset, per-utterance speaking\n"
-                    "rate, articulation scale and posture, and sensor noise; timing from espeak-ng.\n"
-                    "See synth/include/avsi/synth/reference_speaker.h for the full description.\n\n"
+                    "Trajectories come from a task-dynamic gesture model (Saltzman & Munhall 1989):\n"
+                    "overlapping phone gestures on five lip and jaw tract variables, critically damped\n"
+                    "dynamics, the parameters solved through the built-in head's geometry; targets from\n"
+                    "protocols/reference/task_targets.tsv; per-utterance speaking rate, articulation\n"
+                    "scale and posture, and sensor noise; timing from espeak-ng. The tracks are\n"
+                    "synthetic: Table 2 on them checks the training pipeline.\n"
+                    "See learn/include/avsi/learn/reference_speaker.h for the full description.\n\n"
                     "- `corpus.json`: the manifest (split seed {}, test fraction {})\n"
                     "- `tracks/<id>.csv`: the 10 parameters per frame\n"
                     "- `labels/<id>.tsv`: espeak-ng phone timing\n"

@@ -268,34 +268,77 @@ void write_aperture_plot(const std::filesystem::path& path, const std::string& t
     write_text_file(path, aperture_plot_svg(title, phones, measures, summary, limits));
 }
 
-std::string articulation_qc_html(const std::string& title, const std::vector<QcStimulus>& stimuli,
-                                 const ArticulationLimits& limits) {
-    struct Totals {
-        std::size_t stimuli = 0, bilabials = 0, closed = 0, labiodentals = 0, reached = 0, failing = 0;
-        double aperture_min = std::numeric_limits<double>::max(), aperture_max = std::numeric_limits<double>::lowest();
-        double worst_bilabial = 0.0, worst_labiodental = 0.0;
-    };
-    std::vector<std::string> order;
-    std::map<std::string, Totals> totals;
-    std::size_t failing = 0;
+std::vector<ConditionArticulation> articulation_by_condition(const std::vector<QcStimulus>& stimuli,
+                                                             std::size_t worst_listed) {
+    std::vector<ConditionArticulation> out;
+    std::map<std::string, std::size_t> at;
     for (const auto& st : stimuli) {
-        if (!totals.count(st.condition)) order.push_back(st.condition);
-        Totals& t = totals[st.condition];
-        const auto& s = st.summary;
-        ++t.stimuli;
-        t.bilabials += s.bilabials;
-        t.closed += s.bilabials_closed;
-        t.labiodentals += s.labiodentals;
-        t.reached += s.labiodentals_reached;
-        t.aperture_min = std::min(t.aperture_min, s.aperture_min_mm);
-        t.aperture_max = std::max(t.aperture_max, s.aperture_max_mm);
-        t.worst_bilabial = std::max(t.worst_bilabial, s.worst_mm(SegmentClass::Bilabial));
-        t.worst_labiodental = std::max(t.worst_labiodental, s.worst_mm(SegmentClass::Labiodental));
-        if (s.violations() > 0) {
-            ++t.failing;
-            ++failing;
+        auto [it, added] = at.try_emplace(st.condition, out.size());
+        if (added) {
+            ConditionArticulation c;
+            c.condition = st.condition;
+            c.policy = st.policy;
+            c.closure_required = st.closure_required;
+            c.aperture_min_mm = std::numeric_limits<double>::max();
+            c.aperture_max_mm = std::numeric_limits<double>::lowest();
+            out.push_back(std::move(c));
+        }
+        ConditionArticulation& c = out[it->second];
+        const ArticulationSummary& s = st.summary;
+        ++c.stimuli;
+        c.bilabials += s.bilabials;
+        c.bilabials_closed += s.bilabials_closed;
+        c.labiodentals += s.labiodentals;
+        c.labiodentals_reached += s.labiodentals_reached;
+        c.interpenetrating_frames += s.interpenetrating_frames;
+        c.aperture_min_mm = std::min(c.aperture_min_mm, s.aperture_min_mm);
+        c.aperture_max_mm = std::max(c.aperture_max_mm, s.aperture_max_mm);
+        if (s.rounding_checked) {
+            ++c.rounding_checked;
+            c.rounding_ok += s.rounding_ok ? 1 : 0;
+        }
+        if (!s.failures(st.closure_required).empty()) ++c.failing;
+        c.closure_change.add(st.closure_change);
+        for (const auto& seg : s.segments) {
+            WorstSegment w{st.path, st.sentence, seg.phone, seg.start_s, seg.end_s, seg.best_mm, seg.ok};
+            (seg.kind == SegmentClass::Bilabial ? c.worst_bilabials : c.worst_labiodentals).push_back(std::move(w));
         }
     }
+    for (auto& c : out)
+        for (auto* list : {&c.worst_bilabials, &c.worst_labiodentals}) {
+            std::stable_sort(list->begin(), list->end(),
+                             [](const WorstSegment& a, const WorstSegment& b) { return a.distance_mm > b.distance_mm; });
+            if (list->size() > worst_listed) list->resize(worst_listed);
+        }
+    return out;
+}
+
+namespace {
+
+std::string percent(std::size_t part, std::size_t whole) {
+    return whole ? fmt::format("{:.1f} %", 100.0 * double(part) / double(whole)) : std::string("–");
+}
+
+std::string worst_rows(const std::vector<WorstSegment>& worst, const char* measure) {
+    std::string html;
+    for (const auto& w : worst)
+        html += fmt::format("<tr><td><code>{}</code></td><td>{}</td><td>{:.3f} – {:.3f}</td><td class=\"{}\">{:.2f}</td>"
+                            "</tr>\n",
+                            xml_escape(w.path), xml_escape(w.phone), w.start_s, w.end_s, w.met ? "ok" : "bad",
+                            w.distance_mm);
+    if (html.empty()) return "";
+    return fmt::format("<table><tr><th>stimulus</th><th>phone</th><th>segment (s)</th><th>{} (mm)</th></tr>\n{}"
+                       "</table>\n",
+                       measure, html);
+}
+
+}  // namespace
+
+std::string articulation_qc_html(const std::string& title, const std::vector<QcStimulus>& stimuli,
+                                 const ArticulationLimits& limits) {
+    const auto conditions = articulation_by_condition(stimuli);
+    std::size_t failing = 0;
+    for (const auto& c : conditions) failing += c.failing;
     std::string html = fmt::format(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{0}</title>\n<style>"
         "body{{font-family:sans-serif;max-width:960px;margin:2em auto;color:#222}}"
@@ -304,34 +347,49 @@ std::string articulation_qc_html(const std::string& title, const std::vector<QcS
         "figure{{margin:1.5em 0}}figcaption{{font-size:90%;color:#444}}</style></head><body>\n<h1>{0}</h1>\n",
         xml_escape(title));
     html += fmt::format(
-        "<p>Every model stimulus measured on the head it was rendered with (<code>avsi measure</code>): the lips "
-        "must close (central-third aperture ≤ {:.1f} mm) at a sampled frame of every /p b m/ segment, the lower lip "
-        "must come within {:.1f} mm of the upper incisors in every /f v/, no frame may show the lips passing through "
-        "each other, and /uw w/ must be narrower and more protruded than /iy/ in the same sentence. "
-        "<b class=\"{}\">{} of {} stimuli break a constraint.</b></p>\n",
+        "<p>What each control model puts on the lips, measured on every model stimulus on the head it was rendered "
+        "with (<code>avsi measure</code>). A /p b m/ segment counts as closed when the lips close (central-third "
+        "aperture ≤ {:.1f} mm) at a sampled frame of the segment; an /f v/ segment is in contact when the lower lip "
+        "comes within {:.1f} mm of the upper incisors. For a model shown as trained these shares are results of the "
+        "model, to read and report (docs/articulation.md), not constraints. A stimulus fails only when the lips pass "
+        "through each other, or when its condition asked for closure (<code>closure = \"hold\"</code>) and did not "
+        "get it. <b class=\"{}\">{} of {} stimuli fail.</b></p>\n",
         limits.closure_mm, limits.labiodental_mm, failing ? "bad" : "ok", failing, stimuli.size());
-    html += "<table><tr><th>condition</th><th>stimuli</th><th>bilabials closed</th><th>widest bilabial gap "
-            "(mm)</th><th>labiodentals reached</th><th>furthest /f v/ (mm)</th><th>aperture range (mm)</th>"
-            "<th>stimuli with violations</th></tr>\n";
-    for (const auto& name : order) {
-        const Totals& t = totals[name];
-        html += fmt::format("<tr><td>{}</td><td>{}</td><td>{} of {}</td><td>{:.2f}</td><td>{} of {}</td><td>{:.2f}</td>"
-                            "<td>{:.2f} – {:.2f}</td><td class=\"{}\">{}</td></tr>\n",
-                            xml_escape(name), t.stimuli, t.closed, t.bilabials, t.worst_bilabial, t.reached,
-                            t.labiodentals, t.worst_labiodental, t.aperture_min, t.aperture_max,
-                            t.failing ? "bad" : "ok", t.failing);
+    html += "<table><tr><th>condition</th><th>policy</th><th>stimuli</th><th>/p b m/ closed</th><th>/f v/ in "
+            "contact</th><th>rounding contrast</th><th>aperture range (mm)</th><th>frames changed by the hold</th>"
+            "<th>failing stimuli</th></tr>\n";
+    for (const auto& c : conditions) {
+        const std::string changed =
+            c.closure_required ? fmt::format("{} of {} ({})", c.closure_change.frames_changed, c.closure_change.frames,
+                                             percent(c.closure_change.frames_changed, c.closure_change.frames))
+                               : std::string("–");
+        html += fmt::format(
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{} of {} ({})</td><td>{} of {} ({})</td><td>{} of {}</td>"
+            "<td>{:.2f} – {:.2f}</td><td>{}</td><td class=\"{}\">{}</td></tr>\n",
+            xml_escape(c.condition), xml_escape(c.policy), c.stimuli, c.bilabials_closed, c.bilabials,
+            percent(c.bilabials_closed, c.bilabials), c.labiodentals_reached, c.labiodentals,
+            percent(c.labiodentals_reached, c.labiodentals), c.rounding_ok, c.rounding_checked, c.aperture_min_mm,
+            c.aperture_max_mm, changed, c.failing ? "bad" : "ok", c.failing);
     }
     html += "</table>\n";
     if (failing) {
-        html += "<h2>Violations</h2>\n<ul>\n";
+        html += "<h2>Failing stimuli</h2>\n<ul>\n";
         for (const auto& st : stimuli)
-            for (const auto& p : st.summary.problems(limits))
+            for (const auto& p : st.summary.failures(st.closure_required, limits))
                 html += fmt::format("<li><code>{}</code>: {}</li>\n", xml_escape(st.path), xml_escape(p));
         html += "</ul>\n";
     }
+    html += "<h2>Worst segments per condition</h2>\n<p>The /p b m/ segments whose lips stayed furthest apart and "
+            "the /f v/ segments whose lower lip stayed furthest from the upper incisors, at the frame each is judged "
+            "by (red: beyond the limit).</p>\n";
+    for (const auto& c : conditions) {
+        html += fmt::format("<h3>{} ({})</h3>\n", xml_escape(c.condition), xml_escape(c.policy));
+        html += worst_rows(c.worst_bilabials, "lip aperture");
+        html += worst_rows(c.worst_labiodentals, "lower lip to upper incisors");
+    }
     html += "<h2>Lip aperture of the worst stimuli</h2>\n<p>Midline aperture (line; dots are the video frames) and "
             "the central third's range (band); /p b m/ shaded blue, /f v/ green with the lower lip's distance to the "
-            "upper incisors dashed, a segment that breaks its constraint red; the circle marks the frame each segment "
+            "upper incisors dashed, a segment beyond its limit red; the circle marks the frame each segment "
             "is judged by; the red dashed line is the closure limit.</p>\n";
     for (const auto& st : stimuli) {
         if (st.measures.empty()) continue;

@@ -32,7 +32,7 @@
 #include "avsi/stimuli/lod.h"
 #include "avsi/stimuli/video.h"
 #include "avsi/synth/control_model.h"
-#include "avsi/synth/target_hold.h"
+#include "avsi/synth/closure_constraint.h"
 #include "avsi/vocoder/masking.h"
 #include "avsi/vocoder/vocoder.h"
 
@@ -239,6 +239,39 @@ TtsSettings tts_settings(const Protocol& protocol) {
     return tts;
 }
 
+// The closure constraint's settings, as hashed and recorded.
+json closure_json(const synth::ClosureSettings& s) {
+    return {{"constraint", "least change of the model's jaw and lip parameters (synth/closure_constraint.h)"},
+            {"aperture_goal_mm", s.aperture_goal_mm},
+            {"contact_goal_mm", s.contact_goal_mm},
+            {"transition_s", s.transition_s},
+            {"max_steps", s.max_steps}};
+}
+
+// What the closure constraint changed in one stimulus (or a condition's).
+json closure_stats_json(const synth::ClosureStats& s) {
+    json mean = json::object();
+    for (const auto& info : synth::params())
+        if (s.sum_abs_change[synth::index(info.param)] != 0.0)
+            mean[std::string(info.name)] = std::round(s.mean_abs_change(info.param) * 1e6) / 1e6;
+    return {{"frames", s.frames},
+            {"frames_changed", s.frames_changed},
+            {"segments", s.segments},
+            {"segments_changed", s.segments_changed},
+            {"segments_unmet", s.segments_unmet},
+            {"mean_abs_change", mean}};
+}
+
+// A condition's post-processing policy, as the manifest records it.
+json policy_json(const ProtocolCondition& c) {
+    if (c.face != FaceMode::Model) return nullptr;
+    json j = {{"closure", c.closure_hold ? "hold" : "off"},
+              {"as_trained", !c.closure_hold},
+              {"variant_of", c.variant_of.empty() ? json() : json(c.variant_of)}};
+    if (c.closure_hold) j["closure_transition_s"] = c.closure_transition_s;
+    return j;
+}
+
 // The synthesiser and voice with their versions, recorded in the manifest's
 // settings and so hashed into every stimulus: another voice or version
 // rebuilds. Null when the corpus brings its own recordings.
@@ -270,7 +303,10 @@ struct Plan {
     Head head;
     std::optional<LodResult> lod;  // the head simplified for rendering (BuildSettings::lod), when asked for
     std::optional<ArticulationMeter> meter;  // when [render] check_articulation
-    std::map<std::string, std::shared_ptr<const synth::ControlModel>> models;
+    std::map<std::string, std::shared_ptr<const synth::ControlModel>> models;  // as trained or hand-set
+    // The closure constraint of each condition with closure = "hold".
+    std::map<std::string, synth::ClosureSettings> closure;
+    synth::LipTaskFunction lip_tasks;  // the head's lip tasks (the meter's), for the constraint
     // Each model condition's animation layers ([condition.layers]; speech and blinks when absent).
     std::map<std::string, LayerSettings> layers;
     json settings_json;
@@ -280,6 +316,11 @@ struct Plan {
 
     explicit Plan(const BuildSettings& settings);
     Plan(const Plan&) = delete;
+    // The trajectory a condition shows: its model's, under the condition's
+    // policy (the closure constraint for closure = "hold"; `stats` gets what
+    // the constraint changed).
+    synth::Trajectory trajectory(const ProtocolCondition& condition, const PhoneSequence& phones,
+                                 synth::ClosureStats* stats = nullptr) const;
     // The timed phones of a sentence: from the TTS front end, or its labels.
     PhoneSequence phones(const Sentence& sentence) const;
     // The articulation of a model stimulus: its trajectory (with the
@@ -322,9 +363,15 @@ Plan::Plan(const BuildSettings& settings)
 
     // Models, loaded once per condition (synthesis is const); the hash covers
     // the model as loaded (a rule model's external target table included)
-    // and the condition's closure mechanism.
+    // and the condition's post-processing policy.
     std::map<std::string, std::string> model_hash;
-    const std::string hold_targets_hash = sha256_file(synth::default_hold_targets_path());
+    if (meter)
+        lip_tasks = [this](const synth::Frame& frame) {
+            Pose pose;
+            pose.params = frame;
+            const ArticulationMeasures m = meter->measure(pose);
+            return synth::LipTaskMeasures{m.aperture_max_mm, m.lip_to_incisors_mm};
+        };
     for (const auto& c : protocol.conditions)
         if (c.face == FaceMode::Model) {
             if (c.model.empty())
@@ -333,13 +380,17 @@ Plan::Plan(const BuildSettings& settings)
             std::shared_ptr<const synth::ControlModel> model = synth::load_model(c.model);
             json key = {{"model", sha256_hex(model->to_json_text())}};
             if (c.closure_hold) {
-                synth::TargetHoldSettings hold;
+                if (!meter)
+                    throw InputError(protocol.path.string(), c.line, 0, "condition." + c.name + ".closure",
+                                     "closure = \"hold\" measures the lips on the head, but [render] "
+                                     "check_articulation = false: the head has no articulation landmarks to "
+                                     "measure");
+                synth::ClosureSettings hold;
                 hold.transition_s = c.closure_transition_s;
-                models[c.name] = synth::with_target_hold(model, hold);
-                key["closure"] = {{"hold", hold_targets_hash}, {"transition_s", hold.transition_s}};
-            } else {
-                models[c.name] = model;
+                closure[c.name] = hold;
+                key["closure"] = closure_json(hold);
             }
+            models[c.name] = model;
             model_hash[c.name] = sha256_hex(key.dump());
         }
     // Animation layers, validated all at once.
@@ -462,6 +513,26 @@ Animation Plan::animation(const Job& job, const synth::Trajectory& trajectory, c
     return animate(head, trajectory, &phones, layers.at(job.condition->name), seeds);
 }
 
+synth::Trajectory Plan::trajectory(const ProtocolCondition& condition, const PhoneSequence& phones,
+                                   synth::ClosureStats* stats) const {
+    synth::Trajectory t = models.at(condition.name)->synthesize(phones, fps);
+    for (std::size_t k = 0; k < t.size(); ++k)
+        for (const auto& info : synth::params())
+            if (!std::isfinite(t.value(k, info.param)))
+                throw InputError(condition.model,
+                                 fmt::format("condition {}: the model gives {} a non-finite value ({}) at {:.3f} s "
+                                             "(frame {}): the model file is broken",
+                                             condition.name, info.name, t.value(k, info.param), t.time_s(k), k));
+    const auto held = closure.find(condition.name);
+    if (held != closure.end()) {
+        std::vector<double> times(t.size());
+        for (std::size_t k = 0; k < times.size(); ++k) times[k] = t.time_s(k);
+        const auto changed = synth::constrain_closure(phones, times, lip_tasks, held->second, t.frames);
+        if (stats) *stats = changed;
+    }
+    return t;
+}
+
 ArticulationSummary Plan::articulation(const Job& job, const synth::Trajectory& trajectory, const PhoneSequence& phones,
                                        std::vector<ArticulationMeasures>* measures) const {
     AVSI_ASSERT(meter);
@@ -571,6 +642,15 @@ void verify_one(const Job& job, const std::map<std::string, json>& entries, cons
 // How many stimuli the QC page plots besides every one with a violation.
 constexpr std::size_t qc_plots = 12;
 
+// A model condition's policy as the QC page and the methods text name it.
+std::string policy_text(const Plan& plan, const ProtocolCondition& c) {
+    const std::string method = plan.models.at(c.name)->provenance().method;
+    std::string text = c.closure_hold ? fmt::format("closure hold (σ {:g} ms)", 1000.0 * c.closure_transition_s)
+                                      : method == "trained" ? "as trained" : "as " + method;
+    if (!c.variant_of.empty()) text += ", variant of " + c.variant_of;
+    return text;
+}
+
 // The articulation of every model stimulus of the plan, measured afresh
 // (synthesis and landmark posing: ~1 ms a stimulus), in plan order; the
 // phones of each sentence are made once (`phones` may hold some already).
@@ -587,7 +667,9 @@ std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures,
         q.condition = c.name;
         q.sentence = s.id;
         q.text = s.text;
-        const auto trajectory = plan.models.at(c.name)->synthesize(phones[s.id], plan.fps);
+        q.policy = policy_text(plan, c);
+        q.closure_required = c.closure_hold;
+        const auto trajectory = plan.trajectory(c, phones[s.id], &q.closure_change);
         q.summary = plan.articulation(job, trajectory, phones[s.id], keep_measures ? &q.measures : nullptr);
         if (keep_measures) q.phones = phones[s.id];
         out.push_back(std::move(q));
@@ -595,10 +677,36 @@ std::vector<QcStimulus> measure_set(const Plan& plan, bool keep_measures,
     return out;
 }
 
+// The manifest's record of a condition's articulation over the set.
+json condition_articulation_json(const ConditionArticulation& c) {
+    auto worst = [](const std::vector<WorstSegment>& list) {
+        json out = json::array();
+        for (const auto& w : list)
+            out.push_back({{"path", w.path}, {"sentence", w.sentence}, {"phone", w.phone},
+                           {"start_s", std::round(w.start_s * 1e4) / 1e4}, {"end_s", std::round(w.end_s * 1e4) / 1e4},
+                           {"distance_mm", std::round(w.distance_mm * 1e3) / 1e3}, {"within_limit", w.met}});
+        return out;
+    };
+    json j = {{"stimuli", c.stimuli},
+              {"bilabials", c.bilabials},
+              {"bilabials_closed", c.bilabials_closed},
+              {"closure_rate", std::round(c.closure_rate() * 1e4) / 1e4},
+              {"labiodentals", c.labiodentals},
+              {"labiodentals_reached", c.labiodentals_reached},
+              {"contact_rate", std::round(c.contact_rate() * 1e4) / 1e4},
+              {"interpenetrating_frames", c.interpenetrating_frames},
+              {"failing_stimuli", c.failing},
+              {"worst_bilabials", worst(c.worst_bilabials)},
+              {"worst_labiodentals", worst(c.worst_labiodentals)}};
+    if (c.closure_required) j["closure_change"] = closure_stats_json(c.closure_change);
+    return j;
+}
+
 // Writes <out>/qc/articulation.html: the set's articulation by condition,
-// every violation, and the aperture plots of the worst stimuli.
-void write_articulation_qc(const Plan& plan, const std::filesystem::path& out_dir,
-                           std::map<std::string, PhoneSequence> phones) {
+// every failure, each condition's worst segments, and the aperture plots of
+// the worst stimuli. Returns the per-condition record for the manifest.
+std::vector<ConditionArticulation> write_articulation_qc(const Plan& plan, const std::filesystem::path& out_dir,
+                                                         std::map<std::string, PhoneSequence> phones) {
     auto stimuli = measure_set(plan, true, std::move(phones));
     std::vector<std::size_t> order(stimuli.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
@@ -607,7 +715,8 @@ void write_articulation_qc(const Plan& plan, const std::filesystem::path& out_di
     });
     std::vector<bool> plotted(stimuli.size(), false);
     for (std::size_t k = 0; k < order.size(); ++k)
-        plotted[order[k]] = k < qc_plots || stimuli[order[k]].summary.violations() > 0;
+        plotted[order[k]] = k < qc_plots ||
+                            !stimuli[order[k]].summary.failures(stimuli[order[k]].closure_required).empty();
     std::vector<QcStimulus> page;
     for (std::size_t k = 0; k < order.size(); ++k) {
         QcStimulus q = std::move(stimuli[order[k]]);
@@ -617,16 +726,21 @@ void write_articulation_qc(const Plan& plan, const std::filesystem::path& out_di
         }
         page.push_back(std::move(q));
     }
-    std::size_t failing = 0;
-    for (const auto& q : page) failing += q.summary.violations() > 0 ? 1 : 0;
     const auto path = out_dir / "qc" / "articulation.html";
     write_text_file(path, articulation_qc_html("Articulation QC — " + plan.protocol.name, page));
+    auto conditions = articulation_by_condition(page);
+    std::size_t failing = 0;
+    for (const auto& c : conditions) {
+        failing += c.failing;
+        log_info("articulation: {} ({}): /p b m/ closed {} of {}, /f v/ in contact {} of {}", c.condition, c.policy,
+                 c.bilabials_closed, c.bilabials, c.labiodentals_reached, c.labiodentals);
+    }
     if (failing)
-        log_warning("{} of {} model stimuli break an articulation constraint (see {}; build-stimuli --verify lists "
-                    "them)",
+        log_warning("{} of {} model stimuli fail an articulation check (see {}; build-stimuli --verify lists them)",
                     failing, page.size(), path.string());
     else
-        log_info("articulation: every model stimulus meets the constraints (QC page {})", path.string());
+        log_info("articulation: no model stimulus fails (QC page {})", path.string());
+    return conditions;
 }
 
 }  // namespace
@@ -646,7 +760,6 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     const Head& head = plan.head;
     const json& settings_json = plan.settings_json;
     auto& jobs = plan.jobs;
-    const auto& models = plan.models;
     const std::size_t not_needed = plan.not_needed;
 
     // The previous manifest, for skipping unchanged stimuli.
@@ -810,8 +923,11 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                                     std::floor((protocol.corpus.level_dbfs - (level.peak_dbfs - max_peak_dbfs)) * 10.0) / 10.0));
                 synth::Trajectory trajectory;
                 json articulation = nullptr;
+                json closure_change = nullptr;
                 if (c.face == FaceMode::Model) {
-                    trajectory = models.at(c.name)->synthesize(sp.phones, fps);
+                    synth::ClosureStats changed;
+                    trajectory = plan.trajectory(c, sp.phones, &changed);
+                    if (c.closure_hold) closure_change = closure_stats_json(changed);
                     if (plan.meter) articulation = articulation_json(plan.articulation(job, trajectory, sp.phones));
                 } else {
                     trajectory.fps = fps;
@@ -894,6 +1010,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                              {"audio", to_string(c.audio)},
                              {"model", c.model.empty() ? "" : c.model.filename().string()},
                              {"closure", c.face != FaceMode::Model ? json() : json(c.closure_hold ? "hold" : "off")},
+                             {"policy", policy_json(c)},
                              {"articulation", articulation},
                              {"seeds", {{"vocoder", c.audio == ConditionAudio::Vocoded ? json(job.vocoder_seed) : json()},
                                         {"blinks", blinks.enabled ? json(job.blink_seed) : json()}}},
@@ -901,6 +1018,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                              {"sha256", sha256_file(video_path)},
                              {"wav_sha256", sha256_file(settings.out_dir / job.wav)}};
                 if (!layers_record.is_null()) job.entry["layers"] = layers_record;
+                if (!closure_change.is_null()) job.entry["closure_change"] = closure_change;
                 if (!variants.is_null())
                     job.entry["variants"] = {{"variable", analysis::to_string(plan.adaptive.variable)},
                                              {"unit", plan.adaptive.unit()},
@@ -926,12 +1044,31 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                      {"settings", settings_json},
                      {"stimuli", json::array()}};
     for (const auto& job : jobs) manifest["stimuli"].push_back(job.entry);
-    write_text_file(manifest_path, manifest.dump(2) + "\n");
+    // Each condition: its policy and, measured on the head, what its model
+    // puts on the lips over the set (written with the QC page).
+    std::map<std::string, json> articulation_of;
     if (plan.meter) {
         std::map<std::string, PhoneSequence> phones;
         for (const auto& [id, sp] : speech) phones[id] = sp.phones;
-        write_articulation_qc(plan, settings.out_dir, std::move(phones));
+        for (const auto& c : write_articulation_qc(plan, settings.out_dir, std::move(phones)))
+            articulation_of[c.condition] = condition_articulation_json(c);
     }
+    manifest["conditions"] = json::array();
+    for (const auto& c : protocol.conditions) {
+        json j = {{"name", c.name},
+                  {"face", to_string(c.face)},
+                  {"audio", to_string(c.audio)},
+                  {"model", c.model.empty() ? json() : json(c.model.filename().string())},
+                  {"policy", policy_json(c)}};
+        if (c.face == FaceMode::Model) {
+            j["policy_text"] = policy_text(plan, c);
+            if (plan.closure.count(c.name)) j["closure_constraint"] = closure_json(plan.closure.at(c.name));
+            const auto a = articulation_of.find(c.name);
+            j["articulation"] = a != articulation_of.end() ? a->second : json();
+        }
+        manifest["conditions"].push_back(j);
+    }
+    write_text_file(manifest_path, manifest.dump(2) + "\n");
 
     report.rendered = todo.size();
     report.frames_rendered = frames_total;
@@ -980,7 +1117,7 @@ VerifyReport verify_stimuli(const BuildSettings& settings) {
         std::map<std::string, std::size_t> index_of;
         for (std::size_t i = 0; i < plan.jobs.size(); ++i) index_of[plan.jobs[i].video.generic_string()] = i;
         for (const auto& q : measure_set(plan, false))
-            for (const auto& p : q.summary.problems())
+            for (const auto& p : q.summary.failures(q.closure_required))
                 found[index_of.at(q.path)].push_back(q.path + ": articulation: " + p);
     }
     for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
@@ -1053,7 +1190,7 @@ StimulusDefinition stimulus_definition(const std::filesystem::path& protocol_pat
     }
     set_speech_level(d.audio, plan.protocol.corpus.level_dbfs);
     if (c.face == FaceMode::Model) {
-        d.trajectory = plan.models.at(c.name)->synthesize(d.phones, plan.fps);
+        d.trajectory = plan.trajectory(c, d.phones);
     } else {
         d.trajectory.fps = plan.fps;
         d.trajectory.frames.assign(synth::frame_count(d.audio.duration_s(), plan.fps), synth::Frame{});

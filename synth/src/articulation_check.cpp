@@ -13,12 +13,8 @@
 
 namespace avsi::synth {
 
-namespace {
-
-bool is_bilabial(const std::string& phone) { return phone == "P" || phone == "B" || phone == "M"; }
-bool is_labiodental(const std::string& phone) { return phone == "F" || phone == "V"; }
-
-}  // namespace
+bool is_bilabial(std::string_view phone) { return phone == "P" || phone == "B" || phone == "M"; }
+bool is_labiodental(std::string_view phone) { return phone == "F" || phone == "V"; }
 
 const std::vector<std::string>& articulation_columns() {
     static const std::vector<std::string> columns{
@@ -35,23 +31,41 @@ std::size_t ArticulationSummary::violations() const {
     return n;
 }
 
+namespace {
+
+std::string segment_problem(const SegmentCheck& s, const ArticulationLimits& limits) {
+    const bool bilabial = s.kind == SegmentClass::Bilabial;
+    return fmt::format("{} at {:.3f}-{:.3f} s: {} {:.2f} mm at frame {}{} > {:.1f} mm", s.phone, s.start_s, s.end_s,
+                       bilabial ? "lip aperture" : "lower lip to upper incisors", s.best_mm, s.best_frame,
+                       s.frame_inside ? "" : " (no frame inside; nearest to its centre)",
+                       bilabial ? limits.closure_mm : limits.labiodental_mm);
+}
+
+std::string interpenetration_problem(const ArticulationSummary& s) {
+    return fmt::format("the lips pass through each other in {} frame(s) (aperture down to {:.2f} mm)",
+                       s.interpenetrating_frames, s.aperture_min_mm);
+}
+
+}  // namespace
+
 std::vector<std::string> ArticulationSummary::problems(const ArticulationLimits& limits) const {
     std::vector<std::string> out;
-    for (const auto& s : segments) {
-        if (s.ok) continue;
-        const bool bilabial = s.kind == SegmentClass::Bilabial;
-        out.push_back(fmt::format("{} at {:.3f}-{:.3f} s: {} {:.2f} mm at frame {}{} > {:.1f} mm", s.phone, s.start_s,
-                                  s.end_s, bilabial ? "lip aperture" : "lower lip to upper incisors", s.best_mm,
-                                  s.best_frame, s.frame_inside ? "" : " (no frame inside; nearest to its centre)",
-                                  bilabial ? limits.closure_mm : limits.labiodental_mm));
-    }
-    if (interpenetrating_frames > 0)
-        out.push_back(fmt::format("the lips pass through each other in {} frame(s) (aperture down to {:.2f} mm)",
-                                  interpenetrating_frames, aperture_min_mm));
+    for (const auto& s : segments)
+        if (!s.ok) out.push_back(segment_problem(s, limits));
+    if (interpenetrating_frames > 0) out.push_back(interpenetration_problem(*this));
     if (rounding_checked && !rounding_ok)
         out.push_back(fmt::format("rounded /uw w/ do not narrow and protrude the lips relative to /iy/: width {:.1f} vs "
                                   "{:.1f} mm, protrusion {:.2f} vs {:.2f} mm",
                                   width_rounded_mm, width_spread_mm, protrusion_rounded_mm, protrusion_spread_mm));
+    return out;
+}
+
+std::vector<std::string> ArticulationSummary::failures(bool closure_required, const ArticulationLimits& limits) const {
+    std::vector<std::string> out;
+    if (closure_required)
+        for (const auto& s : segments)
+            if (!s.ok) out.push_back(segment_problem(s, limits) + " although the condition asks for closure = \"hold\"");
+    if (interpenetrating_frames > 0) out.push_back(interpenetration_problem(*this));
     return out;
 }
 

@@ -1,5 +1,4 @@
-// Target hold (target_hold.h): the closure mechanism of the rule model and,
-// per protocol condition, of any control model.
+// Target hold (target_hold.h): the closure mechanism of the rule model.
 #include "avsi/synth/target_hold.h"
 
 #include <algorithm>
@@ -62,26 +61,6 @@ void hold_targets(const PhoneSequence& phones, std::span<const double> times_s, 
 
 std::filesystem::path default_hold_targets_path() {
     return std::filesystem::path(AVSI_PROTOCOLS_DIR) / "rule_targets.tsv";
-}
-
-TargetHoldModel::TargetHoldModel(std::shared_ptr<const ControlModel> model, RuleModel::Table targets,
-                                 TargetHoldSettings settings)
-    : m_model(std::move(model)), m_targets(std::move(targets)), m_settings(std::move(settings)) {
-    AVSI_ASSERT(m_model);
-    set_provenance(m_model->provenance());
-}
-
-void TargetHoldModel::evaluate(const PhoneSequence& phones, std::span<const double> times_s,
-                               std::vector<Frame>& out) const {
-    m_model->evaluate(phones, times_s, out);
-    hold_targets(phones, times_s, m_targets, m_settings, out);
-}
-
-std::unique_ptr<ControlModel> with_target_hold(std::shared_ptr<const ControlModel> model,
-                                               const TargetHoldSettings& settings,
-                                               const std::filesystem::path& targets_path) {
-    auto targets = read_rule_targets_tsv(targets_path.empty() ? default_hold_targets_path() : targets_path);
-    return std::make_unique<TargetHoldModel>(std::move(model), std::move(targets), settings);
 }
 
 }  // namespace avsi::synth

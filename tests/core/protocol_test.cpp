@@ -123,6 +123,43 @@ TEST(Protocol, GoldenErrorReferences) { check_golden("references"); }
 TEST(Protocol, GoldenErrorSyntax) { check_golden("syntax"); }
 
 TEST(Protocol, GoldenErrorScoring) { check_golden("scoring"); }
+TEST(Protocol, GoldenErrorPolicyOnSomeModelConditions) { check_golden("policy"); }
+TEST(Protocol, GoldenErrorPolicyVariants) { check_golden("policy_variants"); }
+
+// The fair-comparison rule: one policy over every model condition, or the
+// policy declared as a factor (a held variant beside the model as trained).
+TEST(Protocol, ClosurePolicyAppliesToEveryModelConditionOrIsADeclaredFactor) {
+    const std::string head = "[experiment]\nname = \"p\"\n[corpus]\nsentences = \"corpus.csv\"\n"
+                             "[[condition]]\nname = \"audio-only\"\n";
+    const auto model = [](const std::string& name, const std::string& file, const std::string& extra) {
+        return "[[condition]]\nname = \"" + name + "\"\nmodel = \"models/" + file + "\"\n" + extra;
+    };
+    const fs::path path = data_dir / "inline.toml";
+    // As trained everywhere, and held everywhere: both fine.
+    EXPECT_NO_THROW(parse_protocol(head + model("cm", "cm.json", "") + model("ann2", "ann2.json", ""), path));
+    EXPECT_NO_THROW(parse_protocol(head + model("cm", "cm.json", "closure = \"hold\"\n") +
+                                       model("ann2", "ann2.json", "closure = \"hold\"\n"),
+                                   path));
+    // Held on one of two: refused, naming both.
+    try {
+        parse_protocol(head + model("cm", "cm.json", "") + model("ann2", "ann2.json", "closure = \"hold\"\n"), path);
+        ADD_FAILURE() << "a hold on a subset of the model conditions was accepted";
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("inline.toml:13:"), std::string::npos) << what;  // at ann2's closure key
+        EXPECT_NE(what.find("on ann2"), std::string::npos) << what;
+        EXPECT_NE(what.find("on cm"), std::string::npos) << what;
+        EXPECT_NE(what.find("variant_of = \"ann2\""), std::string::npos) << what;
+    }
+    // The same hold declared as a factor: accepted, and the variant named.
+    const Protocol p = parse_protocol(head + model("cm", "cm.json", "") + model("ann2", "ann2.json", "") +
+                                          model("ann2+hold", "ann2.json", "closure = \"hold\"\nvariant_of = \"ann2\"\n"),
+                                      path);
+    ASSERT_EQ(p.conditions.size(), 4u);
+    EXPECT_TRUE(p.conditions[3].closure_hold);
+    EXPECT_EQ(p.conditions[3].variant_of, "ann2");
+    EXPECT_TRUE(p.conditions[2].variant_of.empty());
+}
 
 TEST(Protocol, ScoringRuleSetAndHomophoneTable) {
     EXPECT_EQ(load_protocol(data_dir / "valid.toml").scoring.rules, "strict");  // the default

@@ -157,6 +157,69 @@ TEST_F(BuilderFixture, VerifyChecksEveryStimulusAgainstTheManifest) {
     EXPECT_EQ(part.extra, (std::vector<std::string>{"s2/audio-only.mp4", "s2/blank.mp4", "s2/rule.mp4"}));
 }
 
+// A closure hold declared as a factor: the model as trained beside its held
+// variant. The manifest names each condition's policy, the held one's
+// frames changed and mean change per parameter; both conditions' closure
+// and contact rates are measured (the held one closes every /p b m/); the
+// QC page lists each condition's worst segments; --verify passes.
+TEST_F(BuilderFixture, RecordsEachConditionsPolicyAndWhatItsModelPutsOnTheLips) {
+    const std::filesystem::path data = std::filesystem::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build";
+    std::filesystem::create_directories(dir / "p");
+    std::filesystem::copy_file(data / "corpus.csv", dir / "p" / "corpus.csv");
+    const std::string ohman = (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "ohman.json").string();
+    write_text_file(dir / "p" / "protocol.toml",
+                    "[experiment]\nname = \"policy\"\nseed = 7\n[corpus]\nsentences = \"corpus.csv\"\naudio = \"tts\"\n"
+                    "voice = \"en-us\"\n[[condition]]\nname = \"ohman\"\nmodel = \"" + ohman + "\"\n"
+                    "[[condition]]\nname = \"ohman+hold\"\nmodel = \"" + ohman + "\"\nclosure = \"hold\"\n"
+                    "variant_of = \"ohman\"\n[vocoder]\nbands = 3\n[design]\nlists = 2\nsentences_per_list = 1\n"
+                    "[render]\nfps = 30\nwidth = 160\nheight = 120\n");
+    BuildSettings b = settings("policy");
+    b.protocol_path = dir / "p" / "protocol.toml";
+    build_stimuli(b);
+    const auto manifest = nlohmann::json::parse(read_text_file(dir / "policy" / "manifest.json"));
+    ASSERT_EQ(manifest["conditions"].size(), 2u);
+    const auto& plain = manifest["conditions"][0];
+    const auto& held = manifest["conditions"][1];
+    EXPECT_EQ(plain["policy"]["closure"], "off");
+    EXPECT_EQ(plain["policy"]["as_trained"], true);
+    EXPECT_FALSE(plain.contains("closure_constraint"));
+    EXPECT_EQ(held["policy"]["closure"], "hold");
+    EXPECT_EQ(held["policy"]["variant_of"], "ohman");
+    EXPECT_TRUE(held.contains("closure_constraint"));
+    for (const auto* c : {&plain, &held}) {
+        const auto& a = (*c)["articulation"];
+        SCOPED_TRACE((*c)["name"].get<std::string>());
+        EXPECT_EQ(a["stimuli"], 2u);
+        EXPECT_GE(a["bilabials"].get<int>(), 2);  // "Bob", "bought"…
+        EXPECT_GE(a["labiodentals"].get<int>(), 2);
+        EXPECT_TRUE(a["closure_rate"].is_number());
+        EXPECT_FALSE(a["worst_bilabials"].empty());
+        EXPECT_EQ(a["failing_stimuli"], 0u);
+    }
+    EXPECT_EQ(held["articulation"]["bilabials_closed"], held["articulation"]["bilabials"]);
+    EXPECT_EQ(held["articulation"]["labiodentals_reached"], held["articulation"]["labiodentals"]);
+    const auto& change = held["articulation"]["closure_change"];
+    EXPECT_EQ(change["segments_unmet"], 0u);
+    EXPECT_GT(change["frames"].get<int>(), 0);
+    for (const auto& [param, mean] : change["mean_abs_change"].items()) {
+        EXPECT_TRUE(param == "jaw_rotation" || param == "upper_lip_raise" || param == "lower_lip_depression" ||
+                    param == "lower_lip_retraction")
+            << param << " changed by the closure constraint";
+        EXPECT_GT(mean.get<double>(), 0.0);
+    }
+    for (const auto& e : manifest["stimuli"]) {
+        EXPECT_EQ(e["policy"]["closure"], e["condition"] == "ohman" ? "off" : "hold");
+        EXPECT_EQ(e.contains("closure_change"), e["condition"] == "ohman+hold");
+    }
+    const std::string qc = read_text_file(dir / "policy" / "qc" / "articulation.html");
+    EXPECT_NE(qc.find("Worst segments per condition"), std::string::npos);
+    EXPECT_NE(qc.find("closure hold (σ 25 ms), variant of ohman"), std::string::npos);
+    EXPECT_NE(qc.find("<td>as trained</td>"), std::string::npos);
+    const VerifyReport v = verify_stimuli(b);
+    EXPECT_EQ(v.verified, 4u);
+    EXPECT_TRUE(v.problems.empty()) << v.problems.front();
+}
+
 // With lists in the corpus, only what the design can show is built: test
 // sentences in every condition, warm-up sentences in the warm-up condition,
 // practice sentences in the practice condition, spare sentences not at all.

@@ -48,11 +48,17 @@ struct ProtocolCondition {
     std::filesystem::path model;  // control model file, resolved; empty when absent
     FaceMode face = FaceMode::Still;
     ConditionAudio audio = ConditionAudio::Vocoded;
-    // Closure mechanism (synth/target_hold.h): "hold" holds the /p b m f v/
-    // targets of protocols/rule_targets.tsv through their segments on this
-    // condition's model; "off" (default) leaves the model as published.
+    // Post-processing policy (synth/closure_constraint.h): "hold" constrains
+    // this condition's model to lip closure in /p b m/ and labiodental
+    // contact in /f v/ by the least change of its own frames; "off"
+    // (default) shows the model as trained or hand-set. A policy applies to
+    // every model condition alike, or is a declared factor (variant_of).
     bool closure_hold = false;
     double closure_transition_s = 0.025;  // the hold's fall-off outside the segment
+    // The condition this one is a declared policy variant of: the same model
+    // file under another policy ("ann2+hold" of "ann2"), so the policy is a
+    // factor of the design rather than a difference between models. Empty: none.
+    std::string variant_of;
     // [condition.layers]: the animation layers over the speech (stimuli/layers.h
     // validates it; absent: speech and blinks only). Needs face = "model".
     ConfigSection layers;

@@ -96,6 +96,10 @@ struct ArticulatoryCorpus {
     double test_fraction = 0.3;
     // SHA-256 over the manifest and every file it names (in manifest order).
     std::string hash;
+    // The manifest's "synthetic": true: the tracks were generated (the
+    // reference speaker), not measured on a person; `avsi evaluate` then says
+    // that its table checks the training pipeline.
+    bool synthetic = false;
 };
 
 struct SplitSettings {
@@ -131,10 +135,11 @@ CorpusUtterance load_corpus_utterance(const ArticulatoryCorpus& corpus, const Co
 std::vector<CorpusUtterance> load_corpus_utterances(const ArticulatoryCorpus& corpus,
                                                     const std::vector<std::string>& ids);
 
-// Writes corpus.json for entries whose paths lie inside `dir`.
+// Writes corpus.json for entries whose paths lie inside `dir` (with
+// "synthetic": true for generated tracks).
 void write_corpus_manifest(const std::filesystem::path& dir, const std::string& name,
                            const std::vector<CorpusEntry>& entries, std::uint64_t split_seed,
-                           double test_fraction);
+                           double test_fraction, bool synthetic = false);
 
 // The index of the phone a time falls in (start ≤ t < end; the last phone
 // also takes t == end), or nullopt outside the labels.

@@ -36,6 +36,7 @@
 #include "avsi/core/phones.h"
 #include "avsi/learn/articulatory_corpus.h"
 #include "avsi/synth/articulation_check.h"
+#include "avsi/synth/closure_constraint.h"
 
 namespace avsi::learn {
 
@@ -50,6 +51,14 @@ struct Score {
     std::size_t frames = 0;
 };
 
+// A /p b m/ or /f v/ segment that came least close to closure or contact.
+struct PhoneticSegment {
+    std::string utterance;
+    std::string phone;
+    double start_s = 0.0, end_s = 0.0;
+    double distance_mm = 0.0;  // aperture (bilabial) or lower lip to upper incisors (labiodental) at its best frame
+};
+
 // The phonetic columns of one model (or of the reference data).
 struct PhoneticScores {
     std::size_t bilabials = 0, bilabials_closed = 0;
@@ -57,6 +66,10 @@ struct PhoneticScores {
     double aperture_error_mm = 0.0;        // mean |model − reference| over /p b m/ frames; NaN when none
     double lip_to_incisors_error_mm = 0.0; // the same over /f v/ frames
     std::size_t utterances = 0;            // utterances measured (a track with missing values is skipped)
+    // The bilabials left furthest open and the labiodentals furthest from
+    // contact (up to worst_segments_kept each, worst first).
+    std::vector<PhoneticSegment> worst_bilabials, worst_labiodentals;
+    static constexpr std::size_t worst_segments_kept = 5;
 
     double closure_rate() const { return bilabials ? double(bilabials_closed) / double(bilabials) : 0.0; }
     double contact_rate() const { return labiodentals ? double(labiodentals_reached) / double(labiodentals) : 0.0; }
@@ -111,6 +124,8 @@ PhoneticScores reference_phonetic_scores(const std::vector<CorpusUtterance>& utt
 // (model,bilabials,bilabials_closed,closure_rate,labiodentals,labiodentals_reached,contact_rate,
 //  aperture_error_mm,lip_to_incisors_error_mm), the reference data first.
 std::string phonetic_markdown(const PhoneticScores& reference, const std::vector<ModelScores>& scores);
+// Per model, its worst bilabial and labiodental segments (Markdown).
+std::string worst_segments_markdown(const std::vector<ModelScores>& scores);
 std::string phonetic_csv(const PhoneticScores& reference, const std::vector<ModelScores>& scores);
 
 // Table 2 layout: a row per subset, RMSE (%) and ρ per model; then a
@@ -136,8 +151,10 @@ struct EvaluationSettings {
     // What the face shows (phonetic columns, <out>_phonetic.csv); empty: none.
     ArticulationFunction articulation;
     std::string articulation_head;               // described in the caption
-    // Also score each model with the closure hold (synth/target_hold.h), as "<name>+hold".
+    // Also score each model with the closure constraint (synth/closure_constraint.h), as
+    // "<name>+hold"; needs the head's lip tasks.
     bool closure_hold = false;
+    synth::LipTaskFunction lip_tasks;
 };
 
 struct EvaluationResult {

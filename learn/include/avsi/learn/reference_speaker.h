@@ -1,36 +1,47 @@
 // A synthetic reference speaker, standing in for the motion-capture corpus of
 // the reference study (Beskow §3: 287 sentences, 60 fps) that the project
-// cannot ship. Its trajectories come from a mechanism none of the control
-// models share, so training and evaluating them on it is a fair test:
+// cannot ship. It shares no table and no mechanism with the control models
+// it trains, so that Table 2 on it checks the training pipeline without
+// favouring one model (docs/table2.md). It is a task-dynamic gesture model
+// after Saltzman & Munhall (1989):
 //
-// - Articulator dynamics: per parameter a critically damped second-order
-//   system  x'' = (u(t) − x)/τ² − 2·x'/τ  (time constant τ per parameter,
-//   jittered per utterance), driven by a piecewise-constant command u(t).
-// - Targets: u(t) is the target of the phone active at t + lead, i.e. each
-//   phone's command switches in `anticipation_s` (per parameter) before its
-//   segment starts. Short segments therefore undershoot their targets (the
-//   system never gets there), long ones reach them — except the lips'
-//   constrictions: a bilabial aims beyond contact (a virtual target) and its
-//   closing gesture (jaw, upper lip raise, lower lip depression) starts as
-//   early as it must for the lip aperture to be closure_margin_mm beyond
-//   contact from closure_hold_s before the segment's centre to as long after
-//   (the release comes no earlier), and a labiodental's gesture (jaw, lower
-//   lip retraction and depression) as early as it must for the lower lip to
-//   be within 1 mm of its height under the upper incisors, as real speakers
-//   close the lips for every /p b m/ (the planning is in
-//   simulate_reference_speaker; the aperture and height are linear in the
-//   parameters as the built-in head's rig makes them).
-// - Phone targets: a fixed table per phone (reference_speaker.cpp). A
-//   consonant leaves the parameters its place of articulation does not
-//   constrain unspecified; they take the next vowel's target (look-ahead).
-//   Diphthongs (AW AY EY OW OY) move from a first to a second target halfway
-//   through. Stressed vowels are articulated 10 % further from neutral,
-//   unstressed ones 15 % less far.
-// - Variation: per utterance a speaking rate (espeak-ng words per minute,
-//   uniform in [rate_min_wpm, rate_max_wpm]), an articulation scale
-//   (hypo/hyper-articulation, normal around 1), a per-parameter offset
-//   (posture), and a slow random drift of jaw_shift; per frame Gaussian
-//   sensor noise.
+// - Task space: five tract variables of the lips and jaw, in millimetres on
+//   the face: lip aperture (LA), lip width (LW), upper and lower lip
+//   protrusion (UP, LP) and jaw opening (JO).
+// - Gestures: each phone is a gesture whose targets are its row of
+//   protocols/reference/task_targets.tsv (measured or estimated articulatory
+//   postures with their provenance in task_targets.md; not the rule model's
+//   table and not any model's); a tract variable the phone leaves
+//   unspecified ("-") is not part of its gesture. A gesture is active over
+//   its phone's acoustic segment (diphthongs: two gestures, split at the
+//   centre), with 10 ms raised-cosine ramps, except that a vowel's gesture
+//   starts together with the consonant right before it (onset consonant and
+//   nucleus in phase, Browman & Goldstein 2000): the vowel shows through on
+//   the tract variables that consonant leaves free. No gesture starts before
+//   its acoustic segment otherwise: there is no fixed command lead.
+// - Blending (gestural overlap): a tract variable's target at time t is the
+//   mean of the targets of the gestures active on it, weighted by activation
+//   × blending strength (consonants 100, vowels and silence 1: a consonant
+//   all but suppresses the vowel on what it constrains), with a weak
+//   attractor to rest (strength 0.01) where no gesture is active.
+// - Dynamics: each tract variable follows its target as a critically damped
+//   second-order system, z'' = (z* − z)/τ² − 2z'/τ, with τ per tract
+//   variable (jittered per utterance); while a consonant gesture of
+//   duration D is active on it, τ is at most D/6 (stiffer gestures in
+//   shorter segments), so constrictions are made within their segments:
+//   the bilabials' virtual target beyond contact (−2 mm) closes the lips.
+// - Articulators: the 10 parameters are the least-cost solution of the
+//   tract variables through the face's linear geometry, p = p₀ +
+//   W⁻¹Jᵀ(JW⁻¹Jᵀ)⁻¹(z − z₀), J the tract variables' change per parameter
+//   unit on the built-in head (measured with `avsi measure`; a stimuli test
+//   checks it against the head), W the cost of moving each parameter; then
+//   clamped to the parameters' ranges. jaw_thrust and jaw_shift are not
+//   tract variables: posture offset, a slow jaw_shift drift and noise.
+// - Variation: per utterance a speaking rate, an articulation scale (the
+//   vowels' targets' distance from rest; consonants make their
+//   constrictions as they are), a posture offset per parameter and the
+//   time constants' jitter; per frame Gaussian sensor noise; stressed
+//   vowels 10 % further from rest, unstressed 15 % less.
 // - Timing from espeak-ng (avsi::synthesize_speech) over the sentences of
 //   protocols/reference/sentences.txt (266 everyday English sentences).
 //
@@ -40,6 +51,8 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,17 +62,37 @@
 
 namespace avsi::learn {
 
-struct ArticulatorDynamics {
-    double time_constant_s;  // τ of the critically damped system
-    double anticipation_s;   // command switches this long before segment onset
+enum class TractVariable { LipAperture = 0, LipWidth, UpperProtrusion, LowerProtrusion, JawOpening, Count };
+inline constexpr std::size_t tract_variable_count = static_cast<std::size_t>(TractVariable::Count);
+std::string_view tract_variable_name(TractVariable tv);
+
+// The tract variables as linear functions of the parameters on a face.
+struct TaskGeometry {
+    // mm per parameter unit, per tract variable (row) and parameter (column).
+    std::array<std::array<double, param_count>, tract_variable_count> mm_per_unit{};
+    std::array<double, tract_variable_count> at_rest_mm{};  // at the neutral pose
+    std::array<double, param_count> cost{};                 // W: the cost of moving each parameter
 };
 
-// The reference speaker's dynamics per parameter (study order).
-const std::array<ArticulatorDynamics, param_count>& reference_dynamics();
+// The built-in head's geometry (protocols/head), as `avsi measure` gives it.
+const TaskGeometry& builtin_head_task_geometry();
+
+// One phone's gesture targets (mm, as on the source speaker: task_targets.tsv).
+struct GestureTargets {
+    std::array<std::optional<double>, tract_variable_count> target_mm;
+};
+struct PhoneGestures {
+    GestureTargets first;
+    std::optional<GestureTargets> second;  // diphthongs
+};
+
+// Reads protocols/reference/task_targets.tsv (or `path`): phone → gestures.
+std::map<std::string, PhoneGestures, std::less<>> read_task_targets(const std::filesystem::path& path = {});
 
 struct ReferenceSpeakerSettings {
     std::uint64_t seed = 2004;
     std::filesystem::path sentences_path;   // empty: protocols/reference/sentences.txt
+    std::filesystem::path targets_path;     // empty: protocols/reference/task_targets.tsv
     std::size_t max_utterances = 0;          // 0: every sentence
     double fps = 60.0;
     std::string voice = "en-us";
@@ -71,15 +104,6 @@ struct ReferenceSpeakerSettings {
     double jaw_shift_drift_sd = 0.06;       // sd of the slow jaw_shift drift, × range
     double sensor_noise_sd = 0.004;         // per-frame noise, × range
     double simulation_step_s = 0.001;
-    // Bilabials: the lip aperture (reference_speaker.cpp) at the segment's
-    // centre is at least this far beyond contact; a bilabial's or
-    // labiodental's gesture starts up to max_closure_lead_s earlier than the
-    // parameters' anticipation.
-    double closure_margin_mm = 2.0;
-    double max_closure_lead_s = 0.15;
-    // ... from this long before the centre to this long after it (a closure
-    // a video frame can show, whatever the frame rate from 25 fps up).
-    double closure_hold_s = 0.02;
     std::uint64_t split_seed = 2004;
     double test_fraction = 0.3;
 };
@@ -87,10 +111,13 @@ struct ReferenceSpeakerSettings {
 // How one utterance is varied (drawn from the settings by the generator).
 struct UtteranceVariation {
     double articulation_scale = 1.0;
-    std::array<double, param_count> offset{};       // added to every target
-    std::array<double, param_count> time_constant_scale{};
+    std::array<double, param_count> offset{};       // added to every frame's parameters
+    std::array<double, tract_variable_count> time_constant_scale{};  // 0 = 1
     bool add_noise = false;
 };
+
+// The tract variables' time constants τ (s), in TractVariable order.
+const std::array<double, tract_variable_count>& reference_time_constants();
 
 // The parameter trajectories of the reference speaker for a phone sequence
 // (frames k/fps from 0 to the end of the last phone). `rng` feeds the
@@ -98,12 +125,20 @@ struct UtteranceVariation {
 ParamTrack simulate_reference_speaker(const PhoneSequence& phones, const UtteranceVariation& variation,
                                       const ReferenceSpeakerSettings& settings, Rng& rng);
 
+// The tract variables of the simulation at each frame (mm), for tests and plots.
+std::vector<std::array<double, tract_variable_count>> simulate_tract_variables(
+    const PhoneSequence& phones, const UtteranceVariation& variation, const ReferenceSpeakerSettings& settings);
+
+// The parameters the geometry gives a tract-variable vector (before clamping).
+Frame parameters_of_tract_variables(const std::array<double, tract_variable_count>& z_mm,
+                                    const TaskGeometry& geometry = builtin_head_task_geometry());
+
 // Reads a sentence list: one sentence per line, '#' comments, blank lines skipped.
 std::vector<std::string> read_sentence_list(const std::filesystem::path& path);
 
-// Generates the reference corpus into `out_dir`: corpus.json, tracks/<id>.csv,
-// labels/<id>.tsv, sentences.tsv (id, rate, text) and README.md. Returns the
-// number of utterances written.
+// Generates the reference corpus into `out_dir`: corpus.json (synthetic),
+// tracks/<id>.csv, labels/<id>.tsv, sentences.tsv (id, rate, text) and
+// README.md. Returns the number of utterances written.
 std::size_t write_reference_corpus(const std::filesystem::path& out_dir, const ReferenceSpeakerSettings& settings);
 
 }  // namespace avsi::learn

@@ -40,6 +40,7 @@
 #include "avsi/core/phones.h"
 #include "avsi/stimuli/head.h"
 #include "avsi/synth/articulation_check.h"
+#include "avsi/synth/closure_constraint.h"
 #include "avsi/synth/trajectory.h"
 
 namespace avsi::stimuli {
@@ -107,16 +108,55 @@ struct QcStimulus {
     std::string sentence;   // id
     std::string text;
     ArticulationSummary summary;
+    // The condition's post-processing policy ("as trained", "closure hold",
+    // …), and whether it asked for closure (then a miss is a failure).
+    std::string policy = "as trained";
+    bool closure_required = false;
+    synth::ClosureStats closure_change;  // what the constraint changed (held conditions)
     // For the plotted ones: the phones and every frame's measures.
     PhoneSequence phones;
     std::vector<ArticulationMeasures> measures;
 };
 
-// The QC page of a stimulus set (HTML, self-contained): per condition the
-// bilabials closed and labiodentals reached over all its stimuli, the
-// aperture range and the violations; every stimulus that breaks a
-// constraint, named with its segments; and the aperture plots of the
-// stimuli given with measures (the worst ones).
+// One of the segments that came least close to closure (/p b m/) or
+// contact (/f v/) in a condition.
+struct WorstSegment {
+    std::string path;      // the stimulus
+    std::string sentence;  // its sentence id
+    std::string phone;
+    double start_s = 0.0, end_s = 0.0;
+    double distance_mm = 0.0;  // aperture (bilabial) or lower lip to upper incisors (labiodental) at its best frame
+    bool met = false;          // within the limit
+};
+
+// A condition's articulation over its stimuli: what the model puts on the
+// lips in running speech, as a result to read (and to report).
+struct ConditionArticulation {
+    std::string condition;
+    std::string policy;
+    bool closure_required = false;
+    std::size_t stimuli = 0, bilabials = 0, bilabials_closed = 0, labiodentals = 0, labiodentals_reached = 0;
+    std::size_t failing = 0;                  // stimuli with a failure (ArticulationSummary::failures)
+    std::size_t interpenetrating_frames = 0;
+    std::size_t rounding_checked = 0, rounding_ok = 0;  // stimuli with /uw w/ and /iy/, and those that contrast
+    double aperture_min_mm = 0.0, aperture_max_mm = 0.0;
+    std::vector<WorstSegment> worst_bilabials, worst_labiodentals;  // worst first
+    synth::ClosureStats closure_change;
+    double closure_rate() const { return bilabials ? double(bilabials_closed) / double(bilabials) : 0.0; }
+    double contact_rate() const { return labiodentals ? double(labiodentals_reached) / double(labiodentals) : 0.0; }
+};
+
+// Per condition, in the order the conditions first appear, with up to
+// `worst_listed` worst segments of each kind.
+std::vector<ConditionArticulation> articulation_by_condition(const std::vector<QcStimulus>& stimuli,
+                                                             std::size_t worst_listed = 5);
+
+// The QC page of a stimulus set (HTML, self-contained): per condition its
+// policy, the share of /p b m/ closed and /f v/ in contact over all its
+// stimuli (results of the models, not constraints), the aperture range and
+// the failures; each condition's worst segments (time, sentence, distance);
+// every stimulus that fails, named with its segments; and the aperture plots
+// of the stimuli given with measures (the worst ones).
 std::string articulation_qc_html(const std::string& title, const std::vector<QcStimulus>& stimuli,
                                  const ArticulationLimits& limits = {});
 

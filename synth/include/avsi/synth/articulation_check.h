@@ -18,6 +18,7 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "avsi/core/phones.h"
@@ -50,6 +51,10 @@ struct ArticulationLimits {
 
 enum class SegmentClass { Bilabial, Labiodental };
 
+// /p b m/ and /f v/: the phones whose lips the checks judge.
+bool is_bilabial(std::string_view phone);
+bool is_labiodental(std::string_view phone);
+
 // One checked segment.
 struct SegmentCheck {
     SegmentClass kind = SegmentClass::Bilabial;
@@ -81,6 +86,12 @@ struct ArticulationSummary {
     double worst_mm(SegmentClass kind) const;
     // One line per problem ("B at 1.230-1.290 s: aperture 2.1 mm at frame 37 > 0.5 mm"); empty if none.
     std::vector<std::string> problems(const ArticulationLimits& limits = {}) const;
+    // The problems that make a stimulus broken rather than a model's result
+    // (DESIGN.md, "Validity checks"): lips passing through each other, and,
+    // when the condition asked for closure (closure = "hold"), a /p b m/ not
+    // closed or an /f v/ without contact. A model shown as trained that
+    // leaves a bilabial open is measured, not failed.
+    std::vector<std::string> failures(bool closure_required, const ArticulationLimits& limits = {}) const;
 };
 
 // Checks the constraints of an utterance's measures (frame k at k / fps).

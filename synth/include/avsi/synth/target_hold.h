@@ -1,4 +1,4 @@
-// Target hold: the closure mechanism that makes a control model reach the
+// Target hold: the rule model's closure mechanism, which makes it reach the
 // articulatory targets a phone cannot do without (the lips' closure of
 // /p b m/, the lower lip under the upper incisors for /f v/) in every
 // segment, however short, and whatever the context.
@@ -29,9 +29,11 @@
 //
 // The targets come from the rule model's table (protocols/rule_targets.tsv:
 // for /p b m/ the jaw, upper lip raise and lower lip depression, set beyond
-// contact so the lips close from any context on the head's rig); the rule
-// model holds them itself, and a protocol condition can hold them on any
-// other model (`closure = "hold"`).
+// contact so the lips close from any context on the head's rig): this is
+// the rule model's own mechanism (rule_model.h), part of the model as
+// hand-set. A protocol condition's `closure = "hold"` is something else: it
+// never writes another model's targets, it constrains the lips of the
+// condition's own model (closure_constraint.h).
 #pragma once
 
 #include <filesystem>
@@ -58,31 +60,5 @@ void hold_targets(const PhoneSequence& phones, std::span<const double> times_s, 
 
 // The default hold targets: protocols/rule_targets.tsv.
 std::filesystem::path default_hold_targets_path();
-
-// A control model whose output is held at the targets of its held phones.
-class TargetHoldModel : public ControlModel {
-public:
-    TargetHoldModel(std::shared_ptr<const ControlModel> model, RuleModel::Table targets, TargetHoldSettings settings);
-
-    std::string_view kind() const override { return m_model->kind(); }
-    void evaluate(const PhoneSequence& phones, std::span<const double> times_s,
-                  std::vector<Frame>& out) const override;
-    // The wrapped model's file: the hold is a setting of its use, not of the model.
-    std::string to_json_text() const override { return m_model->to_json_text(); }
-
-    const ControlModel& model() const { return *m_model; }
-    const TargetHoldSettings& settings() const { return m_settings; }
-
-private:
-    std::shared_ptr<const ControlModel> m_model;
-    RuleModel::Table m_targets;
-    TargetHoldSettings m_settings;
-};
-
-// `model` held at the targets of `targets_path` (default_hold_targets_path()
-// when empty) as `settings` say.
-std::unique_ptr<ControlModel> with_target_hold(std::shared_ptr<const ControlModel> model,
-                                               const TargetHoldSettings& settings,
-                                               const std::filesystem::path& targets_path = {});
 
 }  // namespace avsi::synth
