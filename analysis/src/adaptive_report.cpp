@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "adaptive_plot.h"
+#include "avsi/analysis/pairwise.h"
 #include "avsi/analysis/rm_anova.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
@@ -239,6 +240,11 @@ SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSe
         }
         a.benefits.push_back(b);
     }
+    // The k − 1 benefits are one family of tests: Holm over them, as pairwise.csv does over all pairs.
+    std::vector<std::optional<double>> benefit_p;
+    for (const auto& b : a.benefits) benefit_p.push_back(b.p_value);
+    const auto holm = holm_adjust(benefit_p);
+    for (std::size_t i = 0; i < a.benefits.size(); ++i) a.benefits[i].p_holm = holm[i];
 
     // Pooled psychometric function per condition.
     for (const auto& condition : a.conditions) {
@@ -304,11 +310,12 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
 
     // benefit.csv
     std::string benefit_csv = csv_line({"condition", "reference", "n", "benefit_db", "sd_db", "se_db", "ci_low_db",
-                                        "ci_high_db", "t", "df", "p", "confidence"});
+                                        "ci_high_db", "t", "df", "p", "p_holm", "confidence"});
     for (const auto& b : a.benefits)
         benefit_csv += csv_line({b.condition, b.reference, std::to_string(b.n), full(b.mean_db), full(b.sd_db),
                                  full(b.se_db), full(b.ci_low_db), full(b.ci_high_db), b.t ? full(*b.t) : "NA",
-                                 full(b.df), b.p_value ? full(*b.p_value) : "NA", full(settings.confidence)});
+                                 full(b.df), b.p_value ? full(*b.p_value) : "NA", b.p_holm ? full(*b.p_holm) : "NA",
+                                 full(settings.confidence)});
     write_text_file(settings.out_dir / "benefit.csv", benefit_csv);
 
     // psychometric.csv
@@ -479,6 +486,8 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
         md += fmt::format("\nRepeated-measures ANOVA on the SRTs: {} (n = {}).\n\n", apa, a.anova->anova.n);
         html += fmt::format("<p>Repeated-measures ANOVA on the SRTs: {} (n = {}).</p>\n", detail::html_escape(apa),
                             a.anova->anova.n);
+        md += sphericity_markdown(*a.anova) + "\n";
+        html += sphericity_html(*a.anova);
     } else {
         md += "Too few complete subjects for an ANOVA (see the notes).\n\n";
         html += "<p>Too few complete subjects for an ANOVA (see the notes).</p>\n";
@@ -487,21 +496,29 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     md += fmt::format("## Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)\n\n", a.reference);
     html += fmt::format("<h2>Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)</h2>\n",
                         detail::html_escape(a.reference));
-    md += fmt::format("| condition | n | benefit ({}) | {:.0f} % CI | t | df | p |\n| --- | ---: | ---: | --- | ---: | ---: | ---: |\n",
+    md += fmt::format("| condition | n | benefit ({}) | {:.0f} % CI | t | df | p | p (Holm) |\n| --- | ---: | ---: | --- | "
+                      "---: | ---: | ---: | ---: |\n",
                       a.unit, 100 * settings.confidence);
     html += fmt::format("<table><tr><th>condition</th><th>n</th><th>benefit ({})</th><th>{:.0f} % CI</th><th>t</th>"
-                        "<th>df</th><th>p</th></tr>\n",
+                        "<th>df</th><th>p</th><th>p (Holm)</th></tr>\n",
                         a.unit, 100 * settings.confidence);
     for (const auto& b : a.benefits) {
-        const std::string p = b.p_value ? apa_p(*b.p_value) : "NA";
-        md += fmt::format("| {} | {} | {:.2f} | [{:.2f}, {:.2f}] | {} | {:.0f} | {} |\n", b.condition, b.n, b.mean_db,
-                          b.ci_low_db, b.ci_high_db, opt_text(b.t, "{:.2f}"), b.df, p);
+        const std::string p = b.p_value ? table_p(*b.p_value) : "NA";
+        const std::string p_holm = b.p_holm ? table_p(*b.p_holm) : "NA";
+        md += fmt::format("| {} | {} | {:.2f} | [{:.2f}, {:.2f}] | {} | {:.0f} | {} | {} |\n", b.condition, b.n,
+                          b.mean_db, b.ci_low_db, b.ci_high_db, opt_text(b.t, "{:.2f}"), b.df, p, p_holm);
         html += fmt::format("<tr><td>{}</td><td>{}</td><td>{:.2f}</td><td>[{:.2f}, {:.2f}]</td><td>{}</td><td>{:.0f}</td>"
-                            "<td>{}</td></tr>\n",
+                            "<td>{}</td><td>{}</td></tr>\n",
                             detail::html_escape(b.condition), b.n, b.mean_db, b.ci_low_db, b.ci_high_db,
-                            opt_text(b.t, "{:.2f}"), b.df, detail::html_escape(p));
+                            opt_text(b.t, "{:.2f}"), b.df, p, p_holm);
     }
     html += "</table>\n";
+    md += fmt::format("\nUncorrected paired t-tests (df = n − 1) and Holm's adjustment over the {} benefit(s) "
+                      "against {}.\n\n",
+                      a.benefits.size(), a.reference);
+    html += fmt::format("<p>Uncorrected paired t-tests (df = n − 1) and Holm's adjustment over the {} benefit(s) "
+                        "against {}.</p>\n",
+                        a.benefits.size(), detail::html_escape(a.reference));
     // Per-subject SRTs.
     md += fmt::format("\n## SRT per subject and condition\n\n| subject | condition | SRT ({}) | SE | ML SRT | ML SE | "
                       "presentations | reversals |\n| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n",

@@ -279,3 +279,84 @@ TEST(AdaptiveReport, BandCountTracksAreReportedInBands) {
     }
     fs::remove_all(dir);
 }
+
+// The SRT report's tests against R (scripts/r/srt_reference.R): 20 simulated
+// listeners × 3 conditions whose benefits vary unequally (Mauchly p < .05).
+// R computes the SRTs from the stored levels on its own, then afex/car's
+// ANOVA with GG and HF corrections and the paired benefits with Holm's
+// adjustment; the replayed tracks, the report's numbers and its printed
+// tables must agree.
+TEST(AdaptiveReport, SphericityViolatedCaseMatchesR) {
+    const fs::path data = fs::path(AVSI_TEST_DATA_DIR) / "analysis";
+    const nlohmann::json r = nlohmann::json::parse(read_text_file(data / "srt_sphericity.expected.json"));
+    const auto rows = read_adaptive_trials(data / "srt_sphericity.adaptive_trials.csv");
+    const SrtAnalysis a = analyze_srt(rows, TrackSettings{}, {"audio-only", "av-a", "av-b"}, "audio-only",
+                                      "srt_sphericity.adaptive_trials.csv");
+    ASSERT_EQ(a.tracks.size(), 60u);
+    std::map<std::pair<std::string, std::string>, double> srt;
+    for (const auto& t : a.tracks) {
+        ASSERT_TRUE(t.srt.valid) << t.subject << " " << t.condition;
+        srt[{t.subject, t.condition}] = t.srt.srt_db;
+    }
+    for (const auto& e : r.at("srt"))
+        EXPECT_NEAR((srt.at({e.at("subject").get<std::string>(), e.at("condition").get<std::string>()})),
+                    e.at("srt_db").get<double>(), 1e-9);
+
+    ASSERT_TRUE(a.anova.has_value());
+    const AnovaResult& an = a.anova->anova;
+    const auto near = [](double got, double want, const char* what) {
+        EXPECT_NEAR(got, want, 1e-9 * std::max(1.0, std::fabs(want))) << what;
+    };
+    ASSERT_EQ(an.n, 20u);
+    near(an.df_conditions, r.at("df_conditions").get<double>(), "df");
+    near(an.df_error, r.at("df_error").get<double>(), "df error");
+    near(*an.F, r.at("afex_F").get<double>(), "F");
+    near(*an.p_value, r.at("afex_p").get<double>(), "p");
+    near(an.mauchly.W, r.at("mauchly_W").get<double>(), "Mauchly W");
+    near(*an.mauchly.p_value, r.at("mauchly_p").get<double>(), "Mauchly p");
+    ASSERT_LT(r.at("mauchly_p").get<double>(), 0.05) << "the case must violate sphericity";
+    near(*an.greenhouse_geisser.epsilon, r.at("gg_epsilon").get<double>(), "GG epsilon");
+    near(*an.greenhouse_geisser.p_value, r.at("gg_p").get<double>(), "GG p");
+    near(*an.huynh_feldt.epsilon, r.at("hf_epsilon").get<double>(), "HF epsilon");
+    near(*an.huynh_feldt.p_value, r.at("hf_p").get<double>(), "HF p");
+
+    ASSERT_EQ(a.benefits.size(), 2u);
+    for (std::size_t i = 0; i < 2; ++i) {
+        const auto& want = r.at("benefits").at(i);
+        const VisualBenefit& b = a.benefits[i];
+        EXPECT_EQ(b.condition, want.at("condition").get<std::string>());
+        near(b.mean_db, want.at("benefit_db").get<double>(), "benefit");
+        near(*b.t, want.at("t").get<double>(), "t");
+        near(*b.p_value, want.at("p").get<double>(), "p");
+        near(*b.p_holm, want.at("p_holm").get<double>(), "Holm p");
+        near(b.ci_low_db, want.at("ci_low_db").get<double>(), "CI low");
+        near(b.ci_high_db, want.at("ci_high_db").get<double>(), "CI high");
+    }
+    // Holm changes at least one p here, so the printed column is not the uncorrected one.
+    EXPECT_NE(*a.benefits[0].p_holm, *a.benefits[0].p_value);
+
+    // The printed report: the GG and HF lines with R's ε and p, and the Holm column.
+    const fs::path dir = temp_dir("r_case");
+    SrtReportSettings rs;
+    rs.out_dir = dir;
+    rs.source = "srt_sphericity.adaptive_trials.csv";
+    write_srt_report(a, rs);
+    const std::string md = read_text_file(dir / "report.md");
+    const std::string html = read_text_file(dir / "index.html");
+    const auto printed_p = [](double p) { return table_p(p); };
+    for (const std::string& s :
+         {fmt::format("| Greenhouse-Geisser | {:.4f} | ", r.at("gg_epsilon").get<double>()),
+          fmt::format("| Huynh-Feldt (raw ε; min(1, ε) used) | {:.4f} | ", r.at("hf_epsilon").get<double>()),
+          fmt::format(" | {} |\n", printed_p(r.at("gg_p").get<double>())),
+          fmt::format(" | {} |\n", printed_p(r.at("hf_p").get<double>())),
+          std::string("| p | p (Holm) |"),
+          fmt::format("| {} | {} |\n", printed_p(r.at("benefits").at(1).at("p").get<double>()),
+                      printed_p(r.at("benefits").at(1).at("p_holm").get<double>()))})
+        EXPECT_NE(md.find(s), std::string::npos) << s << "\n" << md;
+    EXPECT_NE(html.find("Greenhouse-Geisser"), std::string::npos);
+    EXPECT_NE(html.find("<th>p (Holm)</th>"), std::string::npos);
+    const CsvTable benefit_csv = read_csv(dir / "benefit.csv");
+    const std::size_t c_holm = benefit_csv.require_column("p_holm");
+    EXPECT_NEAR(std::stod(benefit_csv.rows[0].fields[c_holm]), r.at("benefits").at(0).at("p_holm").get<double>(), 1e-12);
+    fs::remove_all(dir);
+}

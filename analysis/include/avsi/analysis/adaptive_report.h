@@ -57,6 +57,7 @@ struct VisualBenefit {
     double mean_db = 0.0, sd_db = 0.0, se_db = 0.0;
     double ci_low_db = 0.0, ci_high_db = 0.0;
     std::optional<double> t, p_value;
+    std::optional<double> p_holm;  // Holm-adjusted over the k − 1 benefits (R p.adjust "holm")
     double df = 0.0;
 };
 
