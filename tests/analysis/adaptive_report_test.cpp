@@ -202,7 +202,8 @@ TEST(AdaptiveReport, BadFieldsAreReportedWithFileLineAndColumn) {
 
 // A band-count study: the stored levels are band counts, the tracks replay on
 // positions of the list, and the thresholds, the benefit and the report are
-// in bands — each SRT checked against the mean of the CSV's own band levels.
+// on the log2(bands) scale — each SRT checked against the mean of the log2 of
+// the CSV's own band levels.
 TEST(AdaptiveReport, BandCountTracksAreReportedInBands) {
     const fs::path dir = temp_dir("bands");
     const std::string protocol_text = read_text_file(kProtocol);
@@ -242,26 +243,32 @@ TEST(AdaptiveReport, BandCountTracksAreReportedInBands) {
     settings.out_dir = dir / "report";
     const SrtAnalysis a = analyze_adaptive_file(settings);
     EXPECT_EQ(a.unit, "bands");
+    EXPECT_EQ(a.scale, "log2(bands)");
     ASSERT_EQ(a.tracks.size(), 8u);
-    std::map<int, double> benefit;
+    std::map<int, std::map<std::string, double>> log_mean;  // subject → condition → mean log2 bands (converged tracks)
     for (const auto& t : a.tracks) {
         SCOPED_TRACE(t.subject + " " + t.condition);
         const auto& levels = averaged.at({std::stoi(t.subject), t.condition});
         ASSERT_EQ(levels.size(), 8u);
-        const double mean = std::accumulate(levels.begin(), levels.end(), 0.0) / levels.size();
+        double mean = 0.0;
+        for (double b : levels) mean += std::log2(b) / levels.size();
         ASSERT_TRUE(t.srt.valid);
         EXPECT_NEAR(t.srt.srt_db, mean, 1e-12);
         for (const auto& st : t.steps)
             EXPECT_NE(std::find(adaptive.levels.begin(), adaptive.levels.end(), st.level_db), adaptive.levels.end());
-        benefit[std::stoi(t.subject)] += (t.condition == "audio-only" ? 1 : -1) * mean;
+        if (!t.excluded) log_mean[std::stoi(t.subject)][t.condition] = mean;
     }
     ASSERT_EQ(a.benefits.size(), 1u);
-    double mean_benefit = 0;
-    for (const auto& [s, b] : benefit) mean_benefit += b / benefit.size();
-    EXPECT_NEAR(a.benefits[0].mean_db, mean_benefit, 1e-9);
+    std::vector<double> benefit;
+    for (const auto& [s, m] : log_mean)
+        if (m.size() == 2) benefit.push_back(m.at("audio-only") - m.at("audiovisual"));
+    ASSERT_GE(benefit.size(), 2u);
+    EXPECT_EQ(a.benefits[0].n, benefit.size());
+    EXPECT_NEAR(a.benefits[0].mean_db, std::accumulate(benefit.begin(), benefit.end(), 0.0) / benefit.size(), 1e-9);
     const std::string report = read_text_file(dir / "report" / "report.md");
-    EXPECT_NE(report.find("## SRT by condition (vocoder bands; lower is better)"), std::string::npos) << report;
-    EXPECT_NE(report.find("| condition | n | benefit (bands) |"), std::string::npos) << report;
+    EXPECT_NE(report.find("## SRT by condition (log2 vocoder bands; lower is better)"), std::string::npos) << report;
+    EXPECT_NE(report.find("| condition | n | benefit (log2(bands)) |"), std::string::npos) << report;
+    EXPECT_NE(report.find("threshold = mean of the log2 levels"), std::string::npos) << report;
     EXPECT_EQ(report.find("dB"), std::string::npos) << report;
     // A stored band count the rules do not give is refused with its line.
     std::string tampered = text;

@@ -45,9 +45,11 @@ std::vector<AdaptiveTrialRow> read_adaptive_trials(const std::filesystem::path& 
 // One subject × condition track, replayed.
 struct TrackResult {
     std::string subject, condition;
-    std::vector<TrackStep> steps;
-    SrtEstimate srt;  // the protocol's estimator
-    SrtEstimate ml;   // the ML fit of the same track (for comparison)
+    std::vector<TrackStep> steps;  // levels in the variable's units (dB, bands, Hz)
+    SrtEstimate srt;  // the protocol's estimator, on the analysis scale (dB, or log2 of bands / Hz)
+    SrtEstimate ml;   // the ML fit of the same track (for comparison), same scale
+    TrackConvergence convergence;
+    bool excluded = false;  // left out of the ANOVA and the benefit (not converged, not included)
 };
 
 // Reference minus condition, per subject.
@@ -70,6 +72,17 @@ struct ConditionFit {
 
 struct SrtAnalysis {
     TrackSettings settings;
+    // The scale of thresholds and statistics: "dB" for SNR tracks; for list
+    // variables "log2(bands)" or "log2(Hz)": levels of band counts and
+    // cutoffs are roughly logarithmic, so thresholds are means of log2
+    // levels (geometric means), the fits are in log2 units and the ANOVA and
+    // benefit run on log2 thresholds.
+    std::string scale = "dB";
+    bool log2_scale = false;
+    bool include_unconverged = false;
+    int excluded_tracks = 0;              // tracks left out (not converged)
+    std::vector<std::string> excluded;    // "subject s03, audio-only: at the upper bound from sentence 6"
+    std::vector<std::string> warnings;    // design warnings (ceilings below the tracked target)
     // The variable's units: "dB" (SNR), or "bands" / "Hz" for a list variable
     // (whose track steps, levels and thresholds are then in those units).
     std::string unit = "dB";
@@ -92,10 +105,14 @@ struct SrtAnalysis {
 // With `list` (a protocol whose variable is "bands" or "cutoff"), the stored
 // levels are the list's values, the track is replayed on positions, and every
 // level and threshold is reported in the variable's units.
+// Tracks that did not converge (track_convergence) are flagged; unless
+// `include_unconverged`, their SRTs are left out of the ANOVA (the subject is
+// then dropped listwise) and of the benefit, and the report names them.
+// `protocol` also gives the conditions' ceilings (pooled fits use them).
 SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSettings& settings,
                         const std::vector<std::string>& conditions, const std::string& reference,
                         const std::string& source, double confidence = 0.95,
-                        const AdaptiveProtocol* list = nullptr);
+                        const AdaptiveProtocol* protocol = nullptr, bool include_unconverged = false);
 
 struct SrtReportSettings {
     std::filesystem::path out_dir;
@@ -114,6 +131,7 @@ struct AdaptiveAnalyzeSettings {
     std::filesystem::path out_dir;
     double confidence = 0.95;
     std::string title = "Speech reception thresholds by condition";
+    bool include_unconverged = false;  // --include-unconverged
 };
 
 // `avsi analyze --adaptive`: reads, replays, analyses and writes the report.
