@@ -158,9 +158,9 @@ TEST_F(Cli, ScoreAgreementWithASecondScorer) {
     EXPECT_NE(r.output.find("Cohen's kappa"), std::string::npos) << r.output;
     const auto agreement = avsi::read_csv(dir / "o" / "agreement.csv");
     ASSERT_EQ(agreement.rows.size(), 3u);
-    // strict: 0 0 0 vs 0 0 1 -> 2 of 3 agree, kappa 0 (the automatic side has one verdict: pe = po = 2/3).
+    // strict: 0 0 0 vs 0 0 1 -> 2 of 3 agree, kappa NA (the automatic side has one verdict throughout).
     EXPECT_EQ(agreement.rows[0].fields[agreement.require_column("agreements")], "2");
-    EXPECT_EQ(agreement.rows[0].fields[agreement.require_column("kappa")], "0.000000");
+    EXPECT_EQ(agreement.rows[0].fields[agreement.require_column("kappa")], "NA");
     // lenient: 1 0 1 vs 0 0 1 -> 2 of 3; pa = 2/3, pb = 1/3, pe = 2/9 + 2/9 = 4/9, kappa = (6/9-4/9)/(5/9) = 0.4.
     EXPECT_EQ(agreement.rows[2].fields[agreement.require_column("kappa")], "0.400000");
     EXPECT_EQ(avsi::read_csv(dir / "o" / "disagreements.csv").rows.size(), 1u + 2u + 1u);
