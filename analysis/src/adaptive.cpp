@@ -775,8 +775,8 @@ std::vector<std::string> adaptive_design_warnings(const AdaptiveProtocol& a, int
         if (!(tracked < ceiling))
             out.push_back(fmt::format(
                 "adaptive: condition \"{}\" has a ceiling of {:.3f} keywords right, at or below the {:.3f} per keyword "
-                "the {} track aims at ({}): its track cannot converge and will climb to the bound; such tracks are "
-                "flagged and left out of the ANOVA and the benefit",
+                "the {} track aims at ({}): its tracks cannot converge and climb towards the bound; those that reach "
+                "it are flagged and left out of the ANOVA and the benefit, the others are biased upwards",
                 condition, ceiling, tracked, to_string(a.track.procedure),
                 a.track.procedure == AdaptiveProcedure::Sentence
                     ? fmt::format("all {} keywords right half the time", keywords)

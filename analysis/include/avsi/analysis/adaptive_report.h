@@ -102,9 +102,10 @@ struct SrtAnalysis {
 // orders the report (empty: first appearance); `reference` is the audio-only
 // condition (empty: the first). Throws InputError naming `source` and the
 // line when a stored level is not what the rules give.
-// With `list` (a protocol whose variable is "bands" or "cutoff"), the stored
-// levels are the list's values, the track is replayed on positions, and every
-// level and threshold is reported in the variable's units.
+// With `protocol` (its [adaptive] section) whose variable is "bands" or
+// "cutoff", the stored levels are the list's values, the track is replayed on
+// positions, levels are reported in the variable's units and thresholds,
+// fits and statistics on its log2 scale (SrtAnalysis::scale).
 // Tracks that did not converge (track_convergence) are flagged; unless
 // `include_unconverged`, their SRTs are left out of the ANOVA (the subject is
 // then dropped listwise) and of the benefit, and the report names them.
