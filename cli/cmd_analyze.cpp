@@ -20,6 +20,7 @@ struct AnalyzeOptions {
     std::vector<std::string> conditions;
     double confidence = 0.95;
     std::string dv = "percent";
+    bool include_unconverged = false;
 };
 
 const bool registered_analyze = register_command({
@@ -52,6 +53,9 @@ const bool registered_analyze = register_command({
                        "Take the conditions and their order from the [[condition]] tables of this protocol (as --conditions)")
             ->check(CLI::ExistingFile)
             ->excludes(conditions);
+        sub.add_flag("--include-unconverged", o->include_unconverged,
+                     "adaptive_trials.csv: keep tracks that hit a bound or did not reverse in the ANOVA and the "
+                     "benefit (default: flagged, named and left out)");
         return [o, title = sub.get_option("--title"), dv = sub.get_option("--dv")] {
             if (analysis::is_adaptive_trials_file(o->input)) {
                 if (dv->count() > 0)
@@ -65,17 +69,22 @@ const bool registered_analyze = register_command({
                 a.protocol = o->protocol;
                 a.out_dir = o->out;
                 a.confidence = o->confidence;
+                a.include_unconverged = o->include_unconverged;
                 if (title->count() > 0) a.title = o->title;
                 const auto result = analysis::analyze_adaptive_file(a);
-                if (result.anova) fmt::print("SRT: {}\n", analysis::apa_anova(result.anova->anova));
+                if (result.excluded_tracks > 0)
+                    fmt::print("{} of {} tracks did not converge ({}): {}\n", result.excluded_tracks,
+                               result.tracks.size(), o->include_unconverged ? "kept" : "left out",
+                               fmt::join(result.excluded, "; "));
+                if (result.anova) fmt::print("SRT ({}): {}\n", result.scale, analysis::apa_anova(result.anova->anova));
                 for (const auto& b : result.benefits)
                     if (b.n >= 2)
                         fmt::print("visual benefit of {} over {}: {:.2f} {}, {:.0f} % CI [{:.2f}, {:.2f}] (n = {})\n",
-                                   b.condition, b.reference, b.mean_db, result.unit, 100 * a.confidence, b.ci_low_db,
+                                   b.condition, b.reference, b.mean_db, result.scale, 100 * a.confidence, b.ci_low_db,
                                    b.ci_high_db, b.n);
                     else
                         fmt::print("visual benefit of {} over {}: {:.2f} {} (n = {}: no interval)\n", b.condition,
-                                   b.reference, b.mean_db, result.unit, b.n);
+                                   b.reference, b.mean_db, result.scale, b.n);
                 fmt::print("report: {}\n", (a.out_dir / "index.html").string());
                 return 0;
             }

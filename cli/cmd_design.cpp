@@ -1,11 +1,13 @@
 // `avsi design`: the counterbalanced trial lists of every subject (lists.csv)
 // and a balance report written beside it.
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <string>
 
 #include <fmt/format.h>
 
+#include "avsi/analysis/adaptive.h"
 #include "avsi/core/corpus.h"
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
@@ -25,6 +27,11 @@ struct DesignOptions {
 int run_design(const DesignOptions& o) {
     const Protocol protocol = load_protocol(o.protocol);
     const Corpus corpus = read_corpus(protocol.corpus.sentences);
+    // An adaptive track aimed above a condition's ceiling cannot converge: say so before the study runs.
+    std::size_t keywords = 1;
+    for (const auto& sentence : corpus.sentences) keywords = std::max(keywords, sentence.keywords.size());
+    for (const auto& w : analysis::adaptive_design_warnings(analysis::adaptive_protocol(protocol), static_cast<int>(keywords)))
+        log_warning("{}: {}", o.protocol, w);
     const auto trials = experiment::make_design(protocol, corpus, o.subjects);
     experiment::write_lists_csv(o.out, trials);
     const auto report = experiment::balance_report(protocol, trials);

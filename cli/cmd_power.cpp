@@ -14,7 +14,7 @@ namespace {
 struct PowerOptions {
     std::string means, subjects = "10..40", contrast, out;
     std::size_t sentences_per_cell = 15, keywords = 3, sims = 1000, threads = 0;
-    double subject_sd = 0.5, sentence_sd = 0.5, alpha = 0.05;
+    double subject_sd = 0.5, sentence_sd = 0.5, alpha = 0.05, condition_sd = analysis::kConditionSdDefault;
     std::uint64_t seed = 1;
 };
 
@@ -25,6 +25,7 @@ int run_power(const PowerOptions& o) {
     s.sentences_per_cell = o.sentences_per_cell;
     s.keywords_per_sentence = o.keywords;
     s.subject_sd = o.subject_sd;
+    s.condition_sd = o.condition_sd;
     s.sentence_sd = o.sentence_sd;
     s.simulations = o.sims;
     s.seed = o.seed;
@@ -59,6 +60,10 @@ const bool registered_power = register_command({
         sub.add_option("--subject-sd", o->subject_sd, "SD of subject random effects (logit scale)")
             ->capture_default_str();
         sub.add_option("--sentence-sd", o->sentence_sd, "SD of sentence random effects (logit scale)")
+            ->capture_default_str();
+        sub.add_option("--condition-sd", o->condition_sd,
+                       "SD of subject x condition random slopes (logit scale; the default is derived from MacLeod & "
+                       "Summerfield 1987, stated in the output; 0: no random slopes)")
             ->capture_default_str();
         sub.add_option("--sims", o->sims, "Simulated experiments per subject count")
             ->capture_default_str()

@@ -2,6 +2,7 @@
 // (logistic psychometric function, word-level binomial responses) — bias and
 // spread of the SRT estimate by track length, to choose the list length.
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,7 +19,9 @@ namespace {
 struct SimulateSrtOptions {
     std::string protocol, procedure = "sentence", out;
     std::vector<int> sentences = {10, 15, 20, 25, 30};
-    double l50_db = -6.0, slope = 0.15, start_sd_db = 2.0;
+    double l50_db = -6.0, slope = 0.15, start_sd_db = 2.0, ceiling = 1.0;
+    std::optional<double> assumed_slope;
+    bool include_unconverged = false;
     int keywords = 3, listeners = 1000;
     std::uint64_t seed = 1;
 };
@@ -37,9 +40,13 @@ int run_simulate_srt(const SimulateSrtOptions& o, bool procedure_given) {
                                          "of the SNR in dB; a \"{}\" track (levels on a list) is not simulated",
                                          analysis::to_string(a.variable)));
         s.track = a.track;
+        if (o.assumed_slope) throw UsageError("--assumed-slope: the protocol's [adaptive] slope_per_db sets it");
     } else {
         s.track.procedure = o.procedure == "word" ? analysis::AdaptiveProcedure::Word : analysis::AdaptiveProcedure::Sentence;
+        if (o.assumed_slope) s.track.slope_per_db = *o.assumed_slope;
     }
+    s.listener.ceiling = o.ceiling;
+    s.include_unconverged = o.include_unconverged;
     s.listener.l50_db = o.l50_db;
     s.listener.slope_per_db = o.slope;
     s.listener.keywords = o.keywords;
@@ -71,6 +78,15 @@ const bool registered_simulate_srt = register_command({
         sub.add_option("--l50-db", o->l50_db, "The listener's keyword L50 (dB SNR)")->capture_default_str();
         sub.add_option("--slope", o->slope, "The listener's keyword slope at L50 (proportion per dB)")
             ->capture_default_str();
+        sub.add_option("--ceiling", o->ceiling,
+                       "The listener's upper asymptote: the proportion of keywords right at the easiest level "
+                       "(1 − lapse rate), in (0, 1]")
+            ->capture_default_str();
+        sub.add_option("--assumed-slope", o->assumed_slope,
+                       "Without --protocol: the slope (proportion per dB) word scoring's step rule assumes "
+                       "(default 0.15), independent of the listener's --slope");
+        sub.add_flag("--include-unconverged", o->include_unconverged,
+                     "Keep tracks that hit a bound or did not reverse in the estimates (default: counted, left out)");
         sub.add_option("--keywords", o->keywords, "Keywords per sentence")->capture_default_str();
         sub.add_option("--sentences", o->sentences, "Track lengths (sentences), comma-separated")
             ->delimiter(',')

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include <fmt/format.h>
@@ -84,6 +85,8 @@ void validate(const TrackSettings& s, const std::string& source) {
         bad("f_min", fmt::format("expected a factor in (0, f_start = {}], got {}", s.f_start, s.f_min));
     if (s.srt_from < 1 || s.srt_from > 1000)
         bad("srt_from", fmt::format("expected a sentence number in [1, 1000], got {}", s.srt_from));
+    if (s.min_reversals < 0 || s.min_reversals > 1000)
+        bad("min_reversals", fmt::format("expected an integer in [0, 1000], got {}", s.min_reversals));
     problems.throw_if_any();
 }
 
@@ -174,22 +177,32 @@ std::vector<double> srt_levels(const TrackSettings& settings, const std::vector<
     return levels;
 }
 
-double PsychometricFit::p(double level_db) const { return srt_logistic(4.0 * slope_per_db * (level_db - l50_db)); }
+double PsychometricFit::p(double level_db) const {
+    return ceiling * srt_logistic(4.0 * slope_per_db * (level_db - l50_db));
+}
 
-double PsychometricFit::level_at(double target) const { return l50_db + srt_logit(target) / (4.0 * slope_per_db); }
+double PsychometricFit::level_at(double target) const {
+    if (!(target < ceiling)) return std::numeric_limits<double>::quiet_NaN();
+    return l50_db + srt_logit(target / ceiling) / (4.0 * slope_per_db);
+}
 
 double PsychometricFit::se_level_at(double target) const {
-    // L_t = (logit(t) − a) / b with a = −b·L50, b = 4s.
+    if (!(target < ceiling)) return std::numeric_limits<double>::quiet_NaN();
+    // L_t = (logit(t/c) − a) / b with a = −b·L50, b = 4s.
     const double b = 4.0 * slope_per_db;
     const double a = -b * l50_db;
     const double da = -1.0 / b;
-    const double db = -(srt_logit(target) - a) / (b * b);
+    const double db = -(srt_logit(target / ceiling) - a) / (b * b);
     const double var = da * da * var_a + 2 * da * db * cov_a_b + db * db * var_b;
     return std::sqrt(std::max(0.0, var));
 }
 
-PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points, std::optional<double> fixed_slope) {
+PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points, std::optional<double> fixed_slope,
+                                 double ceiling) {
+    if (!(ceiling > 0.0 && ceiling <= 1.0))
+        throw InputError("psychometric fit", 0, 0, "ceiling", fmt::format("expected a proportion in (0, 1], got {}", ceiling));
     PsychometricFit fit;
+    fit.ceiling = ceiling;
     fit.slope_fixed = fixed_slope.has_value();
     int total = 0, correct = 0;
     double sum_level = 0.0;
@@ -232,20 +245,39 @@ PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points, s
     }
     const double center = sum_level / total;  // centring keeps the Hessian well conditioned
 
+    const double log_c = std::log(ceiling);
     auto loglik = [&](double a, double b) {
         double ll = 0.0;
         for (const auto& pt : points) {
             if (pt.trials == 0) continue;
             const double eta = a + b * (pt.level_db - center);
-            // log p = −log(1 + e^−η), log(1 − p) = −log(1 + e^η), both stable.
-            const double log_p = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, -eta);
-            const double log_q = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, eta);
-            ll += pt.correct * log_p + (pt.trials - pt.correct) * log_q;
+            // log σ = −log(1 + e^−η), log(1 − σ) = −log(1 + e^η), both stable;
+            // with a ceiling, log p = log c + log σ and 1 − p = (1 − σ) + (1 − c)·σ.
+            const double log_s = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, -eta);
+            const double log_q1 = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, eta);
+            const double log_q = ceiling == 1.0 ? log_q1 : std::log1p(-ceiling * std::exp(log_s));
+            ll += pt.correct * (log_c + log_s) + (pt.trials - pt.correct) * log_q;
         }
         return ll;
     };
-    // Start: the pooled logit at the centre, a moderate slope.
-    double a = srt_logit(static_cast<double>(correct) / total);
+    // Fisher scoring: per point the weight n·(dp/dη)²/(p(1 − p)) and the score
+    // residual (y − n·p)·(dp/dη)/(p(1 − p)), dp/dη = c·σ(1 − σ); for c = 1
+    // these are n·p(1 − p) and y − n·p (Newton–Raphson).
+    auto weight_residual = [&](const PsychometricPoint& pt, double eta, double& w, double& r) {
+        const double sg = srt_logistic(eta);
+        const double p = ceiling * sg;
+        const double dp = ceiling * sg * (1 - sg);
+        const double v = p * (1 - p);
+        if (!(v > 0)) {
+            w = 0.0;
+            r = 0.0;
+            return;
+        }
+        w = pt.trials * dp * dp / v;
+        r = (pt.correct - pt.trials * p) * dp / v;
+    };
+    // Start: the pooled logit at the centre (below the ceiling), a moderate slope.
+    double a = srt_logit(std::min(0.95, static_cast<double>(correct) / total / ceiling));
     double b = fixed_slope ? 4.0 * *fixed_slope : 0.4;
     double ll = loglik(a, b);
     bool done = false;
@@ -255,9 +287,8 @@ PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points, s
         for (const auto& pt : points) {
             if (pt.trials == 0) continue;
             const double x = pt.level_db - center;
-            const double p = srt_logistic(a + b * x);
-            const double r = pt.correct - pt.trials * p;
-            const double w = pt.trials * p * (1 - p);
+            double w = 0.0, r = 0.0;
+            weight_residual(pt, a + b * x, w, r);
             ga += r;
             gb += r * x;
             haa += w;
@@ -305,8 +336,8 @@ PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points, s
     for (const auto& pt : points) {
         if (pt.trials == 0) continue;
         const double x = pt.level_db - center;
-        const double p = srt_logistic(a + b * x);
-        const double w = pt.trials * p * (1 - p);
+        double w = 0.0, r = 0.0;
+        weight_residual(pt, a + b * x, w, r);
         haa += w;
         hab += w * x;
         hbb += w * x * x;
@@ -340,10 +371,44 @@ std::vector<PsychometricPoint> track_points(const std::vector<TrackStep>& steps)
     return out;
 }
 
+double tracked_proportion(const TrackSettings& s, int keywords) {
+    return s.procedure == AdaptiveProcedure::Sentence ? std::pow(0.5, 1.0 / std::max(1, keywords)) : s.target;
+}
+
 double procedure_threshold_db(const TrackSettings& s, double l50_db, double slope_per_db, int keywords) {
-    double p = s.target;
-    if (s.procedure == AdaptiveProcedure::Sentence) p = std::pow(0.5, 1.0 / std::max(1, keywords));
-    return l50_db + srt_logit(p) / (4.0 * slope_per_db);
+    return l50_db + srt_logit(tracked_proportion(s, keywords)) / (4.0 * slope_per_db);
+}
+
+double listener_p(const SimulatedListener& listener, double level_db) {
+    return listener.ceiling * srt_logistic(4.0 * listener.slope_per_db * (level_db - listener.l50_db));
+}
+
+std::optional<double> procedure_threshold_db(const TrackSettings& s, const SimulatedListener& listener) {
+    const double p = tracked_proportion(s, listener.keywords);
+    if (!(p < listener.ceiling)) return std::nullopt;
+    return listener.l50_db + srt_logit(p / listener.ceiling) / (4.0 * listener.slope_per_db);
+}
+
+TrackConvergence track_convergence(const TrackSettings& s, const std::vector<TrackStep>& steps) {
+    TrackConvergence c;
+    c.reversals = steps.empty() ? 0 : steps.back().reversals;
+    for (const auto& st : steps) {
+        if (!st.at_bound || st.sentence < s.srt_from) continue;
+        // The rule's direction: up after a wrong sentence (or below the word target).
+        const bool up = s.procedure == AdaptiveProcedure::Sentence
+                            ? !st.sentence_correct
+                            : static_cast<double>(st.correct) / st.keywords < s.target;
+        c.at_bound = true;
+        c.converged = false;
+        c.reason = fmt::format("at the {} bound from sentence {}", up ? "upper" : "lower", st.sentence);
+        break;
+    }
+    if (s.min_reversals > 0 && c.reversals < s.min_reversals) {
+        c.converged = false;
+        c.reason += fmt::format("{}{} reversal(s), fewer than {}", c.reason.empty() ? "" : "; ", c.reversals,
+                                s.min_reversals);
+    }
+    return c;
 }
 
 SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackStep>& steps) {
@@ -352,7 +417,8 @@ SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackS
                                                                           : settings.estimator);
 }
 
-SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackStep>& steps, SrtEstimator estimator) {
+SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackStep>& steps, SrtEstimator estimator,
+                         double ceiling) {
     SrtEstimate e;
     e.estimator = estimator;
     if (estimator == SrtEstimator::MeanOfLevels) {
@@ -371,7 +437,7 @@ SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackS
         e.valid = true;
         return e;
     }
-    const PsychometricFit fit = fit_psychometric(track_points(steps));
+    const PsychometricFit fit = fit_psychometric(track_points(steps), std::nullopt, ceiling);
     e.fit = fit;
     if (!fit.converged) {
         e.note = fit.note;
@@ -379,16 +445,34 @@ SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackS
     }
     int keywords = 1;
     for (const auto& s : steps) keywords = std::max(keywords, s.keywords);
-    const double target =
-        settings.procedure == AdaptiveProcedure::Sentence ? std::pow(0.5, 1.0 / keywords) : settings.target;
+    const double target = tracked_proportion(settings, keywords);
+    if (!(target < ceiling)) {
+        e.note = fmt::format("the tracked proportion {:.3f} is at or above the ceiling {:.3f}: no threshold", target,
+                             ceiling);
+        return e;
+    }
     e.srt_db = fit.level_at(target);
     e.se_db = fit.se_level_at(target);
+    // A threshold further outside the levels the track presented than their
+    // own span is an extrapolation of a nearly flat fit (a track that never
+    // came near its target, e.g. against a ceiling), not an estimate.
+    double lowest = steps.front().level_db, highest = lowest;
+    for (const auto& s : steps) {
+        lowest = std::min(lowest, s.level_db);
+        highest = std::max(highest, s.level_db);
+    }
+    const double span = highest - lowest;
+    if (e.srt_db < lowest - span || e.srt_db > highest + span) {
+        e.note = fmt::format("the fitted threshold ({:.3g}) lies far outside the levels the track presented ([{}, {}])",
+                             e.srt_db, lowest, highest);
+        return e;
+    }
     e.valid = true;
     return e;
 }
 
 int simulate_response(const SimulatedListener& listener, double level_db, Rng& rng) {
-    const double p = srt_logistic(4.0 * listener.slope_per_db * (level_db - listener.l50_db));
+    const double p = listener_p(listener, level_db);
     int correct = 0;
     for (int k = 0; k < listener.keywords; ++k)
         if (rng.uniform() < p) ++correct;
@@ -414,6 +498,9 @@ SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings) {
             problems.add("simulate-srt", 0, 0, "--sentences",
                          fmt::format("expected sentence counts in [{} (srt_from + 1), 1000], got {}",
                                      settings.track.srt_from + 1, n));
+    if (!(settings.listener.ceiling > 0 && settings.listener.ceiling <= 1))
+        problems.add("simulate-srt", 0, 0, "--ceiling",
+                     fmt::format("expected a proportion in (0, 1], got {}", settings.listener.ceiling));
     if (!(settings.start_offset_sd_db >= 0 && settings.start_offset_sd_db <= 30))
         problems.add("simulate-srt", 0, 0, "--start-sd",
                      fmt::format("expected an SD in [0, 30] dB, got {}", settings.start_offset_sd_db));
@@ -421,12 +508,13 @@ SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings) {
 
     SrtSimulationResult result;
     result.settings = settings;
-    const double truth = procedure_threshold_db(settings.track, settings.listener.l50_db,
-                                                settings.listener.slope_per_db, settings.listener.keywords);
+    const double truth = procedure_threshold_db(settings.track, settings.listener)
+                             .value_or(std::numeric_limits<double>::quiet_NaN());
     std::vector<SrtEstimator> estimators = {SrtEstimator::MeanOfLevels, SrtEstimator::MaximumLikelihood};
     for (int n : settings.sentence_counts) {
         std::vector<std::vector<double>> values(estimators.size());
         double presentations = 0.0;
+        int unconverged = 0;
         for (int listener = 0; listener < settings.listeners; ++listener) {
             // One stream per (length, listener): a row does not depend on the other rows.
             Rng rng(derive_seed(settings.seed, fmt::format("n{}/listener{}", n, listener)));
@@ -437,6 +525,10 @@ SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings) {
             AdaptiveTrack t(track);
             while (t.sentences() < n) t.record(settings.listener.keywords, simulate_response(settings.listener, t.level_db(), rng));
             presentations += static_cast<double>(t.steps().size());
+            if (!track_convergence(track, t.steps()).converged) {
+                ++unconverged;
+                if (!settings.include_unconverged) continue;
+            }
             for (std::size_t e = 0; e < estimators.size(); ++e) {
                 const SrtEstimate est = estimate_srt(track, t.steps(), estimators[e]);
                 if (est.valid) values[e].push_back(est.srt_db);
@@ -448,6 +540,7 @@ SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings) {
             row.estimator = to_string(estimators[e]);
             row.true_db = truth;
             row.estimates = static_cast<int>(values[e].size());
+            row.unconverged = unconverged;
             row.mean_presentations = presentations / settings.listeners;
             if (!values[e].empty()) {
                 const double m = std::accumulate(values[e].begin(), values[e].end(), 0.0) / values[e].size();
@@ -469,17 +562,30 @@ SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings) {
 
 std::string srt_simulation_table(const SrtSimulationResult& r) {
     const auto& s = r.settings;
+    const auto db = [](double v, int width) {
+        return std::isfinite(v) ? fmt::format("{:>{}.2f}", v, width) : fmt::format("{:>{}}", "NA", width);
+    };
+    const double truth = r.rows.empty() ? 0.0 : r.rows.front().true_db;
     std::string out = fmt::format(
-        "SRT by simulation ({} simulated listeners per row, seed {}): {} scoring, listener L50 {:.2f} dB, slope "
-        "{:.3f}/dB, {} keywords per sentence; the procedure targets {:.2f} dB\n",
-        s.listeners, s.seed, to_string(s.track.procedure), s.listener.l50_db, s.listener.slope_per_db,
-        s.listener.keywords, r.rows.empty() ? 0.0 : r.rows.front().true_db);
-    out += fmt::format("{:>9}  {:>9}  {:>9}  {:>9}  {:>8}  {:>8}  {:>8}  {:>13}\n", "sentences", "estimator", "valid",
-                       "mean dB", "bias dB", "SD dB", "RMSE dB", "presentations");
+        "SRT by simulation ({} simulated listeners per row, seed {}): {} scoring{}, listener L50 {:.2f} dB, slope "
+        "{:.3f}/dB, ceiling {:.3f}, {} keywords per sentence; {}\n",
+        s.listeners, s.seed, to_string(s.track.procedure),
+        s.track.procedure == AdaptiveProcedure::Word ? fmt::format(" (assumed slope {:.3f}/dB)", s.track.slope_per_db)
+                                                     : std::string(),
+        s.listener.l50_db, s.listener.slope_per_db, s.listener.ceiling, s.listener.keywords,
+        std::isfinite(truth)
+            ? fmt::format("the procedure targets {:.2f} dB", truth)
+            : fmt::format("the procedure's target ({:.3f} per keyword) is at or above the ceiling: no threshold exists",
+                          tracked_proportion(s.track, s.listener.keywords)));
+    out += fmt::format("Tracks that hit a bound from sentence {} on or reversed fewer than {} times are {}.\n",
+                       s.track.srt_from, s.track.min_reversals,
+                       s.include_unconverged ? "counted and kept (--include-unconverged)" : "counted and left out");
+    out += fmt::format("{:>9}  {:>9}  {:>9}  {:>11}  {:>9}  {:>8}  {:>8}  {:>8}  {:>13}\n", "sentences", "estimator",
+                       "valid", "unconverged", "mean dB", "bias dB", "SD dB", "RMSE dB", "presentations");
     for (const auto& row : r.rows)
-        out += fmt::format("{:>9}  {:>9}  {:>9}  {:>9.2f}  {:>8.2f}  {:>8.2f}  {:>8.2f}  {:>13.1f}\n", row.sentences,
-                           row.estimator, row.estimates, row.mean_db, row.bias_db, row.sd_db, row.rmse_db,
-                           row.mean_presentations);
+        out += fmt::format("{:>9}  {:>9}  {:>9}  {:>11}  {}  {}  {:>8.2f}  {}  {:>13.1f}\n", row.sentences,
+                           row.estimator, row.estimates, row.unconverged, db(row.mean_db, 9), db(row.bias_db, 8),
+                           row.sd_db, db(row.rmse_db, 8), row.mean_presentations);
     return out;
 }
 
@@ -617,6 +723,20 @@ AdaptiveProtocol adaptive_protocol(const Protocol& protocol) {
     t.f_min = c.get_number("f_min", t.f_min, 0.001, 10.0, problems);
     t.srt_from = static_cast<int>(c.get_int("srt_from", t.srt_from, 1, 1000, problems));
     t.srt_include_next = c.get_bool("srt_include_next", t.srt_include_next, problems);
+    t.min_reversals = static_cast<int>(c.get_int("min_reversals", t.min_reversals, 0, 1000, problems));
+    // Ceilings per condition (a pilot's proportion of keywords right in quiet).
+    if (const ConfigSection* ceilings = c.get_table("ceilings", problems)) {
+        for (const auto& name : ceilings->keys()) {
+            const double v = ceilings->get_number(name, 1.0, 0.01, 1.0, problems);
+            if (protocol.condition_index(name) < 0)
+                ceilings->report(name,
+                                 fmt::format("expected one of the conditions ({}), got \"{}\"",
+                                             fmt::join(protocol.condition_names(), ", "), name),
+                                 problems);
+            else
+                a.ceilings[name] = v;
+        }
+    }
     t.estimator = c.get_choice("estimate", {"mean", "ml"}, "mean", problems) == "ml" ? SrtEstimator::MaximumLikelihood
                                                                                     : SrtEstimator::MeanOfLevels;
     if (t.procedure == AdaptiveProcedure::Sentence && t.estimator == SrtEstimator::MaximumLikelihood)
@@ -645,6 +765,23 @@ AdaptiveProtocol adaptive_protocol(const Protocol& protocol) {
     c.check_unknown_keys(problems);
     problems.throw_if_any();
     return a;
+}
+
+std::vector<std::string> adaptive_design_warnings(const AdaptiveProtocol& a, int keywords) {
+    std::vector<std::string> out;
+    if (!a.enabled) return out;
+    const double tracked = tracked_proportion(a.track, keywords);
+    for (const auto& [condition, ceiling] : a.ceilings)
+        if (!(tracked < ceiling))
+            out.push_back(fmt::format(
+                "adaptive: condition \"{}\" has a ceiling of {:.3f} keywords right, at or below the {:.3f} per keyword "
+                "the {} track aims at ({}): its tracks cannot converge and climb towards the bound; those that reach "
+                "it are flagged and left out of the ANOVA and the benefit, the others are biased upwards",
+                condition, ceiling, tracked, to_string(a.track.procedure),
+                a.track.procedure == AdaptiveProcedure::Sentence
+                    ? fmt::format("all {} keywords right half the time", keywords)
+                    : fmt::format("target {:.2f}", a.track.target)));
+    return out;
 }
 
 }  // namespace avsi::analysis

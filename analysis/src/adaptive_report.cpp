@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "adaptive_plot.h"
+#include "avsi/analysis/pairwise.h"
 #include "avsi/analysis/rm_anova.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
@@ -99,17 +100,36 @@ std::vector<AdaptiveTrialRow> read_adaptive_trials(const fs::path& path) {
 
 SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSettings& settings,
                         const std::vector<std::string>& conditions, const std::string& reference,
-                        const std::string& source, double confidence, const AdaptiveProtocol* list) {
+                        const std::string& source, double confidence, const AdaptiveProtocol* protocol,
+                        bool include_unconverged) {
     validate(settings, source);
     SrtAnalysis a;
     a.settings = settings;
-    if (list && list->list_variable()) {
+    a.include_unconverged = include_unconverged;
+    const AdaptiveProtocol* list = nullptr;
+    if (protocol && protocol->list_variable()) {
+        list = protocol;
         a.unit = list->unit();
+        a.log2_scale = true;
+        a.scale = fmt::format("log2({})", a.unit);
         a.level_label = list->variable == AdaptiveVariable::Bands ? "vocoder bands" : "envelope cutoff (Hz)";
-        a.threshold_label = list->variable == AdaptiveVariable::Bands ? "vocoder bands" : "Hz envelope cutoff";
-    } else {
-        list = nullptr;
+        a.threshold_label = list->variable == AdaptiveVariable::Bands ? "log2 vocoder bands" : "log2 Hz envelope cutoff";
     }
+    const auto ceiling_of = [&](const std::string& condition) {
+        if (!protocol) return 1.0;
+        const auto it = protocol->ceilings.find(condition);
+        return it == protocol->ceilings.end() ? 1.0 : it->second;
+    };
+    // The analysis scale of a track's steps: dB as they are, list levels as log2.
+    const auto on_scale = [&](std::vector<TrackStep> steps) {
+        if (!a.log2_scale) return steps;
+        for (auto& st : steps) {
+            st.level_db = std::log2(st.level_db);
+            st.next_level_db = std::log2(st.next_level_db);
+            st.step_db = st.next_level_db - st.level_db;
+        }
+        return steps;
+    };
     const auto value_of = [&](double track_level) { return list ? list->value_of(track_level) : track_level; };
     // Tracks in first-appearance order of subject, then condition.
     std::vector<std::string> subjects, seen_conditions;
@@ -175,8 +195,15 @@ SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSe
             }
             if (!ok) continue;
             tr.steps = list ? list->in_units(track.steps()) : track.steps();
-            tr.srt = estimate_srt(settings, tr.steps);
-            tr.ml = estimate_srt(settings, tr.steps, SrtEstimator::MaximumLikelihood);
+            const std::vector<TrackStep> scaled = on_scale(tr.steps);
+            tr.srt = estimate_srt(settings, scaled);
+            tr.ml = estimate_srt(settings, scaled, SrtEstimator::MaximumLikelihood, ceiling_of(condition));
+            tr.convergence = track_convergence(settings, track.steps());
+            if (!tr.convergence.converged) {
+                ++a.excluded_tracks;
+                tr.excluded = !include_unconverged;
+                a.excluded.push_back(fmt::format("subject {}, {}: {}", subject, condition, tr.convergence.reason));
+            }
             a.tracks.push_back(std::move(tr));
         }
     problems.throw_if_any();
@@ -187,10 +214,13 @@ SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSe
         cell.subject = t.subject;
         cell.condition = t.condition;
         cell.keywords = static_cast<int>(t.steps.size());
-        if (t.srt.valid)
+        if (t.excluded) {
+            // Left out: not converged (named in a.excluded).
+        } else if (t.srt.valid) {
             cell.percent = t.srt.srt_db;
-        else
+        } else {
             a.notes.push_back(fmt::format("subject {}, {}: no SRT ({})", t.subject, t.condition, t.srt.note));
+        }
         a.srts.cells.push_back(cell);
     }
     a.srts = select_conditions(a.srts, a.conditions, source);
@@ -239,13 +269,18 @@ SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSe
         }
         a.benefits.push_back(b);
     }
+    // The k − 1 benefits are one family of tests: Holm over them, as pairwise.csv does over all pairs.
+    std::vector<std::optional<double>> benefit_p;
+    for (const auto& b : a.benefits) benefit_p.push_back(b.p_value);
+    const auto holm = holm_adjust(benefit_p);
+    for (std::size_t i = 0; i < a.benefits.size(); ++i) a.benefits[i].p_holm = holm[i];
 
     // Pooled psychometric function per condition.
     for (const auto& condition : a.conditions) {
         std::map<long long, PsychometricPoint> pooled;
         for (const auto& t : a.tracks) {
             if (t.condition != condition) continue;
-            for (const auto& s : t.steps) {
+            for (const auto& s : on_scale(t.steps)) {
                 const long long key = std::llround(s.level_db / kPoolGridDb);
                 PsychometricPoint& p = pooled[key];
                 p.level_db = key * kPoolGridDb;
@@ -256,7 +291,7 @@ SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSe
         ConditionFit f;
         f.condition = condition;
         for (const auto& [key, p] : pooled) f.points.push_back(p);
-        f.fit = fit_psychometric(f.points);
+        f.fit = fit_psychometric(f.points, std::nullopt, ceiling_of(condition));
         if (!f.fit.converged) a.notes.push_back(fmt::format("psychometric function of {}: {}", condition, f.fit.note));
         a.fits.push_back(std::move(f));
     }
@@ -290,25 +325,33 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     const double target = fit_target(a);
 
     // srt.csv
-    std::string srt_csv = csv_line({"subject", "condition", "srt_db", "se_db", "estimator", "levels", "presentations",
-                                    "reversals", "ml_srt_db", "ml_se_db", "ml_slope_per_db", "note"});
+    // srt_db, se_db and the ML columns are on the analysis scale (`scale`: dB, or log2 of bands / Hz);
+    // srt_units is the threshold in the variable's units (2^srt for a log2 scale).
+    std::string srt_csv = csv_line({"subject", "condition", "srt_db", "se_db", "scale", "srt_units", "estimator",
+                                    "levels", "presentations", "reversals", "converged", "excluded", "ml_srt_db",
+                                    "ml_se_db", "ml_slope_per_db", "note"});
     for (const auto& t : a.tracks)
         srt_csv += csv_line({t.subject, t.condition, t.srt.valid ? full(t.srt.srt_db) : "NA",
-                             t.srt.valid ? full(t.srt.se_db) : "NA", to_string(t.srt.estimator),
-                             std::to_string(t.srt.levels), std::to_string(t.steps.size()),
+                             t.srt.valid ? full(t.srt.se_db) : "NA", a.scale,
+                             t.srt.valid ? full(a.log2_scale ? std::exp2(t.srt.srt_db) : t.srt.srt_db) : "NA",
+                             to_string(t.srt.estimator), std::to_string(t.srt.levels), std::to_string(t.steps.size()),
                              std::to_string(t.steps.empty() ? 0 : t.steps.back().reversals),
+                             t.convergence.converged ? "1" : "0", t.excluded ? "1" : "0",
                              t.ml.valid ? full(t.ml.srt_db) : "NA", t.ml.valid ? full(t.ml.se_db) : "NA",
                              t.ml.fit && t.ml.fit->converged ? full(t.ml.fit->slope_per_db) : "NA",
-                             t.srt.valid ? (t.ml.valid ? "" : t.ml.note) : t.srt.note});
+                             !t.convergence.converged ? t.convergence.reason
+                             : t.srt.valid            ? (t.ml.valid ? "" : t.ml.note)
+                                                      : t.srt.note});
     write_text_file(settings.out_dir / "srt.csv", srt_csv);
 
     // benefit.csv
     std::string benefit_csv = csv_line({"condition", "reference", "n", "benefit_db", "sd_db", "se_db", "ci_low_db",
-                                        "ci_high_db", "t", "df", "p", "confidence"});
+                                        "ci_high_db", "t", "df", "p", "p_holm", "confidence"});
     for (const auto& b : a.benefits)
         benefit_csv += csv_line({b.condition, b.reference, std::to_string(b.n), full(b.mean_db), full(b.sd_db),
                                  full(b.se_db), full(b.ci_low_db), full(b.ci_high_db), b.t ? full(*b.t) : "NA",
-                                 full(b.df), b.p_value ? full(*b.p_value) : "NA", full(settings.confidence)});
+                                 full(b.df), b.p_value ? full(*b.p_value) : "NA", b.p_holm ? full(*b.p_holm) : "NA",
+                                 full(settings.confidence)});
     write_text_file(settings.out_dir / "benefit.csv", benefit_csv);
 
     // psychometric.csv
@@ -319,8 +362,9 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
                              f.fit.converged ? full(f.fit.se_l50_db) : "NA",
                              f.fit.converged ? full(f.fit.slope_per_db) : "NA",
                              f.fit.converged ? full(f.fit.se_slope) : "NA", full(target),
-                             f.fit.converged ? full(f.fit.level_at(target)) : "NA",
-                             f.fit.converged ? full(f.fit.se_level_at(target)) : "NA", std::to_string(f.points.size()),
+                             f.fit.converged && target < f.fit.ceiling ? full(f.fit.level_at(target)) : "NA",
+                             f.fit.converged && target < f.fit.ceiling ? full(f.fit.se_level_at(target)) : "NA",
+                             std::to_string(f.points.size()),
                              std::to_string(f.fit.trials), f.fit.note});
     write_text_file(settings.out_dir / "psychometric.csv", psy_csv);
 
@@ -367,9 +411,9 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     {
         detail::XyPlot p;
         p.title = "Psychometric functions (keywords, pooled over subjects)";
-        p.x_label = a.level_label;
+        p.x_label = a.log2_scale ? fmt::format("log2 {}", a.level_label) : a.level_label;
         p.y_label = "Keywords correct (proportion)";
-        p.caption = fmt::format("points: pooled proportions per {:.1f} {} level; lines: ML logistic fits", kPoolGridDb, a.unit);
+        p.caption = fmt::format("points: pooled proportions per {:.1f} {} level; lines: ML logistic fits", kPoolGridDb, a.scale);
         p.y_from_zero = true;
         int color = 0;
         for (const auto& f : a.fits) {
@@ -413,7 +457,10 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
         for (const auto& t : a.tracks) {
             if (t.subject != subject) continue;
             detail::XySeries s;
-            s.name = t.condition + (t.srt.valid ? fmt::format(" ({:.1f} {})", t.srt.srt_db, a.unit) : "");
+            s.name = t.condition +
+                     (t.srt.valid ? fmt::format(" ({:.1f} {})", a.log2_scale ? std::exp2(t.srt.srt_db) : t.srt.srt_db, a.unit)
+                                  : "") +
+                     (t.convergence.converged ? "" : " (not converged)");
             s.color = static_cast<int>(std::find(a.conditions.begin(), a.conditions.end(), t.condition) -
                                        a.conditions.begin());
             for (const auto& st : t.steps) {
@@ -433,11 +480,12 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     const std::string procedure =
         a.unit != "dB"
             ? fmt::format("sentence scoring, 1-up/1-down on all keywords correct on a list of levels ({}; steps of {} "
-                          "levels after sentences 1-{}, then {}{}); threshold = mean of the levels ({}) from sentence "
-                          "{}{}",
+                          "levels after sentences 1-{}, then {}{}); threshold = mean of the log2 levels from sentence "
+                          "{}{} (a geometric mean in {}); thresholds, fits, ANOVA and benefit on the {} scale",
                           a.level_label, a.settings.large_step_db, a.settings.large_steps, a.settings.small_step_db,
-                          a.settings.repeat_first ? "; first sentence repeated upward until correct" : "", a.unit,
-                          a.settings.srt_from, a.settings.srt_include_next ? " plus the next level" : "")
+                          a.settings.repeat_first ? "; first sentence repeated upward until correct" : "",
+                          a.settings.srt_from, a.settings.srt_include_next ? " plus the next level" : "", a.unit,
+                          a.scale)
         : a.settings.procedure == AdaptiveProcedure::Sentence
             ? fmt::format("sentence scoring, 1-up/1-down on all keywords correct ({} dB steps after sentences 1-{}, "
                           "then {} dB{}); SRT = mean of the levels from sentence {}{}",
@@ -467,7 +515,7 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     if (a.anova) {
         md += "| condition | n | mean SRT | SD | within-subject CI |\n| --- | ---: | ---: | ---: | --- |\n";
         html += fmt::format("<table><tr><th>condition</th><th>n</th><th>mean SRT ({})</th><th>SD</th><th>within-subject "
-                            "CI</th></tr>\n", a.unit);
+                            "CI</th></tr>\n", a.scale);
         for (const auto& d : a.anova->descriptives) {
             md += fmt::format("| {} | {} | {:.2f} | {:.2f} | [{:.2f}, {:.2f}] |\n", d.condition, d.n, d.mean, d.sd,
                               d.ci_low, d.ci_high);
@@ -479,6 +527,8 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
         md += fmt::format("\nRepeated-measures ANOVA on the SRTs: {} (n = {}).\n\n", apa, a.anova->anova.n);
         html += fmt::format("<p>Repeated-measures ANOVA on the SRTs: {} (n = {}).</p>\n", detail::html_escape(apa),
                             a.anova->anova.n);
+        md += sphericity_markdown(*a.anova) + "\n";
+        html += sphericity_html(*a.anova);
     } else {
         md += "Too few complete subjects for an ANOVA (see the notes).\n\n";
         html += "<p>Too few complete subjects for an ANOVA (see the notes).</p>\n";
@@ -487,37 +537,72 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     md += fmt::format("## Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)\n\n", a.reference);
     html += fmt::format("<h2>Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)</h2>\n",
                         detail::html_escape(a.reference));
-    md += fmt::format("| condition | n | benefit ({}) | {:.0f} % CI | t | df | p |\n| --- | ---: | ---: | --- | ---: | ---: | ---: |\n",
-                      a.unit, 100 * settings.confidence);
+    md += fmt::format("| condition | n | benefit ({}) | {:.0f} % CI | t | df | p | p (Holm) |\n| --- | ---: | ---: | --- | "
+                      "---: | ---: | ---: | ---: |\n",
+                      a.scale, 100 * settings.confidence);
     html += fmt::format("<table><tr><th>condition</th><th>n</th><th>benefit ({})</th><th>{:.0f} % CI</th><th>t</th>"
-                        "<th>df</th><th>p</th></tr>\n",
-                        a.unit, 100 * settings.confidence);
+                        "<th>df</th><th>p</th><th>p (Holm)</th></tr>\n",
+                        a.scale, 100 * settings.confidence);
     for (const auto& b : a.benefits) {
-        const std::string p = b.p_value ? apa_p(*b.p_value) : "NA";
-        md += fmt::format("| {} | {} | {:.2f} | [{:.2f}, {:.2f}] | {} | {:.0f} | {} |\n", b.condition, b.n, b.mean_db,
-                          b.ci_low_db, b.ci_high_db, opt_text(b.t, "{:.2f}"), b.df, p);
+        const std::string p = b.p_value ? table_p(*b.p_value) : "NA";
+        const std::string p_holm = b.p_holm ? table_p(*b.p_holm) : "NA";
+        md += fmt::format("| {} | {} | {:.2f} | [{:.2f}, {:.2f}] | {} | {:.0f} | {} | {} |\n", b.condition, b.n,
+                          b.mean_db, b.ci_low_db, b.ci_high_db, opt_text(b.t, "{:.2f}"), b.df, p, p_holm);
         html += fmt::format("<tr><td>{}</td><td>{}</td><td>{:.2f}</td><td>[{:.2f}, {:.2f}]</td><td>{}</td><td>{:.0f}</td>"
-                            "<td>{}</td></tr>\n",
+                            "<td>{}</td><td>{}</td></tr>\n",
                             detail::html_escape(b.condition), b.n, b.mean_db, b.ci_low_db, b.ci_high_db,
-                            opt_text(b.t, "{:.2f}"), b.df, detail::html_escape(p));
+                            opt_text(b.t, "{:.2f}"), b.df, p, p_holm);
     }
     html += "</table>\n";
+    md += fmt::format("\nUncorrected paired t-tests (df = n − 1) and Holm's adjustment over the {} benefit(s) "
+                      "against {}.\n\n",
+                      a.benefits.size(), a.reference);
+    html += fmt::format("<p>Uncorrected paired t-tests (df = n − 1) and Holm's adjustment over the {} benefit(s) "
+                        "against {}.</p>\n",
+                        a.benefits.size(), detail::html_escape(a.reference));
+    // Tracks left out of the statistics.
+    {
+        std::string text;
+        if (a.excluded_tracks == 0)
+            text = "Every track converged (no level at a bound from the averaged sentences on, at least " +
+                   std::to_string(a.settings.min_reversals) + " reversals).";
+        else
+            text = fmt::format("{} of {} tracks did not converge (a level at a bound from sentence {} on, or fewer than "
+                               "{} reversals) and {}: {}.",
+                               a.excluded_tracks, a.tracks.size(), a.settings.srt_from, a.settings.min_reversals,
+                               a.include_unconverged ? "are kept in the ANOVA and the benefit (--include-unconverged)"
+                                                     : "are left out of the ANOVA and the benefit (a subject without a "
+                                                       "threshold in every condition is dropped from the ANOVA)",
+                               fmt::join(a.excluded, "; "));
+        md += "## Convergence\n\n" + text + "\n\n";
+        html += "<h2>Convergence</h2>\n<p>" + detail::html_escape(text) + "</p>\n";
+        for (const auto& w : a.warnings) {
+            md += "Warning: " + w + ".\n\n";
+            html += "<p>Warning: " + detail::html_escape(w) + ".</p>\n";
+        }
+    }
     // Per-subject SRTs.
-    md += fmt::format("\n## SRT per subject and condition\n\n| subject | condition | SRT ({}) | SE | ML SRT | ML SE | "
-                      "presentations | reversals |\n| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n",
-                      a.unit);
+    const std::string units_head = a.log2_scale ? fmt::format(" | SRT ({})", a.unit) : "";
+    md += fmt::format("\n## SRT per subject and condition\n\n| subject | condition | SRT ({}){} | SE | ML SRT | ML SE | "
+                      "presentations | reversals | converged |\n| --- | --- | ---: |{} ---: | ---: | ---: | ---: | ---: | --- |\n",
+                      a.scale, units_head, a.log2_scale ? " ---: |" : "");
     html += fmt::format("<h2>SRT per subject and condition</h2>\n<table><tr><th>subject</th><th>condition</th><th>SRT "
-                        "({})</th><th>SE</th><th>ML SRT</th><th>ML SE</th><th>presentations</th><th>reversals</th></tr>\n",
-                        a.unit);
+                        "({})</th>{}<th>SE</th><th>ML SRT</th><th>ML SE</th><th>presentations</th><th>reversals</th>"
+                        "<th>converged</th></tr>\n",
+                        a.scale, a.log2_scale ? fmt::format("<th>SRT ({})</th>", a.unit) : "");
     for (const auto& t : a.tracks) {
         const std::string srt = t.srt.valid ? fixed2(t.srt.srt_db) : "NA", se = t.srt.valid ? fixed2(t.srt.se_db) : "NA";
         const std::string ml = t.ml.valid ? fixed2(t.ml.srt_db) : "NA", mlse = t.ml.valid ? fixed2(t.ml.se_db) : "NA";
+        const std::string units = t.srt.valid ? fixed2(std::exp2(t.srt.srt_db)) : "NA";
+        const std::string converged = t.convergence.converged ? "yes" : (t.excluded ? "no (left out)" : "no (kept)");
         const int reversals = t.steps.empty() ? 0 : t.steps.back().reversals;
-        md += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", t.subject, t.condition, srt, se, ml, mlse,
-                          t.steps.size(), reversals);
-        html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
-                            detail::html_escape(t.subject), detail::html_escape(t.condition), srt, se, ml, mlse,
-                            t.steps.size(), reversals);
+        md += fmt::format("| {} | {} | {}{} | {} | {} | {} | {} | {} | {} |\n", t.subject, t.condition, srt,
+                          a.log2_scale ? " | " + units : "", se, ml, mlse, t.steps.size(), reversals, converged);
+        html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td>{}<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+                            "<td>{}</td></tr>\n",
+                            detail::html_escape(t.subject), detail::html_escape(t.condition), srt,
+                            a.log2_scale ? "<td>" + units + "</td>" : "", se, ml, mlse, t.steps.size(), reversals,
+                            converged);
     }
     html += "</table>\n";
     md += "\nSE of the mean of levels: SD/√n of the averaged levels, which are serially correlated, so it is optimistic; "
@@ -525,14 +610,14 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     // Pooled psychometric functions.
     md += fmt::format("## Psychometric functions (pooled over subjects)\n\n| condition | L50 ({0}) | slope (/{0}) | level "
                       "at target | keywords |\n| --- | ---: | ---: | ---: | ---: |\n",
-                      a.unit);
+                      a.scale);
     html += fmt::format("<h2>Psychometric functions (pooled over subjects)</h2>\n<table><tr><th>condition</th><th>L50 "
                         "({0})</th><th>slope (/{0})</th><th>level at target</th><th>keywords</th></tr>\n",
-                        a.unit);
+                        a.scale);
     for (const auto& f : a.fits) {
         const std::string l50 = f.fit.converged ? fixed2(f.fit.l50_db) : "NA";
         const std::string slope = f.fit.converged ? fmt::format("{:.3f}", f.fit.slope_per_db) : "NA";
-        const std::string at = f.fit.converged ? fixed2(f.fit.level_at(target)) : "NA";
+        const std::string at = f.fit.converged && target < f.fit.ceiling ? fixed2(f.fit.level_at(target)) : "NA";
         md += fmt::format("| {} | {} | {} | {} | {} |\n", f.condition, l50, slope, at, f.fit.trials);
         html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
                             detail::html_escape(f.condition), l50, slope, at, f.fit.trials);
@@ -577,7 +662,11 @@ SrtAnalysis analyze_adaptive_file(const AdaptiveAnalyzeSettings& s) {
         throw InputError(s.protocol, 0, 0, "adaptive", "expected an [adaptive] section: the protocol runs no adaptive tracks");
     const auto rows = read_adaptive_trials(s.input);
     SrtAnalysis a = analyze_srt(rows, adaptive.track, protocol.condition_names(), adaptive.reference, s.input.string(),
-                                s.confidence, &adaptive);
+                                s.confidence, &adaptive, s.include_unconverged);
+    int keywords = 1;
+    for (const auto& r : rows) keywords = std::max(keywords, r.keywords);
+    a.warnings = adaptive_design_warnings(adaptive, keywords);
+    for (const auto& w : a.warnings) log_warning("{}", w);
     SrtReportSettings rs;
     rs.out_dir = s.out_dir;
     rs.source = s.input;
@@ -591,15 +680,19 @@ SrtAnalysis analyze_adaptive_file(const AdaptiveAnalyzeSettings& s) {
 
 void write_srt_simulation(const fs::path& out_dir, const SrtSimulationResult& r) {
     fs::create_directories(out_dir);
-    std::string csv = csv_line({"method", "procedure", "estimator", "sentences", "listeners", "valid", "l50_db",
-                                "slope_per_db", "keywords", "true_db", "mean_db", "bias_db", "sd_db", "rmse_db",
-                                "mean_presentations", "seed"});
+    std::string csv = csv_line({"method", "procedure", "estimator", "sentences", "listeners", "valid", "unconverged",
+                                "included_unconverged", "l50_db", "slope_per_db", "ceiling", "assumed_slope_per_db",
+                                "keywords", "true_db", "mean_db", "bias_db", "sd_db", "rmse_db", "mean_presentations",
+                                "seed"});
+    const auto na = [](double v) { return std::isfinite(v) ? full(v) : std::string("NA"); };
     for (const auto& row : r.rows)
         csv += csv_line({"simulation", to_string(r.settings.track.procedure), row.estimator, std::to_string(row.sentences),
                          std::to_string(r.settings.listeners), std::to_string(row.estimates),
+                         std::to_string(row.unconverged), r.settings.include_unconverged ? "1" : "0",
                          full(r.settings.listener.l50_db), full(r.settings.listener.slope_per_db),
-                         std::to_string(r.settings.listener.keywords), full(row.true_db), full(row.mean_db),
-                         full(row.bias_db), full(row.sd_db), full(row.rmse_db), full(row.mean_presentations),
+                         full(r.settings.listener.ceiling), full(r.settings.track.slope_per_db),
+                         std::to_string(r.settings.listener.keywords), na(row.true_db), full(row.mean_db),
+                         na(row.bias_db), full(row.sd_db), na(row.rmse_db), full(row.mean_presentations),
                          std::to_string(r.settings.seed)});
     write_text_file(out_dir / "srt_simulation.csv", csv);
     detail::XyPlot p;

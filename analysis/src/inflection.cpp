@@ -180,6 +180,12 @@ std::vector<std::string> Inflections::lemmas(const std::string& w, const OpenWor
         if (n >= 5 && w[n - 4] == w[n - 5]) add_base(w.substr(0, n - 4), Suffix::Ing);  // doubled
         if (has_suffix(w, "ying")) add_base(w.substr(0, n - 4) + "ie", Suffix::Ing);
     }
+    // -men plurals of -man nouns (women, mailmen): WordNet makes them by a
+    // detachment rule, so its exception list (our irregular table) lacks them.
+    if (n > 3 && has_suffix(w, "men")) {
+        const std::string base = w.substr(0, n - 3) + "man";
+        if ((pos_of(base) & Noun) != 0 && std::find(out.begin(), out.end(), base) == out.end()) out.push_back(base);
+    }
     if (const auto it = m_irregular.find(w); it != m_irregular.end())
         for (const auto& lemma : it->second)
             if (std::find(out.begin(), out.end(), lemma) == out.end()) out.push_back(lemma);

@@ -51,6 +51,13 @@ SimOutcome simulate_one(const PowerSettings& s, std::size_t n, std::size_t a, st
     std::vector<double> u(n), v(k * spc), base(k);
     for (auto& x : u) x = rng.normal(0.0, s.subject_sd);
     for (auto& x : v) x = rng.normal(0.0, s.sentence_sd);
+    // Subject × condition slopes from their own stream, so the other draws
+    // (and so every result with condition_sd = 0) stay what they were.
+    std::vector<double> w(n * k, 0.0);
+    if (s.condition_sd > 0.0) {
+        Rng slopes = rng.derive("subject x condition");
+        for (auto& x : w) x = slopes.normal(0.0, s.condition_sd);
+    }
     for (std::size_t j = 0; j < k; ++j) base[j] = std::log(s.means_percent[j] / (100.0 - s.means_percent[j]));
     std::vector<double> values(n * k, 0.0);
     const double per_cell = double(spc * s.keywords_per_sentence);
@@ -60,7 +67,7 @@ SimOutcome simulate_one(const PowerSettings& s, std::size_t n, std::size_t a, st
             const std::size_t condition = (list + i) % k;
             std::size_t correct = 0;
             for (std::size_t q = 0; q < spc; ++q) {
-                const double eta = base[condition] + u[i] + v[list * spc + q];
+                const double eta = base[condition] + u[i] + v[list * spc + q] + w[i * k + condition];
                 const double p = 1.0 / (1.0 + std::exp(-eta));
                 for (std::size_t w = 0; w < s.keywords_per_sentence; ++w) correct += rng.uniform() < p ? 1 : 0;
             }
@@ -157,6 +164,9 @@ PowerResult simulate_power(const PowerSettings& settings) {
     if (s.simulations < 1) problems.add("", 0, 0, "--sims", "expected at least 1 simulation");
     if (!(s.subject_sd >= 0.0)) problems.add("", 0, 0, "--subject-sd", "expected a non-negative SD (logit scale)");
     if (!(s.sentence_sd >= 0.0)) problems.add("", 0, 0, "--sentence-sd", "expected a non-negative SD (logit scale)");
+    if (!(s.condition_sd >= 0.0 && s.condition_sd <= 5.0))
+        problems.add("", 0, 0, "--condition-sd",
+                     fmt::format("expected an SD in [0, 5] (logit scale), got {}", s.condition_sd));
     if (!(s.alpha > 0.0 && s.alpha < 1.0)) problems.add("", 0, 0, "--alpha", "expected a level in (0, 1)");
     if (k >= 2 && (s.contrast_a >= k || s.contrast_b >= k))
         problems.add("", 0, 0, "--contrast", fmt::format("expected conditions in 1..{}", k));
@@ -214,10 +224,14 @@ std::string power_table(const PowerResult& r) {
     const PowerSettings& s = r.settings;
     std::string out = fmt::format(
         "Power by simulation ({} simulated experiments per row; a planning aid, not an analytic power "
-        "calculation)\nmeans {} %, {} sentences per cell × {} keywords, subject SD {} and sentence SD {} (logit), "
-        "alpha {}, seed {}\n\n",
+        "calculation)\nmeans {} %, {} sentences per cell × {} keywords, subject SD {}, sentence SD {} and subject × "
+        "condition SD {} (logit), alpha {}, seed {}\n{}\n\n",
         s.simulations, fmt::join(s.means_percent, "/"), s.sentences_per_cell, s.keywords_per_sentence, s.subject_sd,
-        s.sentence_sd, s.alpha, s.seed);
+        s.sentence_sd, s.condition_sd, s.alpha, s.seed,
+        s.condition_sd == kConditionSdDefault
+            ? fmt::format("subject × condition SD {} is the default, from {}", kConditionSdDefault, kConditionSdSource)
+            : fmt::format("subject × condition SD {} as given (default {}, from {})", s.condition_sd,
+                          kConditionSdDefault, kConditionSdSource));
     out += fmt::format("{:>8}  {:>14}  {:>14}  {:>20}  {:>9}\n", "subjects", "ANOVA power", "ANOVA GG power",
                        fmt::format("LSD {} power", r.contrast), "mean %");
     for (const auto& p : r.points)
@@ -232,6 +246,9 @@ void write_power_files(const std::filesystem::path& out_dir, const PowerResult& 
     const PowerSettings& s = r.settings;
     std::string csv = fmt::format("# power by simulation: {} simulated experiments per row, seed {}\n",
                                   s.simulations, s.seed);
+    if (s.condition_sd > 0.0)
+        csv += fmt::format("# subject x condition SD {} (logit; default {}: {})\n", s.condition_sd, kConditionSdDefault,
+                           kConditionSdSource);
     csv += csv_line({"method", "subjects", "simulations", "power_anova", "mc_se_anova", "power_anova_gg",
                      "contrast", "power_contrast", "mc_se_contrast", "mean_percent", "alpha"});
     nlohmann::json points = nlohmann::json::array();
@@ -258,6 +275,8 @@ void write_power_files(const std::filesystem::path& out_dir, const PowerResult& 
           {"keywords_per_sentence", s.keywords_per_sentence},
           {"subject_sd_logit", s.subject_sd},
           {"sentence_sd_logit", s.sentence_sd},
+          {"condition_sd_logit", s.condition_sd},
+          {"condition_sd_default_source", kConditionSdSource},
           {"simulations", s.simulations},
           {"seed", s.seed},
           {"alpha", s.alpha},

@@ -248,6 +248,27 @@ std::string scoring_sentence(const std::string& rule_set) {
     return fmt::format("Keywords scored with the {} rule set (avsi score; see docs/scoring.md).", rule_set);
 }
 
+// The Sphericity section (heading, sentence, Mauchly and correction tables) of the HTML page.
+std::string sphericity_html_section(const json& doc) {
+    std::string h;
+    h += "<h2>Sphericity</h2>\n<p>" + html_escape(doc["sphericity_text"].get<std::string>()) + "</p>\n";
+    h += "<table>\n<tr><th>Mauchly's test</th><th>W</th><th>χ²</th><th>df</th><th>p</th></tr>\n";
+    h += "<tr><td>condition</td>" + cell(doc, "/sphericity/mauchly/W", Show::Fixed4) +
+         cell(doc, "/sphericity/mauchly/chisq", Show::Fixed2) + cell(doc, "/sphericity/mauchly/df", Show::Df) +
+         cell(doc, "/sphericity/mauchly/p", Show::P) + "</tr>\n</table>\n";
+    h += "<table>\n<tr><th>Correction</th><th>ε</th><th>df (condition)</th><th>df (error)</th><th>p</th></tr>\n";
+    for (const auto& [key, name] : {std::pair{"greenhouse_geisser", "Greenhouse-Geisser"},
+                                    std::pair{"huynh_feldt", "Huynh-Feldt (raw ε; min(1, ε) used)"},
+                                    std::pair{"lower_bound", "Lower bound 1/(k−1)"}}) {
+        const std::string base = std::string("/sphericity/") + key;
+        h += std::string("<tr><td>") + html_escape(name) + "</td>" + cell(doc, base + "/epsilon", Show::Fixed4) +
+             cell(doc, base + "/df_conditions", Show::Df) + cell(doc, base + "/df_error", Show::Df) +
+             cell(doc, base + "/p", Show::P) + "</tr>\n";
+    }
+    h += "</table>\n";
+    return h;
+}
+
 std::string build_html(const json& doc, const std::string& png_base64) {
     std::string h;
     h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n";
@@ -276,21 +297,7 @@ std::string build_html(const json& doc, const std::string& png_base64) {
     h += "<tr><td>Error</td>" + cell(doc, "/anova/ss_error", Show::Fixed2) + cell(doc, "/anova/df_error", Show::Df) +
          cell(doc, "/anova/ms_error", Show::Fixed2) + "<td></td><td></td><td></td><td></td></tr>\n</table>\n";
 
-    h += "<h2>Sphericity</h2>\n<p>" + html_escape(doc["sphericity_text"].get<std::string>()) + "</p>\n";
-    h += "<table>\n<tr><th>Mauchly's test</th><th>W</th><th>χ²</th><th>df</th><th>p</th></tr>\n";
-    h += "<tr><td>condition</td>" + cell(doc, "/sphericity/mauchly/W", Show::Fixed4) +
-         cell(doc, "/sphericity/mauchly/chisq", Show::Fixed2) + cell(doc, "/sphericity/mauchly/df", Show::Df) +
-         cell(doc, "/sphericity/mauchly/p", Show::P) + "</tr>\n</table>\n";
-    h += "<table>\n<tr><th>Correction</th><th>ε</th><th>df (condition)</th><th>df (error)</th><th>p</th></tr>\n";
-    for (const auto& [key, name] : {std::pair{"greenhouse_geisser", "Greenhouse-Geisser"},
-                                    std::pair{"huynh_feldt", "Huynh-Feldt (raw ε; min(1, ε) used)"},
-                                    std::pair{"lower_bound", "Lower bound 1/(k−1)"}}) {
-        const std::string base = std::string("/sphericity/") + key;
-        h += std::string("<tr><td>") + html_escape(name) + "</td>" + cell(doc, base + "/epsilon", Show::Fixed4) +
-             cell(doc, base + "/df_conditions", Show::Df) + cell(doc, base + "/df_error", Show::Df) +
-             cell(doc, base + "/p", Show::P) + "</tr>\n";
-    }
-    h += "</table>\n";
+    h += sphericity_html_section(doc);
 
     h += "<h2>Descriptives</h2>\n<table>\n<tr><th>Condition</th><th>n</th><th>Mean %</th><th>SD</th>"
          "<th>SE (within)</th><th>CI low</th><th>CI high</th></tr>\n";
@@ -337,6 +344,22 @@ std::string md_cell(const json& doc, const std::string& pointer, Show how) {
     return show(doc.at(json::json_pointer(pointer)), how);
 }
 
+// The Sphericity section of report.md.
+std::string sphericity_md_section(const json& doc) {
+    std::string m;
+    m += "## Sphericity\n\n" + doc["sphericity_text"].get<std::string>() + "\n\n";
+    m += "| Correction | ε | df (condition) | df (error) | p |\n|---|---:|---:|---:|---:|\n";
+    for (const auto& [key, name] : {std::pair{"greenhouse_geisser", "Greenhouse-Geisser"},
+                                    std::pair{"huynh_feldt", "Huynh-Feldt (raw ε; min(1, ε) used)"},
+                                    std::pair{"lower_bound", "Lower bound"}}) {
+        const std::string b = std::string("/sphericity/") + key;
+        m += std::string("| ") + name + " | " + md_cell(doc, b + "/epsilon", Show::Fixed4) + " | " +
+             md_cell(doc, b + "/df_conditions", Show::Df) + " | " + md_cell(doc, b + "/df_error", Show::Df) + " | " +
+             md_cell(doc, b + "/p", Show::P) + " |\n";
+    }
+    return m;
+}
+
 std::string build_markdown(const json& doc) {
     std::string m = "# " + doc["title"].get<std::string>() + "\n\n";
     m += fmt::format("Source: `{}`. {} subjects × {} conditions in the analysis.\n\n", doc["source"].get<std::string>(),
@@ -353,16 +376,7 @@ std::string build_markdown(const json& doc) {
          md_cell(doc, "/anova/df_subjects", Show::Df) + " | | | | | |\n";
     m += "| Error | " + md_cell(doc, "/anova/ss_error", Show::Fixed2) + " | " + md_cell(doc, "/anova/df_error", Show::Df) +
          " | " + md_cell(doc, "/anova/ms_error", Show::Fixed2) + " | | | | |\n\n";
-    m += "## Sphericity\n\n" + doc["sphericity_text"].get<std::string>() + "\n\n";
-    m += "| Correction | ε | df (condition) | df (error) | p |\n|---|---:|---:|---:|---:|\n";
-    for (const auto& [key, name] : {std::pair{"greenhouse_geisser", "Greenhouse-Geisser"},
-                                    std::pair{"huynh_feldt", "Huynh-Feldt (raw ε; min(1, ε) used)"},
-                                    std::pair{"lower_bound", "Lower bound"}}) {
-        const std::string b = std::string("/sphericity/") + key;
-        m += std::string("| ") + name + " | " + md_cell(doc, b + "/epsilon", Show::Fixed4) + " | " +
-             md_cell(doc, b + "/df_conditions", Show::Df) + " | " + md_cell(doc, b + "/df_error", Show::Df) + " | " +
-             md_cell(doc, b + "/p", Show::P) + " |\n";
-    }
+    m += sphericity_md_section(doc);
     m += fmt::format("\n## Descriptives\n\nMeans with {:.0f} % within-subject CIs (Cousineau-Morey).\n\n",
                      100.0 * doc["confidence"].get<double>());
     m += "| Condition | n | Mean % | SD | SE (within) | CI low | CI high |\n|---|---:|---:|---:|---:|---:|---:|\n";
@@ -465,6 +479,14 @@ std::string anova_json(const AnalysisResult& result, const ReportSettings& setti
     json doc = result_json(result, settings);
     doc["title"] = settings.title;
     return doc.dump(2) + "\n";
+}
+
+std::string sphericity_markdown(const AnalysisResult& result) {
+    return sphericity_md_section(result_json(result, ReportSettings{}));
+}
+
+std::string sphericity_html(const AnalysisResult& result) {
+    return sphericity_html_section(result_json(result, ReportSettings{}));
 }
 
 void write_report(const AnalysisResult& result, const ReportSettings& settings) {

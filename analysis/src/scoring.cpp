@@ -544,9 +544,13 @@ std::optional<double> cohens_kappa(std::size_t both, std::size_t a_only, std::si
     const long long n = static_cast<long long>(both + a_only + b_only + neither);
     if (n == 0) return std::nullopt;
     const long long a_yes = static_cast<long long>(both + a_only), b_yes = static_cast<long long>(both + b_only);
+    // A side with one verdict throughout makes kappa undefined (NA, as
+    // docs/scoring.md says): its marginal has no variance, so agreement
+    // beyond chance cannot be told from its verdict alone (the formula gives
+    // 0 when the other side varies, 0/0 when neither does).
+    if (a_yes == 0 || a_yes == n || b_yes == 0 || b_yes == n) return std::nullopt;
     const long long chance = a_yes * b_yes + (n - a_yes) * (n - b_yes);  // pe * n^2
     const long long observed = static_cast<long long>(both + neither) * n;  // po * n^2
-    if (chance == n * n) return std::nullopt;
     return double(observed - chance) / double(n * n - chance);
 }
 

@@ -202,7 +202,8 @@ TEST(AdaptiveReport, BadFieldsAreReportedWithFileLineAndColumn) {
 
 // A band-count study: the stored levels are band counts, the tracks replay on
 // positions of the list, and the thresholds, the benefit and the report are
-// in bands — each SRT checked against the mean of the CSV's own band levels.
+// on the log2(bands) scale — each SRT checked against the mean of the log2 of
+// the CSV's own band levels.
 TEST(AdaptiveReport, BandCountTracksAreReportedInBands) {
     const fs::path dir = temp_dir("bands");
     const std::string protocol_text = read_text_file(kProtocol);
@@ -242,26 +243,32 @@ TEST(AdaptiveReport, BandCountTracksAreReportedInBands) {
     settings.out_dir = dir / "report";
     const SrtAnalysis a = analyze_adaptive_file(settings);
     EXPECT_EQ(a.unit, "bands");
+    EXPECT_EQ(a.scale, "log2(bands)");
     ASSERT_EQ(a.tracks.size(), 8u);
-    std::map<int, double> benefit;
+    std::map<int, std::map<std::string, double>> log_mean;  // subject → condition → mean log2 bands (converged tracks)
     for (const auto& t : a.tracks) {
         SCOPED_TRACE(t.subject + " " + t.condition);
         const auto& levels = averaged.at({std::stoi(t.subject), t.condition});
         ASSERT_EQ(levels.size(), 8u);
-        const double mean = std::accumulate(levels.begin(), levels.end(), 0.0) / levels.size();
+        double mean = 0.0;
+        for (double b : levels) mean += std::log2(b) / levels.size();
         ASSERT_TRUE(t.srt.valid);
         EXPECT_NEAR(t.srt.srt_db, mean, 1e-12);
         for (const auto& st : t.steps)
             EXPECT_NE(std::find(adaptive.levels.begin(), adaptive.levels.end(), st.level_db), adaptive.levels.end());
-        benefit[std::stoi(t.subject)] += (t.condition == "audio-only" ? 1 : -1) * mean;
+        if (!t.excluded) log_mean[std::stoi(t.subject)][t.condition] = mean;
     }
     ASSERT_EQ(a.benefits.size(), 1u);
-    double mean_benefit = 0;
-    for (const auto& [s, b] : benefit) mean_benefit += b / benefit.size();
-    EXPECT_NEAR(a.benefits[0].mean_db, mean_benefit, 1e-9);
+    std::vector<double> benefit;
+    for (const auto& [s, m] : log_mean)
+        if (m.size() == 2) benefit.push_back(m.at("audio-only") - m.at("audiovisual"));
+    ASSERT_GE(benefit.size(), 2u);
+    EXPECT_EQ(a.benefits[0].n, benefit.size());
+    EXPECT_NEAR(a.benefits[0].mean_db, std::accumulate(benefit.begin(), benefit.end(), 0.0) / benefit.size(), 1e-9);
     const std::string report = read_text_file(dir / "report" / "report.md");
-    EXPECT_NE(report.find("## SRT by condition (vocoder bands; lower is better)"), std::string::npos) << report;
-    EXPECT_NE(report.find("| condition | n | benefit (bands) |"), std::string::npos) << report;
+    EXPECT_NE(report.find("## SRT by condition (log2 vocoder bands; lower is better)"), std::string::npos) << report;
+    EXPECT_NE(report.find("| condition | n | benefit (log2(bands)) |"), std::string::npos) << report;
+    EXPECT_NE(report.find("threshold = mean of the log2 levels"), std::string::npos) << report;
     EXPECT_EQ(report.find("dB"), std::string::npos) << report;
     // A stored band count the rules do not give is refused with its line.
     std::string tampered = text;
@@ -277,5 +284,86 @@ TEST(AdaptiveReport, BandCountTracksAreReportedInBands) {
         EXPECT_NE(std::string(e.what()).find("tampered.csv:2:"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("level_db: expected 8"), std::string::npos) << e.what();
     }
+    fs::remove_all(dir);
+}
+
+// The SRT report's tests against R (scripts/r/srt_reference.R): 20 simulated
+// listeners × 3 conditions whose benefits vary unequally (Mauchly p < .05).
+// R computes the SRTs from the stored levels on its own, then afex/car's
+// ANOVA with GG and HF corrections and the paired benefits with Holm's
+// adjustment; the replayed tracks, the report's numbers and its printed
+// tables must agree.
+TEST(AdaptiveReport, SphericityViolatedCaseMatchesR) {
+    const fs::path data = fs::path(AVSI_TEST_DATA_DIR) / "analysis";
+    const nlohmann::json r = nlohmann::json::parse(read_text_file(data / "srt_sphericity.expected.json"));
+    const auto rows = read_adaptive_trials(data / "srt_sphericity.adaptive_trials.csv");
+    const SrtAnalysis a = analyze_srt(rows, TrackSettings{}, {"audio-only", "av-a", "av-b"}, "audio-only",
+                                      "srt_sphericity.adaptive_trials.csv");
+    ASSERT_EQ(a.tracks.size(), 60u);
+    std::map<std::pair<std::string, std::string>, double> srt;
+    for (const auto& t : a.tracks) {
+        ASSERT_TRUE(t.srt.valid) << t.subject << " " << t.condition;
+        srt[{t.subject, t.condition}] = t.srt.srt_db;
+    }
+    for (const auto& e : r.at("srt"))
+        EXPECT_NEAR((srt.at({e.at("subject").get<std::string>(), e.at("condition").get<std::string>()})),
+                    e.at("srt_db").get<double>(), 1e-9);
+
+    ASSERT_TRUE(a.anova.has_value());
+    const AnovaResult& an = a.anova->anova;
+    const auto near = [](double got, double want, const char* what) {
+        EXPECT_NEAR(got, want, 1e-9 * std::max(1.0, std::fabs(want))) << what;
+    };
+    ASSERT_EQ(an.n, 20u);
+    near(an.df_conditions, r.at("df_conditions").get<double>(), "df");
+    near(an.df_error, r.at("df_error").get<double>(), "df error");
+    near(*an.F, r.at("afex_F").get<double>(), "F");
+    near(*an.p_value, r.at("afex_p").get<double>(), "p");
+    near(an.mauchly.W, r.at("mauchly_W").get<double>(), "Mauchly W");
+    near(*an.mauchly.p_value, r.at("mauchly_p").get<double>(), "Mauchly p");
+    ASSERT_LT(r.at("mauchly_p").get<double>(), 0.05) << "the case must violate sphericity";
+    near(*an.greenhouse_geisser.epsilon, r.at("gg_epsilon").get<double>(), "GG epsilon");
+    near(*an.greenhouse_geisser.p_value, r.at("gg_p").get<double>(), "GG p");
+    near(*an.huynh_feldt.epsilon, r.at("hf_epsilon").get<double>(), "HF epsilon");
+    near(*an.huynh_feldt.p_value, r.at("hf_p").get<double>(), "HF p");
+
+    ASSERT_EQ(a.benefits.size(), 2u);
+    for (std::size_t i = 0; i < 2; ++i) {
+        const auto& want = r.at("benefits").at(i);
+        const VisualBenefit& b = a.benefits[i];
+        EXPECT_EQ(b.condition, want.at("condition").get<std::string>());
+        near(b.mean_db, want.at("benefit_db").get<double>(), "benefit");
+        near(*b.t, want.at("t").get<double>(), "t");
+        near(*b.p_value, want.at("p").get<double>(), "p");
+        near(*b.p_holm, want.at("p_holm").get<double>(), "Holm p");
+        near(b.ci_low_db, want.at("ci_low_db").get<double>(), "CI low");
+        near(b.ci_high_db, want.at("ci_high_db").get<double>(), "CI high");
+    }
+    // Holm changes at least one p here, so the printed column is not the uncorrected one.
+    EXPECT_NE(*a.benefits[0].p_holm, *a.benefits[0].p_value);
+
+    // The printed report: the GG and HF lines with R's ε and p, and the Holm column.
+    const fs::path dir = temp_dir("r_case");
+    SrtReportSettings rs;
+    rs.out_dir = dir;
+    rs.source = "srt_sphericity.adaptive_trials.csv";
+    write_srt_report(a, rs);
+    const std::string md = read_text_file(dir / "report.md");
+    const std::string html = read_text_file(dir / "index.html");
+    const auto printed_p = [](double p) { return table_p(p); };
+    for (const std::string& s :
+         {fmt::format("| Greenhouse-Geisser | {:.4f} | ", r.at("gg_epsilon").get<double>()),
+          fmt::format("| Huynh-Feldt (raw ε; min(1, ε) used) | {:.4f} | ", r.at("hf_epsilon").get<double>()),
+          fmt::format(" | {} |\n", printed_p(r.at("gg_p").get<double>())),
+          fmt::format(" | {} |\n", printed_p(r.at("hf_p").get<double>())),
+          std::string("| p | p (Holm) |"),
+          fmt::format("| {} | {} |\n", printed_p(r.at("benefits").at(1).at("p").get<double>()),
+                      printed_p(r.at("benefits").at(1).at("p_holm").get<double>()))})
+        EXPECT_NE(md.find(s), std::string::npos) << s << "\n" << md;
+    EXPECT_NE(html.find("Greenhouse-Geisser"), std::string::npos);
+    EXPECT_NE(html.find("<th>p (Holm)</th>"), std::string::npos);
+    const CsvTable benefit_csv = read_csv(dir / "benefit.csv");
+    const std::size_t c_holm = benefit_csv.require_column("p_holm");
+    EXPECT_NEAR(std::stod(benefit_csv.rows[0].fields[c_holm]), r.at("benefits").at(0).at("p_holm").get<double>(), 1e-12);
     fs::remove_all(dir);
 }

@@ -158,9 +158,9 @@ TEST_F(Cli, ScoreAgreementWithASecondScorer) {
     EXPECT_NE(r.output.find("Cohen's kappa"), std::string::npos) << r.output;
     const auto agreement = avsi::read_csv(dir / "o" / "agreement.csv");
     ASSERT_EQ(agreement.rows.size(), 3u);
-    // strict: 0 0 0 vs 0 0 1 -> 2 of 3 agree, kappa 0 (the automatic side has one verdict: pe = po = 2/3).
+    // strict: 0 0 0 vs 0 0 1 -> 2 of 3 agree, kappa NA (the automatic side has one verdict throughout).
     EXPECT_EQ(agreement.rows[0].fields[agreement.require_column("agreements")], "2");
-    EXPECT_EQ(agreement.rows[0].fields[agreement.require_column("kappa")], "0.000000");
+    EXPECT_EQ(agreement.rows[0].fields[agreement.require_column("kappa")], "NA");
     // lenient: 1 0 1 vs 0 0 1 -> 2 of 3; pa = 2/3, pb = 1/3, pe = 2/9 + 2/9 = 4/9, kappa = (6/9-4/9)/(5/9) = 0.4.
     EXPECT_EQ(agreement.rows[2].fields[agreement.require_column("kappa")], "0.400000");
     EXPECT_EQ(avsi::read_csv(dir / "o" / "disagreements.csv").rows.size(), 1u + 2u + 1u);
@@ -255,6 +255,32 @@ TEST_F(Cli, SimulateSrtPrintsBiasAndSpreadAndRefusesShortTracks) {
         << bad.output;
     const CliRun both = run_cli(fmt::format("simulate-srt --protocol {} --procedure word", protocol));
     EXPECT_EQ(both.code, 2) << both.output;
+}
+
+// Must-show of issue 39: a listener ceiling of 0.63 flags tracks and counts them;
+// --include-unconverged keeps them; a ceiling outside (0, 1] is refused.
+TEST_F(Cli, SimulateSrtWithACeilingCountsTheTracksItLeavesOut) {
+    const CliRun r = run_cli(fmt::format("simulate-srt --ceiling 0.63 --sentences 20 --listeners 200 --out {}/sim",
+                                         dir.string()));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("ceiling 0.630"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("is at or above the ceiling: no threshold exists"), std::string::npos) << r.output;
+    const auto csv = avsi::read_csv(dir / "sim" / "srt_simulation.csv");
+    ASSERT_EQ(csv.rows.size(), 2u);
+    const int unconverged = std::stoi(csv.rows[0].fields[csv.require_column("unconverged")]);
+    const int valid = std::stoi(csv.rows[0].fields[csv.require_column("valid")]);
+    EXPECT_GT(unconverged, 20);
+    EXPECT_EQ(valid, 200 - unconverged);
+    EXPECT_EQ(csv.rows[0].fields[csv.require_column("true_db")], "NA");
+    const CliRun kept = run_cli(fmt::format("simulate-srt --ceiling 0.63 --sentences 20 --listeners 200 "
+                                            "--include-unconverged --out {}/kept", dir.string()));
+    ASSERT_EQ(kept.code, 0) << kept.output;
+    const auto kept_csv = avsi::read_csv(dir / "kept" / "srt_simulation.csv");
+    EXPECT_EQ(kept_csv.rows[0].fields[kept_csv.require_column("valid")], "200");
+    EXPECT_EQ(std::stoi(kept_csv.rows[0].fields[kept_csv.require_column("unconverged")]), unconverged);
+    const CliRun bad = run_cli("simulate-srt --ceiling 1.5");
+    EXPECT_EQ(bad.code, 1);
+    EXPECT_NE(bad.output.find("--ceiling: expected a proportion in (0, 1], got 1.5"), std::string::npos) << bad.output;
 }
 
 TEST_F(Cli, AnalyzeOfAdaptiveTrialsNeedsTheProtocol) {

@@ -226,6 +226,11 @@ TEST(Kappa, MatchesHandComputation) {
     EXPECT_NEAR(*cohens_kappa(10, 0, 0, 10), 1.0, 1e-12);
     EXPECT_FALSE(cohens_kappa(7, 0, 0, 0));  // one verdict throughout: chance agreement is 1
     EXPECT_FALSE(cohens_kappa(0, 0, 0, 0));
+    // One side with one verdict throughout, the other varying: the formula gives 0, the doc says NA.
+    EXPECT_FALSE(cohens_kappa(5, 7, 0, 0));  // a: yes throughout; b: 5 yes, 7 no
+    EXPECT_FALSE(cohens_kappa(0, 0, 4, 8));  // a: no throughout; b: 4 yes, 8 no
+    EXPECT_NEAR(*cohens_kappa(3, 0, 0, 9), 1.0, 1e-12);  // both vary and agree
+
 }
 
 class ScoreFiles : public ::testing::Test {

@@ -26,13 +26,25 @@
 // Levels are bounded to [min_db, max_db]; a step that the bound shortens is
 // recorded (TrackStep::at_bound), never hidden.
 //
-// Psychometric function (Brand & Kollmeier's form, slope at the midpoint):
-//   p(L) = 1 / (1 + exp(−4·s·(L − L50)))
-// with s the slope in proportion per dB at L50; the level for another target
-// t is L_t = L50 + logit(t) / (4·s).
+// Psychometric function (Brand & Kollmeier's form, slope at the midpoint),
+// with an upper asymptote c (the ceiling, 1 − lapse rate; open-set keywords
+// have no guess rate):
+//   p(L) = c / (1 + exp(−4·s·(L − L50)))
+// with s the slope in proportion per dB at L50 of the underlying logistic;
+// the level for another target t < c is L_t = L50 + logit(t/c) / (4·s). A
+// target at or above the ceiling has no level: a track aiming at it climbs to
+// its upper bound (the reference study's 3-band audio-only condition reached
+// 62.7 % of keywords in quiet, below the 79 % per keyword a 3-keyword
+// sentence track aims at).
+//
+// Convergence: a track whose level hit a bound from sentence srt_from on, or
+// that reversed fewer than min_reversals times, has not converged
+// (track_convergence); the SRT analysis keeps such tracks out of the ANOVA and
+// the visual benefit unless told otherwise.
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -87,6 +99,7 @@ struct TrackSettings {
     double f_min = 0.1;
     // estimates
     int srt_from = 5;               // first sentence (1-based) averaged
+    int min_reversals = 2;          // fewer reversals over the track: not converged (0: no criterion)
     bool srt_include_next = true;   // also the level the next sentence would get
     SrtEstimator estimator = SrtEstimator::MeanOfLevels;  // word tracks; sentence tracks use the mean
 };
@@ -156,8 +169,9 @@ struct PsychometricPoint {
     int correct = 0;
 };
 
-// A maximum-likelihood fit of p(L) = 1/(1 + exp(−4 s (L − L50))).
+// A maximum-likelihood fit of p(L) = c/(1 + exp(−4 s (L − L50))), c given.
 struct PsychometricFit {
+    double ceiling = 1.0;      // c, the upper asymptote (fixed, not fitted)
     bool converged = false;
     std::string note;          // why not, when not converged
     double l50_db = 0.0;
@@ -172,20 +186,21 @@ struct PsychometricFit {
 
     // p(level) of the fitted function.
     double p(double level_db) const;
-    // The level where p = target (0 < target < 1).
+    // The level where p = target (0 < target < ceiling; NaN at or above the ceiling).
     double level_at(double target) const;
     // Its standard error (delta method; slope's uncertainty included when free).
     double se_level_at(double target) const;
     double cov_a_b = 0.0, var_a = 0.0, var_b = 0.0;  // of the logit intercept a and slope b = 4s
 };
 
-// Binomial maximum likelihood (Newton–Raphson with step halving on the
-// logistic regression logit p = a + b·L). With `fixed_slope_per_db` only L50
-// is fitted. Data without a crossing (every trial right, every trial wrong,
-// or a perfect separation) give converged = false and a note: there is no
-// finite estimate.
+// Binomial maximum likelihood (Fisher scoring with step halving on
+// p = c·logistic(a + b·L); with c = 1 this is Newton–Raphson on the logistic
+// regression). With `fixed_slope_per_db` only L50 is fitted; `ceiling` c in
+// (0, 1] is given (a pilot's, or 1). Data without a crossing (every trial
+// right, every trial wrong, or a perfect separation) give converged = false
+// and a note: there is no finite estimate.
 PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points,
-                                 std::optional<double> fixed_slope_per_db = std::nullopt);
+                                 std::optional<double> fixed_slope_per_db = std::nullopt, double ceiling = 1.0);
 
 // The keywords of a track as psychometric points (one per presentation).
 std::vector<PsychometricPoint> track_points(const std::vector<TrackStep>& steps);
@@ -207,21 +222,44 @@ SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackS
 // The track's SRT by a given estimator. ML on a sentence track fits the words
 // and reports the level where the sentence (all `keywords` independent) is
 // right half the time: p^k = 0.5.
+// `ceiling` is the upper asymptote of the ML fit.
 SrtEstimate estimate_srt(const TrackSettings& settings, const std::vector<TrackStep>& steps,
-                         SrtEstimator estimator);
+                         SrtEstimator estimator, double ceiling = 1.0);
 
 // The level a procedure converges on for a listener whose keywords are each
 // right with p(L) (logistic, l50_db, slope_per_db): for word tracks the level
 // where p = target; for sentence tracks where p^keywords = 0.5.
 double procedure_threshold_db(const TrackSettings& settings, double l50_db, double slope_per_db, int keywords);
 
-// A simulated listener: each keyword independently right with the logistic
-// p(L) of l50_db and slope_per_db.
+// The per-keyword proportion a procedure tracks: its target (word scoring), or
+// 0.5^(1/keywords) (sentence scoring: every keyword right half the time).
+double tracked_proportion(const TrackSettings& settings, int keywords);
+
+// A simulated listener: each keyword independently right with
+// p(L) = ceiling·logistic(4·slope_per_db·(L − l50_db)).
 struct SimulatedListener {
     double l50_db = -6.0;
     double slope_per_db = 0.15;
     int keywords = 3;
+    double ceiling = 1.0;  // upper asymptote (1 − lapse rate), in (0, 1]
 };
+
+// The listener's keyword probability at a level.
+double listener_p(const SimulatedListener& listener, double level_db);
+// The level the procedure converges on for this listener (ceiling included);
+// nullopt when the tracked proportion is at or above the ceiling.
+std::optional<double> procedure_threshold_db(const TrackSettings& settings, const SimulatedListener& listener);
+
+// Whether a track converged: its level did not hit a bound from sentence
+// srt_from on (TrackStep::at_bound, or a presentation at the bound), and it
+// reversed at least min_reversals times.
+struct TrackConvergence {
+    bool converged = true;
+    bool at_bound = false;
+    int reversals = 0;
+    std::string reason;  // "" when converged, e.g. "at the upper bound (30 dB) from sentence 7"
+};
+TrackConvergence track_convergence(const TrackSettings& settings, const std::vector<TrackStep>& steps);
 
 // `avsi simulate-srt`: tracks of `sentences` sentences against simulated
 // listeners, for each sentence count.
@@ -232,14 +270,16 @@ struct SrtSimulationSettings {
     int listeners = 1000;
     std::uint64_t seed = 1;
     double start_offset_sd_db = 0.0;  // the start level varies around track.start_db by N(0, sd²)
+    bool include_unconverged = false;  // keep tracks that hit a bound or did not reverse (else: counted, left out)
 };
 
 // Bias and spread of one estimator at one track length.
 struct SrtSimulationRow {
     int sentences = 0;
     std::string estimator;      // "mean" or "ml"
-    double true_db = 0.0;       // procedure_threshold_db (what the estimate targets)
-    int estimates = 0;          // listeners with a valid estimate
+    double true_db = 0.0;       // procedure_threshold_db (what the estimate targets); NaN: above the ceiling
+    int estimates = 0;          // listeners with a valid estimate (unconverged tracks left out unless included)
+    int unconverged = 0;        // tracks flagged by track_convergence
     double mean_db = 0.0;
     double bias_db = 0.0;       // mean − true
     double sd_db = 0.0;         // spread of the estimates across listeners
@@ -281,6 +321,9 @@ struct AdaptiveProtocol {
     // positions); every level stored or reported is the list's value.
     std::vector<double> levels;
     double practice_level = 0.0;          // list variables: the level of warm-up and practice sentences
+    // Upper asymptotes by condition ([adaptive] ceilings = { "audio-only" = 0.627 }): the
+    // proportion of keywords a pilot got right at the easiest level. Absent: 1.
+    std::map<std::string, double> ceilings;
 
     // Whether the track steps on a list of levels (bands, cutoff).
     bool list_variable() const { return variable != AdaptiveVariable::Snr; }
@@ -300,5 +343,10 @@ struct AdaptiveProtocol {
 // list; defaults the middle and the top level), large_step_levels and
 // small_step_levels (positions; defaults 2 and 1); the SNR keys are refused.
 AdaptiveProtocol adaptive_protocol(const Protocol& protocol);
+
+// Design-time problems of an adaptive protocol: each condition whose ceiling
+// is at or below the per-keyword proportion the track aims at (`keywords`
+// keywords per sentence), so its track cannot converge and climbs to the bound.
+std::vector<std::string> adaptive_design_warnings(const AdaptiveProtocol& adaptive, int keywords);
 
 }  // namespace avsi::analysis

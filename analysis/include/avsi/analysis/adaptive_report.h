@@ -45,9 +45,11 @@ std::vector<AdaptiveTrialRow> read_adaptive_trials(const std::filesystem::path& 
 // One subject × condition track, replayed.
 struct TrackResult {
     std::string subject, condition;
-    std::vector<TrackStep> steps;
-    SrtEstimate srt;  // the protocol's estimator
-    SrtEstimate ml;   // the ML fit of the same track (for comparison)
+    std::vector<TrackStep> steps;  // levels in the variable's units (dB, bands, Hz)
+    SrtEstimate srt;  // the protocol's estimator, on the analysis scale (dB, or log2 of bands / Hz)
+    SrtEstimate ml;   // the ML fit of the same track (for comparison), same scale
+    TrackConvergence convergence;
+    bool excluded = false;  // left out of the ANOVA and the benefit (not converged, not included)
 };
 
 // Reference minus condition, per subject.
@@ -57,6 +59,7 @@ struct VisualBenefit {
     double mean_db = 0.0, sd_db = 0.0, se_db = 0.0;
     double ci_low_db = 0.0, ci_high_db = 0.0;
     std::optional<double> t, p_value;
+    std::optional<double> p_holm;  // Holm-adjusted over the k − 1 benefits (R p.adjust "holm")
     double df = 0.0;
 };
 
@@ -69,6 +72,17 @@ struct ConditionFit {
 
 struct SrtAnalysis {
     TrackSettings settings;
+    // The scale of thresholds and statistics: "dB" for SNR tracks; for list
+    // variables "log2(bands)" or "log2(Hz)": levels of band counts and
+    // cutoffs are roughly logarithmic, so thresholds are means of log2
+    // levels (geometric means), the fits are in log2 units and the ANOVA and
+    // benefit run on log2 thresholds.
+    std::string scale = "dB";
+    bool log2_scale = false;
+    bool include_unconverged = false;
+    int excluded_tracks = 0;              // tracks left out (not converged)
+    std::vector<std::string> excluded;    // "subject s03, audio-only: at the upper bound from sentence 6"
+    std::vector<std::string> warnings;    // design warnings (ceilings below the tracked target)
     // The variable's units: "dB" (SNR), or "bands" / "Hz" for a list variable
     // (whose track steps, levels and thresholds are then in those units).
     std::string unit = "dB";
@@ -88,13 +102,18 @@ struct SrtAnalysis {
 // orders the report (empty: first appearance); `reference` is the audio-only
 // condition (empty: the first). Throws InputError naming `source` and the
 // line when a stored level is not what the rules give.
-// With `list` (a protocol whose variable is "bands" or "cutoff"), the stored
-// levels are the list's values, the track is replayed on positions, and every
-// level and threshold is reported in the variable's units.
+// With `protocol` (its [adaptive] section) whose variable is "bands" or
+// "cutoff", the stored levels are the list's values, the track is replayed on
+// positions, levels are reported in the variable's units and thresholds,
+// fits and statistics on its log2 scale (SrtAnalysis::scale).
+// Tracks that did not converge (track_convergence) are flagged; unless
+// `include_unconverged`, their SRTs are left out of the ANOVA (the subject is
+// then dropped listwise) and of the benefit, and the report names them.
+// `protocol` also gives the conditions' ceilings (pooled fits use them).
 SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSettings& settings,
                         const std::vector<std::string>& conditions, const std::string& reference,
                         const std::string& source, double confidence = 0.95,
-                        const AdaptiveProtocol* list = nullptr);
+                        const AdaptiveProtocol* protocol = nullptr, bool include_unconverged = false);
 
 struct SrtReportSettings {
     std::filesystem::path out_dir;
@@ -113,6 +132,7 @@ struct AdaptiveAnalyzeSettings {
     std::filesystem::path out_dir;
     double confidence = 0.95;
     std::string title = "Speech reception thresholds by condition";
+    bool include_unconverged = false;  // --include-unconverged
 };
 
 // `avsi analyze --adaptive`: reads, replays, analyses and writes the report.

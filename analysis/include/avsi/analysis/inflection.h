@@ -50,7 +50,8 @@ public:
     using OpenWords = std::set<std::string, std::less<>>;
 
     // The lemmas `word` is a form of: itself, the bases it is a regular
-    // inflection of, and the lemmas it is a listed irregular form of.
+    // inflection of (including the -men plural of a -man noun), and the
+    // lemmas it is a listed irregular form of.
     std::vector<std::string> lemmas(const std::string& word, const OpenWords* open = nullptr) const;
 
     // Do the two normalised words share a lemma?

@@ -1,8 +1,14 @@
 // Power by simulation (`avsi power`), a planning aid: for given condition
 // means and a design like the reference study's, simulate keyword-level data
-// with subject and sentence random effects on the logit scale,
-//   logit P(correct) = logit(mean_c) + u_subject + v_sentence,
-//   u ~ N(0, subject_sd²), v ~ N(0, sentence_sd²),
+// with subject, sentence and subject × condition random effects on the logit
+// scale,
+//   logit P(correct) = logit(mean_c) + u_subject + v_sentence + w_subject,condition,
+//   u ~ N(0, subject_sd²), v ~ N(0, sentence_sd²), w ~ N(0, condition_sd²);
+// w is the random slope: how much a listener's benefit from a condition
+// differs from the mean benefit (MacLeod & Summerfield 1987: the audiovisual
+// benefit ranged 6-15 dB across listeners). Its default, kConditionSdDefault,
+// is derived from that range (kConditionSdSource says how; every output
+// states it); condition_sd = 0 gives the model without it, number for number.
 // with sentences in k lists of `sentences_per_cell`, list l shown to subject i
 // in condition (l + i) mod k (Latin-square rotation), `keywords_per_sentence`
 // Bernoulli keywords per sentence. Each simulated experiment is scored to
@@ -19,6 +25,16 @@
 
 namespace avsi::analysis {
 
+// The default subject × condition SD (logit): MacLeod & Summerfield's 6-15 dB
+// range of the audiovisual benefit read as ±2 SD (SD 2.25 dB), times the
+// logit slope of a 0.15/dB psychometric function at its midpoint
+// (4 × 0.15 = 0.6 logit/dB), is an SD of 1.35 logit for a difference of two
+// conditions, i.e. 1.35/√2 = 0.95 per condition.
+inline constexpr double kConditionSdDefault = 0.95;
+inline constexpr const char* kConditionSdSource =
+    "MacLeod & Summerfield (1987): audiovisual benefit 6-15 dB across listeners, read as +/-2 SD = 2.25 dB, "
+    "x 0.6 logit/dB (slope 0.15/dB at 50 %) = 1.35 logit for a difference of two conditions, /sqrt(2) per condition";
+
 struct PowerSettings {
     std::vector<double> means_percent;          // one per condition, in (0, 100)
     std::vector<std::size_t> subject_counts = {10, 15, 20, 25, 30, 35, 40};
@@ -26,6 +42,7 @@ struct PowerSettings {
     std::size_t keywords_per_sentence = 3;
     double subject_sd = 0.5;   // logit scale
     double sentence_sd = 0.5;  // logit scale
+    double condition_sd = kConditionSdDefault;  // subject × condition random slope, logit scale
     std::size_t simulations = 1000;
     std::uint64_t seed = 1;
     std::size_t contrast_a = 0, contrast_b = 0;  // 0-based; a == b: last minus first

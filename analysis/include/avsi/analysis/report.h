@@ -52,6 +52,12 @@ struct ReportSettings {
 // The anova.json document (as text) for a result.
 std::string anova_json(const AnalysisResult& result, const ReportSettings& settings);
 
+// The report's Sphericity section: Mauchly's test, the Greenhouse-Geisser and
+// Huynh-Feldt corrected dfs and p with their ε, as Markdown ("## Sphericity")
+// or HTML; the SRT report prints the same section for its ANOVA.
+std::string sphericity_markdown(const AnalysisResult& result);
+std::string sphericity_html(const AnalysisResult& result);
+
 // Writes every file of the report folder listed above.
 void write_report(const AnalysisResult& result, const ReportSettings& settings);
 

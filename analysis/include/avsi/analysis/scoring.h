@@ -210,7 +210,7 @@ struct AgreementRow {
     std::size_t agreements = 0;
     std::size_t automatic_correct = 0, scorer_correct = 0;
     double percent_agreement = 0.0;
-    std::optional<double> kappa;  // Cohen's kappa; nullopt when chance agreement is 1
+    std::optional<double> kappa;  // Cohen's kappa; nullopt (NA) when either side gives one verdict throughout
 };
 struct Disagreement {
     std::string scoring;
