@@ -10,6 +10,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 
 #include <fmt/format.h>
@@ -743,6 +744,78 @@ std::vector<ConditionArticulation> write_articulation_qc(const Plan& plan, const
     return conditions;
 }
 
+// The stimuli's methods paragraph (methods.md beside the manifest): the
+// speech, the conditions with each model and its policy, what each model
+// put on the lips, the animation and the audio processing.
+std::string methods_text(const Plan& plan, const json& manifest, const std::filesystem::path& out_dir) {
+    const Protocol& p = plan.protocol;
+    std::string m = fmt::format("# Methods: the stimuli of {}\n\n", p.name);
+    std::set<std::string> seen;
+    for (const auto& e : manifest["stimuli"]) seen.insert(e["sentence"].get<std::string>());
+    const std::size_t sentences = seen.size();
+    m += fmt::format("{} sentences were {}; each stimulus's speech was set to an active-speech level of {:g} dBFS. ",
+                     sentences,
+                     p.corpus.audio == CorpusAudio::Tts ? "synthesised with " + tts_voice_spec(tts_settings(p))
+                                                        : std::string("taken from recordings with their phone labels"),
+                     p.corpus.level_dbfs);
+    m += fmt::format("The face was rendered at {} × {} pixels, {} frames per second. ", p.render.width,
+                     p.render.height, p.render.fps);
+    std::vector<std::string> plain, held;
+    for (const auto& c : p.conditions)
+        if (c.face == FaceMode::Model) (c.closure_hold ? held : plain).push_back(c.name);
+    m += "\n\nConditions:\n\n";
+    for (const auto& c : manifest["conditions"]) {
+        const std::string name = c["name"].get<std::string>();
+        const std::string audio = c["audio"] == "clean" ? "clean audio" : "vocoded audio";
+        if (c["face"] != "model") {
+            m += fmt::format("- {}: {} face, {}.\n", name, c["face"] == "still" ? "a still neutral" : "no", audio);
+            continue;
+        }
+        m += fmt::format("- {}: control model {} ({}), {}", name, c["model"].get<std::string>(),
+                         c["policy_text"].get<std::string>(), audio);
+        const json& a = c["articulation"];
+        if (a.is_object())
+            m += fmt::format("; measured on the rendered face, the lips closed in {} of {} /p b m/ segments ({:.1f} %) "
+                             "and the lower lip reached the upper incisors in {} of {} /f v/ segments ({:.1f} %)",
+                             a["bilabials_closed"].get<std::size_t>(), a["bilabials"].get<std::size_t>(),
+                             100.0 * a["closure_rate"].get<double>(), a["labiodentals_reached"].get<std::size_t>(),
+                             a["labiodentals"].get<std::size_t>(), 100.0 * a["contact_rate"].get<double>());
+        m += ".\n";
+    }
+    m += "\n";
+    if (held.empty())
+        m += "Every control model was shown as trained (or as hand-set); no condition post-processed its model.\n";
+    else if (plain.empty())
+        m += "Every model condition was constrained to lip closure in /p b m/ and labiodental contact in /f v/ by "
+             "the least change of its own jaw and lip parameters (closure = \"hold\").\n";
+    else
+        m += "The closure constraint (least change of the model's own jaw and lip parameters to closure in /p b m/ "
+             "and contact in /f v/) was a factor of the design: each held condition is the same model as the "
+             "condition it is a variant of.\n";
+    // The vocoder's settings as a methods section reports them, at the rate
+    // of the vocoded stimuli.
+    for (const auto& e : manifest["stimuli"]) {
+        if (e.value("audio", "") != "vocoded") continue;
+        const Audio vocoded = read_audio(out_dir / e["wav"].get<std::string>());
+        m += "\nAudio of the vocoded conditions:\n\n";
+        const std::string lines = vocoder::describe(plan.vocoder_base, vocoded.sample_rate_hz);
+        for (std::size_t a = 0; a < lines.size();) {
+            const std::size_t b = lines.find('\n', a);
+            std::string line = lines.substr(a, b == std::string::npos ? std::string::npos : b - a);
+            const std::size_t colon = line.find(':');  // "Label:      text" → "Label: text"
+            if (colon != std::string::npos) {
+                const std::size_t text = line.find_first_not_of(' ', colon + 1);
+                line = line.substr(0, colon + 1) + (text == std::string::npos ? "" : " " + line.substr(text));
+            }
+            if (!line.empty()) m += "- " + line + "\n";
+            if (b == std::string::npos) break;
+            a = b + 1;
+        }
+        break;
+    }
+    return m;
+}
+
 }  // namespace
 
 std::filesystem::path variant_audio_path(const std::filesystem::path& video, const std::string& variable,
@@ -1069,6 +1142,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         manifest["conditions"].push_back(j);
     }
     write_text_file(manifest_path, manifest.dump(2) + "\n");
+    write_text_file(settings.out_dir / "methods.md", methods_text(plan, manifest, settings.out_dir));
 
     report.rendered = todo.size();
     report.frames_rendered = frames_total;

@@ -215,6 +215,17 @@ TEST_F(BuilderFixture, RecordsEachConditionsPolicyAndWhatItsModelPutsOnTheLips) 
     EXPECT_NE(qc.find("Worst segments per condition"), std::string::npos);
     EXPECT_NE(qc.find("closure hold (σ 25 ms), variant of ohman"), std::string::npos);
     EXPECT_NE(qc.find("<td>as trained</td>"), std::string::npos);
+    // The methods paragraph states each condition's policy and what its model put on the lips.
+    const std::string methods = read_text_file(dir / "policy" / "methods.md");
+    EXPECT_NE(methods.find("- ohman: control model ohman.json (as trained), vocoded audio; measured on the rendered "
+                           "face, the lips closed in"),
+              std::string::npos)
+        << methods;
+    EXPECT_NE(methods.find("- ohman+hold: control model ohman.json (closure hold (σ 25 ms), variant of ohman)"),
+              std::string::npos)
+        << methods;
+    EXPECT_NE(methods.find("was a factor of the design"), std::string::npos) << methods;
+    EXPECT_NE(methods.find("- Channels: 3 analysis bands"), std::string::npos) << methods;
     const VerifyReport v = verify_stimuli(b);
     EXPECT_EQ(v.verified, 4u);
     EXPECT_TRUE(v.problems.empty()) << v.problems.front();
