@@ -20,6 +20,8 @@ struct AnalyzeOptions {
     std::vector<std::string> conditions;
     double confidence = 0.95;
     std::string dv = "percent";
+    std::string timing_certificate;
+    bool exclude_timing_fail = false;
 };
 
 const bool registered_analyze = register_command({
@@ -52,6 +54,13 @@ const bool registered_analyze = register_command({
                        "Take the conditions and their order from the [[condition]] tables of this protocol (as --conditions)")
             ->check(CLI::ExistingFile)
             ->excludes(conditions);
+        sub.add_option("--timing-certificate", o->timing_certificate,
+                       "timing_certificate.csv from `avsi export` of online sessions: adds the per-participant "
+                       "presentation timing to the report")
+            ->check(CLI::ExistingFile);
+        sub.add_flag("--exclude-timing-fail", o->exclude_timing_fail,
+                     "Leave out the subjects whose presentation timing failed the tolerances (needs "
+                     "--timing-certificate; they are named in the report)");
         return [o, title = sub.get_option("--title"), dv = sub.get_option("--dv")] {
             if (analysis::is_adaptive_trials_file(o->input)) {
                 if (dv->count() > 0)
@@ -87,6 +96,8 @@ const bool registered_analyze = register_command({
             s.title = o->title;
             s.dv = o->dv;
             s.conditions = o->conditions;
+            s.timing_certificate = o->timing_certificate;
+            s.exclude_timing_fail = o->exclude_timing_fail;
             if (!o->protocol.empty()) {
                 for (const auto& c : load_protocol(o->protocol).conditions) s.conditions.push_back(c.name);
                 s.conditions_source = o->protocol;
