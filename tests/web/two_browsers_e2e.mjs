@@ -5,7 +5,10 @@
 // Then `avsi import-web` of the collected records: refused without a rule
 // (naming both runs), and with each `--runs` rule one run kept and the other
 // reported; importing the other run afterwards finds the same answers
-// already stored (compared by text, never called different).
+// already stored (compared by text, never called different). A third
+// browser, under a stand-in for jatos.js whose batch session already holds
+// another run's claim on subject 1, warns on its Start screen and records
+// the other run in its session record.
 //
 //   node tests/web/two_browsers_e2e.mjs --avsi build/cli/avsi --work build/tests/web/two_browsers [--chromium /usr/bin/chromium]
 //
@@ -30,8 +33,29 @@ const plan = config.subjects['1'];
 const words = { 1: 'the sun is warm', 2: 'she opened the door', 3: 'the dog barked', 4: 'he bought bread' };
 
 const posted = [];
+// Under (a stand-in for) JATOS, the third browser finds subject 1 claimed by
+// another run in the batch session (avsi_run_1) and must say so.
+let serveJatos = false;
+const jatosBatch = { avsi_run_1: 'run-of-another-browser' };
+const jatosAppended = [];
+const jatosStub = `window.jatos = (function () {
+  const j = { studyResultId: 9, workerId: 23, urlQueryParameters: Object.fromEntries(new URLSearchParams(location.search)), studySessionData: {} };
+  let batch = ${JSON.stringify(jatosBatch)};
+  j.onLoad = (cb) => setTimeout(cb, 0);
+  j.appendResultData = (text) => fetch('/jatos/append', { method: 'POST', body: text }).then((r) => { if (!r.ok) throw new Error(String(r.status)); });
+  j.setStudySessionData = () => Promise.resolve();
+  j.batchSession = { getAll: () => batch, get: (k) => batch[k], set: (k, v) => { batch[k] = v; return Promise.resolve(); } };
+  j.endStudy = () => {};
+  return j;
+})();`;
 const { base, close } = await serveStudy(study, {
   '/results': (req, res, body) => { posted.push(body); res.writeHead(204); res.end(); },
+  '/jatos.js': (req, res) => {
+    if (!serveJatos) { res.writeHead(404); res.end(); return; }
+    res.writeHead(200, { 'Content-Type': 'text/javascript' });
+    res.end(jatosStub);
+  },
+  '/jatos/append': (req, res, body) => { jatosAppended.push(body); res.writeHead(200); res.end(); },
 });
 const browser = await launchChromium(puppeteer, chromium, path.join(work, 'profile'));
 let warningB = '';
@@ -64,6 +88,23 @@ try {
     await page.waitForFunction(() => window.avsiStudy.outbox === 0);
     await context.close();
   }
+  // A third browser under JATOS, where the batch session already holds another run's claim.
+  serveJatos = true;
+  const context = await browser.createBrowserContext();
+  const page = await context.newPage();
+  page.setDefaultTimeout(20000);
+  const { clickButton } = scriptedParticipant(page, {});
+  await page.goto(`${base}/index.html?subject=1`);
+  await page.waitForFunction(() => [...document.querySelectorAll('button')].some((b) => b.textContent === 'Start'));
+  const warningJatos = await page.evaluate(() => document.body.innerText);
+  check(/This participant number was already started in another browser or on another device/.test(warningJatos),
+    'under JATOS, a browser finding the subject claimed by another run in the batch session warns on Start', warningJatos.slice(0, 300));
+  await clickButton('Start');
+  await page.waitForFunction(() => document.body.textContent.includes('steady noise'));
+  await page.waitForFunction(() => window.avsiStudy.outbox === 0);
+  const session = jsonLines(jatosAppended.join('')).find((r) => r.avsi === 'session');
+  check(session && session.other_run === 'run-of-another-browser', 'its session record names the other run (other_run)', session && JSON.stringify(session.other_run));
+  await context.close();
 } finally {
   await browser.close();
   close();
