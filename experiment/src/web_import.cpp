@@ -365,6 +365,8 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
     std::map<int, std::pair<std::string, const Record*>> subject_study;  // subject → study id, first record
     // Another study's records: one error per results file and experiment, with a count.
     std::map<std::pair<std::string, std::string>, std::pair<const Record*, int>> foreign;
+    // A subject's records of a second study export: one error per subject and export, with a count.
+    std::map<std::pair<int, std::string>, std::pair<const Record*, int>> other_export;
     // The same record read twice (a .txt and a .jrzip of the same study, a resend): once.
     std::set<std::string> seen;
     for (const Record& r : records) {
@@ -396,9 +398,9 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
             first_record = &r;
             first_study = study;
         } else if (study != first_study && !study.empty()) {
-            f.report("study", fmt::format("subject {} has records of two study exports ({} and {}, the first at {}:{}); "
-                                          "import each export's results into its own database",
-                                          subject, first_study, study, first_record->file, first_record->line));
+            auto& [first, count] = other_export[{subject, study}];
+            if (!first) first = &r;
+            ++count;
             continue;
         }
         SubjectRecords& s = subject_runs[subject][run];
@@ -517,6 +519,15 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
                                          kind));
         }
     }
+    for (const auto& [key, found] : other_export) {
+        const auto& [r, count] = found;
+        const auto& [first_study, first_record] = subject_study.at(key.first);
+        problems.add(r->file, r->line, r->column, r->field("study"),
+                     fmt::format("subject {} has records of two study exports ({} and {}, the first at {}:{}; {} "
+                                 "record{} of {}); import each export's results into its own database",
+                                 key.first, first_study, key.second, first_record->file, first_record->line, count,
+                                 count == 1 ? "" : "s", key.second));
+    }
     for (const auto& [key, found] : foreign) {
         const auto& [r, count] = found;
         problems.add(r->file, r->line, r->column, r->field("experiment"),
@@ -574,6 +585,10 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
                                      first.record->line, t.response.text));
         }
         int expected = 1;
+        // Stimulus hashes not the manifest's: one error per subject, with the count (one cause: another build).
+        const Record* first_wrong_hash = nullptr;
+        std::string first_wrong_hash_message;
+        int wrong_hashes = 0;
         for (const TrialRecord* t : unique) {
             const Record& r = *t->record;
             const int position = t->trial.position;
@@ -606,16 +621,27 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
                 problems.add(r.file, r.line, r.column, r.field("stimulus"),
                              fmt::format("{} is not in {}", planned.stimulus,
                                          (settings.stimuli / "manifest.json").string()));
-            else if (entry->second.sha256 != t->stimulus_sha256)
-                problems.add(r.file, r.line, r.column, r.field("stimulus_sha256"),
-                             fmt::format("expected {} ({} in the manifest), got {}: the participant saw another file",
-                                         entry->second.sha256, planned.stimulus, t->stimulus_sha256));
+            else if (entry->second.sha256 != t->stimulus_sha256 && ++wrong_hashes == 1) {
+                first_wrong_hash = &r;
+                first_wrong_hash_message = fmt::format("expected {} ({} in the manifest), got {}: the participant saw "
+                                                       "another file",
+                                                       entry->second.sha256, planned.stimulus, t->stimulus_sha256);
+            }
             if (!t->session.empty() && !s.sessions.count(t->session))
                 problems.add(r.file, r.line, r.column, r.field("session"),
                              fmt::format("browser session {} has trials but no session record: part of the results "
                                          "is missing (give every results file)",
                                          t->session));
         }
+        if (first_wrong_hash)
+            problems.add(first_wrong_hash->file, first_wrong_hash->line, first_wrong_hash->column,
+                         first_wrong_hash->field("stimulus_sha256"),
+                         wrong_hashes == 1
+                             ? first_wrong_hash_message
+                             : fmt::format("{} (and {} more of subject {}'s trials: {} in all with a stimulus hash "
+                                           "not in {}; results of another stimulus build?)",
+                                           first_wrong_hash_message, wrong_hashes - 1, subject, wrong_hashes,
+                                           (settings.stimuli / "manifest.json").string()));
         if (!problems.empty()) continue;
 
         OnlineSubject o;

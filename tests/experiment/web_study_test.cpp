@@ -535,6 +535,30 @@ TEST_F(WebStudy, RefusesBadResultsAndLeavesTheDatabaseUnchanged) {
     write_text_file(dir / "wrong.txt", lines(wrong));
     expect_refused({dir / "wrong.txt"}, db, stimuli(), "subject 2 trial 3 is test", dir);
     expect_refused({dir / "wrong.txt"}, db, stimuli(), "stimulus_sha256: expected", dir);
+    // Every trial with another build's hash: one error for the cause, with the count.
+    auto rebuilt = browser_records(2, 4, manifest);
+    for (auto& r : rebuilt)
+        if (r["avsi"] == "trial") r["stimulus_sha256"] = std::string(64, 'f');
+    write_text_file(dir / "rebuilt.txt", lines(rebuilt));
+    expect_refused({dir / "rebuilt.txt"}, db, stimuli(),
+                   "the participant saw another file (and 3 more of subject 2's trials: 4 in all with a stimulus hash "
+                   "not in ",
+                   dir);
+    try {
+        import({dir / "rebuilt.txt"}, db, stimuli());
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_EQ(what.find("stimulus_sha256"), what.rfind("stimulus_sha256")) << what;
+    }
+    // Subject 2's records from two exports (another study id): one error with the count.
+    auto mixed = browser_records(2, 4, manifest);
+    for (std::size_t i = 5; i < mixed.size(); ++i) mixed[i]["study"] = "fedcba9876543210";
+    write_text_file(dir / "mixed.txt", lines(mixed));
+    expect_refused({dir / "mixed.txt"}, db, stimuli(),
+                   "mixed.txt:6:1: error: study: subject 2 has records of two study exports (0123456789abcdef and "
+                   "fedcba9876543210, the first at ",
+                   dir);
+    expect_refused({dir / "mixed.txt"}, db, stimuli(), "; 4 records of fedcba9876543210); import each export's", dir);
 
     // An answer that contradicts the stored one for subject 1.
     auto changed = browser_records(1, 4, manifest);

@@ -85,6 +85,8 @@ try {
   await page.waitForFunction(() => window.avsiStudy.currentPosition === 2 && document.querySelector('video'));
   const queuedBefore = await page.evaluate(() => window.avsiStudy.outbox);
   await page.reload();
+  // The Start screen comes after the study has read its saved state.
+  await page.waitForFunction(() => [...document.querySelectorAll('button')].some((b) => b.textContent === 'Start'));
   const queuedAfter = await page.evaluate(() => window.avsiStudy.outbox);
   check(queuedBefore > 0 && queuedAfter === queuedBefore, 'the unsent records survive the reload (the outbox is kept in localStorage)', `${queuedBefore} before, ${queuedAfter} after`);
   await clickButton('Start');
