@@ -21,6 +21,8 @@ struct AnalyzeOptions {
     double confidence = 0.95;
     std::string dv = "percent";
     bool include_unconverged = false;
+    std::string timing_certificate;
+    bool exclude_timing_fail = false;
 };
 
 const bool registered_analyze = register_command({
@@ -56,6 +58,13 @@ const bool registered_analyze = register_command({
         sub.add_flag("--include-unconverged", o->include_unconverged,
                      "adaptive_trials.csv: keep tracks that hit a bound or did not reverse in the ANOVA and the "
                      "benefit (default: flagged, named and left out)");
+        sub.add_option("--timing-certificate", o->timing_certificate,
+                       "timing_certificate.csv from `avsi export` of online sessions: adds the per-participant "
+                       "presentation timing to the report")
+            ->check(CLI::ExistingFile);
+        sub.add_flag("--exclude-timing-fail", o->exclude_timing_fail,
+                     "Leave out the subjects whose presentation timing failed the tolerances (needs "
+                     "--timing-certificate; they are named in the report)");
         return [o, title = sub.get_option("--title"), dv = sub.get_option("--dv")] {
             if (analysis::is_adaptive_trials_file(o->input)) {
                 if (dv->count() > 0)
@@ -96,6 +105,8 @@ const bool registered_analyze = register_command({
             s.title = o->title;
             s.dv = o->dv;
             s.conditions = o->conditions;
+            s.timing_certificate = o->timing_certificate;
+            s.exclude_timing_fail = o->exclude_timing_fail;
             if (!o->protocol.empty()) {
                 for (const auto& c : load_protocol(o->protocol).conditions) s.conditions.push_back(c.name);
                 s.conditions_source = o->protocol;

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include "avsi/core/error.h"
 #include "avsi/core/log.h"
 #include "avsi/experiment/web_study.h"
@@ -18,6 +20,8 @@ struct ImportWebOptions {
     std::string protocol;
     std::string db;
     std::string stimuli;
+    std::string runs;
+    bool require_complete = false;
 };
 
 int run_import_web(const ImportWebOptions& o) {
@@ -28,14 +32,35 @@ int run_import_web(const ImportWebOptions& o) {
     s.protocol = o.protocol;
     s.database = o.db;
     s.stimuli = o.stimuli;
+    if (!o.runs.empty()) s.runs = experiment::parse_run_choice(o.runs);
+    s.require_complete = o.require_complete;
     const auto r = experiment::import_web(s);
     for (const auto& note : r.notes) log_info("import-web: {}", note);
+    for (const auto& left : r.left_out) {
+        std::string sessions;
+        for (const auto& id : left.sessions) sessions += (sessions.empty() ? "" : ",") + id;
+        log_warning("import-web: subject {}: run {} left out (started {}, {} trials, sessions {}); kept run {} ({} "
+                    "trials) by --runs {}",
+                    left.subject, left.run, left.started_utc, left.trials, sessions.empty() ? "none" : sessions,
+                    left.kept_run, left.kept_trials, o.runs);
+    }
+    if (!r.incomplete.empty()) {
+        std::string list;
+        for (const auto& i : r.incomplete)
+            list += fmt::format("{}subject {} ({} of {})", list.empty() ? "" : ", ", i.subject, i.answered, i.planned);
+        log_warning("import-web: {} subject(s) with fewer trials than the design: {} (--require-complete refuses them)",
+                    r.incomplete.size(), list);
+    }
     if (r.ignored > 0) log_info("import-web: {} JSON objects that are not avsi records were skipped", r.ignored);
     if (r.duplicates > 0) log_info("import-web: {} trial records were read twice and counted once", r.duplicates);
     if (r.screening_failed > 0)
         log_warning("import-web: {} headphone check(s) failed; the subjects are imported with their results in "
                     "screening.csv (`avsi export`): decide on exclusions before `avsi analyze`",
                     r.screening_failed);
+    for (const auto& c : r.timing) {
+        if (c.verdict == experiment::TimingVerdict::Pass) log_info("import-web: {}", experiment::describe(c));
+        else log_warning("import-web: {}", experiment::describe(c));
+    }
     log_info("import-web: {} records, {} subjects ({} new), {} browser sessions added, {} trials added, {} already "
              "stored; database {}",
              r.records, r.subjects, r.subjects_added, r.sessions_added, r.trials_added, r.trials_present, o.db);
@@ -59,6 +84,12 @@ const bool registered_import_web = register_command({
                        "exported study folder); stimulus hashes are checked against it")
             ->required()
             ->check(CLI::ExistingDirectory);
+        sub.add_option("--runs", o->runs,
+                       "A subject who took the study in several browsers: keep the first, last, most-complete run, "
+                       "or session=ID[,ID...] (the run holding that browser session); the others are reported. "
+                       "Without it such a subject is an error");
+        sub.add_flag("--require-complete", o->require_complete,
+                     "Refuse the import when a subject has fewer trials than the design");
         return [o] { return run_import_web(*o); };
     }});
 

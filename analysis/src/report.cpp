@@ -1,6 +1,7 @@
 // The analysis report: anova.json first, then HTML, Markdown and CSVs drawn
 // from the same JSON values, so every number shown equals the one stored.
 #include "avsi/analysis/report.h"
+#include "avsi/analysis/timing_report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -126,12 +127,17 @@ std::string sphericity_sentence(const AnovaResult& a) {
                         no_leading_zero(fmt::format("{:.3f}", a.mauchly.W)), df_text(*a.mauchly.df), *a.mauchly.chisq,
                         apa_p(*a.mauchly.p_value));
     }
-    if (a.k > 2 && a.greenhouse_geisser.epsilon && a.greenhouse_geisser.p_value)
-        s += fmt::format(" Greenhouse-Geisser ε = {}, F({}, {}), {}; Huynh-Feldt ε = {}{}, {}.",
+    if (a.k > 2 && a.greenhouse_geisser.epsilon && a.greenhouse_geisser.p_value) {
+        s += fmt::format(" Greenhouse-Geisser ε = {}, F({}, {}), {}; ",
                          no_leading_zero(fmt::format("{:.3f}", *a.greenhouse_geisser.epsilon)),
                          df_text(a.greenhouse_geisser.df_conditions), df_text(a.greenhouse_geisser.df_error),
-                         apa_p(*a.greenhouse_geisser.p_value), fmt::format("{:.3f}", *a.huynh_feldt.epsilon),
-                         *a.huynh_feldt.epsilon > 1 ? " (treated as 1)" : "", apa_p(*a.huynh_feldt.p_value));
+                         apa_p(*a.greenhouse_geisser.p_value));
+        if (a.huynh_feldt.epsilon && a.huynh_feldt.p_value)
+            s += fmt::format("Huynh-Feldt ε = {}{}, {}.", fmt::format("{:.3f}", *a.huynh_feldt.epsilon),
+                             *a.huynh_feldt.epsilon > 1 ? " (treated as 1)" : "", apa_p(*a.huynh_feldt.p_value));
+        else
+            s += fmt::format("Huynh-Feldt ε not estimable with n = {}.", a.n);
+    }
     return s;
 }
 
@@ -610,7 +616,21 @@ std::optional<AnalysisResult> analyze_file(const AnalyzeSettings& s) {
                          "<db> --out DIR` to get responses.csv, then `avsi score --corpus sentences.csv --responses "
                          "DIR/responses.csv --out DIR`, then `avsi analyze DIR/scores.csv --out report/`");
     in.close();
-    const Scores scores = select_conditions(read_scores(s.input, s.dv), s.conditions, s.conditions_source);
+    Scores scores = select_conditions(read_scores(s.input, s.dv), s.conditions, s.conditions_source);
+    std::vector<TimingCertificateRow> timing;
+    std::vector<std::string> timing_excluded;
+    if (!s.timing_certificate.empty()) timing = read_timing_certificates(s.timing_certificate);
+    if (s.exclude_timing_fail) {
+        if (s.timing_certificate.empty())
+            throw UsageError("--exclude-timing-fail: give the timing certificates with --timing-certificate");
+        scores = exclude_timing_failures(scores, timing, timing_excluded);
+        for (const auto& subject : timing_excluded)
+            log_warning("{}: subject {} left out: its presentation timing failed the tolerances ({})",
+                        s.timing_certificate.string(), subject, s.timing_certificate.filename().string());
+    }
+    auto add_timing = [&] {
+        if (!s.timing_certificate.empty()) append_timing_section(s.out_dir, timing, timing_excluded, s.timing_certificate);
+    };
     ReportSettings rs;
     rs.out_dir = s.out_dir;
     rs.source = s.input;
@@ -635,11 +655,13 @@ std::optional<AnalysisResult> analyze_file(const AnalyzeSettings& s) {
                     "writing the descriptive pilot report",
                     s.input.string(), complete, complete == 1 ? "" : "s");
         write_pilot_report(scores, rs, complete);
+        add_timing();
         return std::nullopt;
     }
     const WithinData data = make_within_data(scores, s.input.string());
     AnalysisResult result = analyze(data, s.confidence);
     write_report(result, rs);
+    add_timing();
     return result;
 }
 

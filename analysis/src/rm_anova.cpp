@@ -146,7 +146,15 @@ AnovaResult rm_anova(const WithinData& data) {
         } else {
             gg = sum * sum / (double(p) * sum_sq);
             const double nn = double(n - 1);  // R: object$df
-            hf = (double(n) * double(p) * *gg - 2.0) / (double(p) * (nn - double(p) * *gg));
+            // Not estimable when n - 1 <= p * eps_GG (with n = 2 and one non-zero
+            // eigenvalue it is 0/0): reported as such, never as a NaN.
+            const double hf_denominator = double(p) * (nn - double(p) * *gg);
+            if (hf_denominator > 0.0) hf = (double(n) * double(p) * *gg - 2.0) / hf_denominator;
+            if (hf && !std::isfinite(*hf)) hf.reset();
+            if (!hf)
+                a.notes.push_back(fmt::format("Huynh-Feldt epsilon not estimable with {} subjects (n - 1 <= (k - 1) * "
+                                              "Greenhouse-Geisser epsilon)",
+                                              n));
             if (lambda.minCoeff() <= 1e-12 * lambda_max) {
                 a.mauchly.computable = false;
                 a.mauchly.W = 0.0;

@@ -1,5 +1,6 @@
 // SQLite session store and CSV export (see store.h).
 #include "avsi/experiment/store.h"
+#include "avsi/experiment/timing_certificate.h"
 
 #include <sqlite3.h>
 #include <unistd.h>
@@ -740,13 +741,19 @@ OnlineImportCounts Store::import_online(const std::vector<OnlineSubject>& subjec
                                    "JOIN sessions s ON s.session = r.session WHERE r.subject = ? AND r.position = ?");
                 existing.bind(1, id).bind(2, t.trial.position);
                 if (existing.step()) {
+                    // The same answer is the same text (and confirmation), whenever and wherever it was given.
                     const bool same = existing.text(0) == t.response.text &&
                                       (existing.integer(1) != 0) == t.response.confirmed_empty &&
-                                      existing.text(2) == t.answered_utc && existing.text(3) == "online";
-                    if (!same)
-                        throw InputError(m_path, fmt::format("subject {} trial {} already has another response in the "
-                                                             "database ({} session, answered {}); nothing was imported",
-                                                             id, t.trial.position, existing.text(3), existing.text(2)));
+                                      existing.text(3) == "online";
+                    if (!same) {
+                        const std::string message = fmt::format(
+                            "subject {} trial {}: the answer \"{}\" differs from the one already in {} (\"{}\", {} "
+                            "session, answered {}); nothing was imported",
+                            id, t.trial.position, excerpt(t.response.text), m_path.string(), excerpt(existing.text(0)),
+                            existing.text(3), existing.text(2));
+                        if (t.source_file.empty()) throw InputError(m_path, message);
+                        throw InputError(t.source_file, t.source_line, t.source_column, "response", message);
+                    }
                     ++counts.trials_present;
                     continue;
                 }
@@ -1014,6 +1021,10 @@ std::vector<std::filesystem::path> export_store(const Store& store, const std::f
                                  w.web.audio_path_measured ? "1" : "0"});
         written.push_back(out_dir / "web_timing.csv");
         write_text_file(written.back(), web_csv);
+        // Per participant: the timing certificate (timing_certificate.h) with the default tolerances.
+        const TimingTolerance tolerance;
+        written.push_back(out_dir / "timing_certificate.csv");
+        write_text_file(written.back(), timing_certificate_csv(timing_certificates(store, tolerance), tolerance));
         std::string screening_csv = csv_line({"subject", "session", "test", "trials", "correct", "required", "passed"});
         for (const auto& r : screening)
             screening_csv += csv_line({std::to_string(r.subject), std::to_string(r.session), r.result.test,

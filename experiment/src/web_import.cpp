@@ -2,7 +2,7 @@
 // web_study.h). The study runtime (web/src/avsi-study.js) sends one JSON
 // object per event, each followed by a newline: under JATOS through
 // jatos.appendResultData (so JATOS' "data only" export is JSON Lines, and its
-// results archive holds the same lines in study_result_*/comp_result_*/data.txt),
+// results archive holds the same lines in study_result_<id>/comp-result_<id>/data.txt),
 // otherwise to a POST endpoint or into a download. jsPsych's own JSON export
 // (an array of every trial's data) holds the same objects among other
 // plugins' rows. Every record carries "avsi" (its kind), the study id, the
@@ -43,6 +43,7 @@ struct Record {
     int line = 0;
     int column = 0;
     std::string where;  // "" or "[i]" for an element of a top-level array
+    std::string input;  // the results file given (an archive's entries share it)
 
     // The field name in messages: "[i].key" inside an array, else "key".
     std::string field(const std::string& key) const { return where.empty() ? key : where + "." + key; }
@@ -90,7 +91,7 @@ void parse_records(const std::string& text, const std::string& file, std::vector
         const auto line = position.first, column = position.second;
         auto take = [&](json&& v, const std::string& where) {
             if (v.is_object() && v.contains("avsi"))
-                out.push_back({std::move(v), file, line, column, where});
+                out.push_back({std::move(v), file, line, column, where, ""});
             else
                 ++ignored;
         };
@@ -116,7 +117,7 @@ void read_results_file(const fs::path& path, std::vector<Record>& out, int& igno
             if (ext == ".txt" || ext == ".json" || ext == ".jsonl") names.push_back(name);
         }
         if (names.empty())
-            throw InputError(path, "the archive holds no result data (expected study_result_*/comp_result_*/data.txt, "
+            throw InputError(path, "the archive holds no result data (expected study_result_<id>/comp-result_<id>/data.txt, "
                                    "JATOS' results archive layout)");
         std::sort(names.begin(), names.end());
         for (const auto& name : names) {
@@ -220,9 +221,10 @@ struct SessionRecord {
     std::string details;
 };
 
+// One run of one subject: the records of one browser's localStorage (every
+// page load of it), from the run's first session on.
 struct SubjectRecords {
-    std::string study;
-    const Record* first = nullptr;
+    std::string started_utc;   // its earliest record
     std::vector<TrialRecord> trials;
     std::map<std::string, SessionRecord> sessions;       // by browser session id
     std::map<std::string, std::string> last_time;        // latest record time per session
@@ -240,7 +242,100 @@ std::string describe_browser(const json& j) {
     return out;
 }
 
+// The distinct trial positions a run answered.
+int answered_positions(const SubjectRecords& run) {
+    std::set<int> positions;
+    for (const auto& t : run.trials) positions.insert(t.trial.position);
+    return static_cast<int>(positions.size());
+}
+
+// The run to keep of a subject's runs (by the rule), or "" after reporting
+// why none can be chosen.
+std::string choose_run(int subject, const std::map<std::string, SubjectRecords>& runs, const RunChoice& choice,
+                       DiagnosticList& problems) {
+    if (runs.size() == 1) return runs.begin()->first;
+    auto describe = [&] {
+        std::string out;
+        for (const auto& [id, run] : runs) {
+            std::string sessions;
+            for (const auto& [session, record] : run.sessions) sessions += (sessions.empty() ? "" : ",") + session;
+            out += fmt::format("{}run {} (started {}, {} trials, sessions {})", out.empty() ? "" : "; ",
+                               id.empty() ? "(none)" : id, run.started_utc, answered_positions(run),
+                               sessions.empty() ? "none" : sessions);
+        }
+        return out;
+    };
+    const Record* first = nullptr;
+    for (const auto& [id, run] : runs)
+        if (!run.trials.empty() && (!first || run.trials.front().record->line < first->line)) first = run.trials.front().record;
+    if (!first)
+        for (const auto& [id, run] : runs)
+            for (const auto& [session, record] : run.sessions)
+                if (!first) first = record.record;
+    auto fail = [&](const std::string& message) {
+        if (first) problems.add(first->file, first->line, first->column, first->field("run"), message);
+        else problems.add("", 0, 0, "run", message);
+        return std::string();
+    };
+    using Entry = std::pair<const std::string, SubjectRecords>;
+    std::vector<const Entry*> order;
+    for (const auto& entry : runs) order.push_back(&entry);
+    std::stable_sort(order.begin(), order.end(),
+                     [](const Entry* a, const Entry* b) { return a->second.started_utc < b->second.started_utc; });
+    switch (choice.rule) {
+    case RunRule::Refuse:
+        return fail(fmt::format("subject {} took the study in {} browser runs ({}); choose the run to keep with "
+                                "--runs first|last|most-complete|session=ID",
+                                subject, runs.size(), describe()));
+    case RunRule::First: return order.front()->first;
+    case RunRule::Last: return order.back()->first;
+    case RunRule::MostComplete: {
+        const Entry* best = order.front();
+        for (const Entry* e : order)
+            if (answered_positions(e->second) > answered_positions(best->second)) best = e;
+        return best->first;
+    }
+    case RunRule::Session: {
+        std::vector<std::string> chosen;
+        for (const auto& [id, run] : runs)
+            for (const auto& session : choice.sessions)
+                if (run.sessions.count(session) || std::any_of(run.trials.begin(), run.trials.end(),
+                                                               [&](const TrialRecord& t) { return t.session == session; }))
+                    chosen.push_back(id);
+        chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
+        if (chosen.size() == 1) return chosen.front();
+        return fail(fmt::format("--runs session=…: subject {} has {} runs holding the given sessions, expected "
+                                "exactly one; its runs: {}",
+                                subject, chosen.size(), describe()));
+    }
+    }
+    return "";
+}
+
 }  // namespace
+
+RunChoice parse_run_choice(const std::string& text) {
+    RunChoice c;
+    if (text == "first") c.rule = RunRule::First;
+    else if (text == "last") c.rule = RunRule::Last;
+    else if (text == "most-complete") c.rule = RunRule::MostComplete;
+    else if (text.rfind("session=", 0) == 0 && text.size() > 8) {
+        c.rule = RunRule::Session;
+        std::string rest = text.substr(8);
+        std::size_t start = 0;
+        while (start <= rest.size()) {
+            const std::size_t comma = rest.find(',', start);
+            const std::string id = rest.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+            if (id.empty()) throw UsageError(fmt::format("--runs: expected session=ID[,ID…], got \"{}\"", text));
+            c.sessions.push_back(id);
+            if (comma == std::string::npos) break;
+            start = comma + 1;
+        }
+    } else {
+        throw UsageError(fmt::format("--runs: expected first, last, most-complete or session=ID[,ID…], got \"{}\"", text));
+    }
+    return c;
+}
 
 ImportWebResult import_web(const ImportWebSettings& settings) {
     if (settings.results.empty()) throw UsageError("give at least one results file");
@@ -254,7 +349,11 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
 
     ImportWebResult result;
     std::vector<Record> records;
-    for (const auto& path : settings.results) read_results_file(path, records, result.ignored);
+    for (const auto& path : settings.results) {
+        const std::size_t before = records.size();
+        read_results_file(path, records, result.ignored);
+        for (std::size_t i = before; i < records.size(); ++i) records[i].input = path.string();
+    }
     result.records = static_cast<int>(records.size());
     if (records.empty())
         throw InputError(settings.results.front(), "no avsi records in the results (objects with an \"avsi\" field, "
@@ -262,32 +361,50 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
 
     // Parse and check each record on its own.
     DiagnosticList problems;
-    std::map<int, SubjectRecords> subjects;
+    std::map<int, std::map<std::string, SubjectRecords>> subject_runs;  // subject → run id → records
+    std::map<int, std::pair<std::string, const Record*>> subject_study;  // subject → study id, first record
+    // Another study's records: one error per results file and experiment, with a count.
+    std::map<std::pair<std::string, std::string>, std::pair<const Record*, int>> foreign;
+    // A subject's records of a second study export: one error per subject and export, with a count.
+    std::map<std::pair<int, std::string>, std::pair<const Record*, int>> other_export;
+    // The same record read twice (a .txt and a .jrzip of the same study, a resend): once.
+    std::set<std::string> seen;
     for (const Record& r : records) {
+        const json& v = r.value;
+        auto text_of = [&](const char* key) { return v.contains(key) ? v[key].dump() : std::string("null"); };
+        if (!seen.insert(text_of("subject") + "|" + text_of("run") + "|" + text_of("session") + "|" + text_of("seq") + "|" +
+                         text_of("avsi"))
+                 .second) {
+            ++result.duplicates;
+            continue;
+        }
         const Fields f(r, r.value, "", problems);
         const std::string kind = f.str("avsi");
         const std::string experiment = f.str("experiment");
         if (!experiment.empty() && experiment != protocol.name) {
-            f.report("experiment", fmt::format("expected \"{}\" (the protocol's experiment), got \"{}\": these are "
-                                               "another study's results",
-                                               protocol.name, experiment));
+            auto& [first, count] = foreign[{r.input, experiment}];
+            if (!first) first = &r;
+            ++count;
             continue;
         }
         const int subject = static_cast<int>(f.integer("subject", 1, 1000000));
         const std::string study = f.str("study");
+        const std::string run = f.str("run", false);
         const std::string session = f.str("session");
         const long long seq = f.integer("seq", 0, 1LL << 40);
         const std::string time_utc = f.str("time_utc");
-        SubjectRecords& s = subjects[subject];
-        if (!s.first) {
-            s.first = &r;
-            s.study = study;
-        } else if (study != s.study && !study.empty()) {
-            f.report("study", fmt::format("subject {} has records of two study exports ({} and {}, the first at {}:{}); "
-                                          "import each export's results into its own database",
-                                          subject, s.study, study, s.first->file, s.first->line));
+        auto& [first_study, first_record] = subject_study[subject];
+        if (!first_record) {
+            first_record = &r;
+            first_study = study;
+        } else if (study != first_study && !study.empty()) {
+            auto& [first, count] = other_export[{subject, study}];
+            if (!first) first = &r;
+            ++count;
             continue;
         }
+        SubjectRecords& s = subject_runs[subject][run];
+        if (s.started_utc.empty() || time_utc < s.started_utc) s.started_utc = time_utc;
         if (!session.empty() && time_utc > s.last_time[session]) s.last_time[session] = time_utc;
         if (kind == "session") {
             SessionRecord sr;
@@ -402,6 +519,43 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
                                          kind));
         }
     }
+    for (const auto& [key, found] : other_export) {
+        const auto& [r, count] = found;
+        const auto& [first_study, first_record] = subject_study.at(key.first);
+        problems.add(r->file, r->line, r->column, r->field("study"),
+                     fmt::format("subject {} has records of two study exports ({} and {}, the first at {}:{}; {} "
+                                 "record{} of {}); import each export's results into its own database",
+                                 key.first, first_study, key.second, first_record->file, first_record->line, count,
+                                 count == 1 ? "" : "s", key.second));
+    }
+    for (const auto& [key, found] : foreign) {
+        const auto& [r, count] = found;
+        problems.add(r->file, r->line, r->column, r->field("experiment"),
+                     fmt::format("expected \"{}\" (the protocol's experiment), got \"{}\": these are another study's "
+                                 "results ({} record{} of {} with this experiment)",
+                                 protocol.name, key.second, count, count == 1 ? "" : "s", key.first));
+    }
+    problems.throw_if_any();
+
+    // One run per subject (settings.runs); the others are reported.
+    std::map<int, SubjectRecords> subjects;
+    for (auto& [subject, runs] : subject_runs) {
+        const std::string kept = choose_run(subject, runs, settings.runs, problems);
+        if (kept.empty() && runs.size() > 1) continue;
+        for (auto& [id, run] : runs) {
+            if (id == kept) continue;
+            LeftOutRun left;
+            left.subject = subject;
+            left.run = id;
+            left.kept_run = kept;
+            left.trials = answered_positions(run);
+            left.kept_trials = answered_positions(runs.at(kept));
+            left.started_utc = run.started_utc;
+            for (const auto& [session, record] : run.sessions) left.sessions.push_back(session);
+            result.left_out.push_back(std::move(left));
+        }
+        subjects[subject] = std::move(runs.at(kept));
+    }
     problems.throw_if_any();
 
     // Each subject against the design: plan order, lists, stimulus hashes.
@@ -419,9 +573,9 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
                 unique.push_back(&t);
                 continue;
             }
+            // The same answer sent twice (or from two page loads) is one answer: compared by its text.
             const TrialRecord& first = *it->second;
-            if (first.response.text == t.response.text && first.answered_utc == t.answered_utc &&
-                first.session == t.session) {
+            if (first.response.text == t.response.text && first.response.confirmed_empty == t.response.confirmed_empty) {
                 ++result.duplicates;
                 continue;
             }
@@ -431,6 +585,10 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
                                      first.record->line, t.response.text));
         }
         int expected = 1;
+        // Stimulus hashes not the manifest's: one error per subject, with the count (one cause: another build).
+        const Record* first_wrong_hash = nullptr;
+        std::string first_wrong_hash_message;
+        int wrong_hashes = 0;
         for (const TrialRecord* t : unique) {
             const Record& r = *t->record;
             const int position = t->trial.position;
@@ -463,16 +621,27 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
                 problems.add(r.file, r.line, r.column, r.field("stimulus"),
                              fmt::format("{} is not in {}", planned.stimulus,
                                          (settings.stimuli / "manifest.json").string()));
-            else if (entry->second.sha256 != t->stimulus_sha256)
-                problems.add(r.file, r.line, r.column, r.field("stimulus_sha256"),
-                             fmt::format("expected {} ({} in the manifest), got {}: the participant saw another file",
-                                         entry->second.sha256, planned.stimulus, t->stimulus_sha256));
+            else if (entry->second.sha256 != t->stimulus_sha256 && ++wrong_hashes == 1) {
+                first_wrong_hash = &r;
+                first_wrong_hash_message = fmt::format("expected {} ({} in the manifest), got {}: the participant saw "
+                                                       "another file",
+                                                       entry->second.sha256, planned.stimulus, t->stimulus_sha256);
+            }
             if (!t->session.empty() && !s.sessions.count(t->session))
                 problems.add(r.file, r.line, r.column, r.field("session"),
                              fmt::format("browser session {} has trials but no session record: part of the results "
                                          "is missing (give every results file)",
                                          t->session));
         }
+        if (first_wrong_hash)
+            problems.add(first_wrong_hash->file, first_wrong_hash->line, first_wrong_hash->column,
+                         first_wrong_hash->field("stimulus_sha256"),
+                         wrong_hashes == 1
+                             ? first_wrong_hash_message
+                             : fmt::format("{} (and {} more of subject {}'s trials: {} in all with a stimulus hash "
+                                           "not in {}; results of another stimulus build?)",
+                                           first_wrong_hash_message, wrong_hashes - 1, subject, wrong_hashes,
+                                           (settings.stimuli / "manifest.json").string()));
         if (!problems.empty()) continue;
 
         OnlineSubject o;
@@ -499,7 +668,14 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
             o.sessions.push_back(std::move(os));
         }
         for (const TrialRecord* t : unique) {
-            OnlineSession::Trial trial{t->trial, t->presentation, t->web, t->response, t->answered_utc};
+            OnlineSession::Trial trial{t->trial,
+                                       t->presentation,
+                                       t->web,
+                                       t->response,
+                                       t->answered_utc,
+                                       t->record->file,
+                                       t->record->line,
+                                       t->record->column};
             OnlineSession& os = o.sessions[session_index.at(t->session)];
             if (t->trial.position == static_cast<int>(plan.size())) os.end_reason = "completed";
             os.trials.push_back(std::move(trial));
@@ -512,10 +688,21 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
         result.notes.push_back(fmt::format("subject {}: {} of {} trials answered{}, {} browser session(s){}", subject,
                                            answered, plan.size(), answered == static_cast<int>(plan.size()) ? " (complete)" : "",
                                            o.sessions.size(), screening_note));
+        if (answered < static_cast<int>(plan.size()))
+            result.incomplete.push_back({subject, answered, static_cast<int>(plan.size())});
         online.push_back(std::move(o));
     }
     problems.throw_if_any();
     result.subjects = static_cast<int>(online.size());
+    if (settings.require_complete && !result.incomplete.empty()) {
+        std::string list;
+        for (const auto& i : result.incomplete)
+            list += fmt::format("{}subject {} ({} of {})", list.empty() ? "" : ", ", i.subject, i.answered, i.planned);
+        throw InputError(settings.results.front(),
+                         fmt::format("--require-complete: {} subject{} with fewer trials than the design: {}; nothing was "
+                                     "imported",
+                                     result.incomplete.size(), result.incomplete.size() == 1 ? "" : "s", list));
+    }
 
     // The database: the same experiment, then everything in one transaction.
     Store store(settings.database);
@@ -534,6 +721,10 @@ ImportWebResult import_web(const ImportWebSettings& settings) {
     result.sessions_added = counts.sessions_added;
     result.trials_added = counts.trials_added;
     result.trials_present = counts.trials_present;
+    std::set<int> imported;
+    for (const auto& o : online) imported.insert(o.subject);
+    for (auto& c : timing_certificates(store))
+        if (imported.count(c.subject)) result.timing.push_back(std::move(c));
     return result;
 }
 

@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <algorithm>
 #include <cctype>
 
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "avsi/analysis/report.h"
+#include "avsi/analysis/scores.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 
@@ -144,6 +146,80 @@ TEST_F(Report, GlmerScriptFitsTheKeywordModel) {
     EXPECT_NE(r.find("glmer(correct ~ condition + (1 | subject) + (1 | sentence)"), std::string::npos);
     EXPECT_NE(r.find("family = binomial"), std::string::npos);
     EXPECT_NE(r.find(R"(levels = c("c1", "c2", "c3", "c4", "c5", "c6"))"), std::string::npos);
+}
+
+TEST(ReportSphericity, HuynhFeldtWithTwoSubjectsIsNotEstimableNotNan) {
+    // Two subjects, three conditions: one non-zero eigenvalue, HF's formula is 0/0.
+    const auto data = make_within_data({"a", "b"}, {"x", "y", "z"}, {10, 30, 20, 40, 35, 70});
+    const AnalysisResult r = analyze(data);
+    EXPECT_FALSE(r.anova.huynh_feldt.epsilon.has_value());
+    ASSERT_TRUE(r.anova.greenhouse_geisser.epsilon.has_value());
+    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_report_hf_n2");
+    ReportSettings s;
+    s.out_dir = dir;
+    write_report(r, s);
+    for (const char* f : {"report.md", "index.html", "anova.json"}) {
+        SCOPED_TRACE(f);
+        std::string text = read_text_file(dir / f);
+        std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
+        EXPECT_FALSE(std::regex_search(text, std::regex("(^|[^a-z])-?nan([^a-z]|$)")));
+    }
+    EXPECT_NE(read_text_file(dir / "report.md").find("Huynh-Feldt ε not estimable with n = 2."), std::string::npos);
+    fs::remove_all(dir);
+}
+
+TEST(ReportTiming, CertificateSectionAndExclusionOfFailingSubjects) {
+    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_report_timing");
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const std::string header =
+        "subject,verdict,trials,frames_total,frames_shown,dropped_frames,dropped_share,repeated_frames,offset_frames,"
+        "offset_min_ms,offset_p5_ms,offset_median_ms,offset_mean_ms,offset_p95_ms,offset_max_ms,audio_leading_frames,"
+        "audio_lagging_frames,outside_share,refresh_hz,output_latency_ms,audio_path_ms,tolerance_audio_lead_ms,"
+        "tolerance_audio_lag_ms,tolerance_outside_share,tolerance_dropped_share,reasons\n";
+    write_text_file(dir / "timing_certificate.csv",
+                    header +
+                        "s01,pass,90,3600,3598,2,0.0006,0,3598,-49.0,-40.2,-23.1,-23.5,-8.0,10.0,0,0,0.0000,59.880,"
+                        "32.000,36.300,45,125,0.05,0.05,\n"
+                        "s02,fail,90,3600,3600,0,0.0000,0,3600,30.0,50.0,60.0,60.0,70.0,80.0,3600,0,1.0000,60.000,,,45,"
+                        "125,0.05,0.05,\"100.0 % of frames outside [-125, +45] ms\"\n");
+    AnalyzeSettings s;
+    s.input = AVSI_TEST_DATA_DIR "/analysis/balanced.csv";
+    s.out_dir = dir / "kept";
+    s.timing_certificate = dir / "timing_certificate.csv";
+    const auto kept = analyze_file(s);
+    ASSERT_TRUE(kept.has_value());
+    EXPECT_EQ(kept->anova.n, 25u);
+    const std::string md = read_text_file(dir / "kept" / "report.md");
+    EXPECT_NE(md.find("## Presentation timing (online)"), std::string::npos);
+    EXPECT_NE(md.find("| s01 | pass | 90 | -23.1 | -40.2 … -8.0 | -49.0 … 10.0 | 0.0 | 2 of 3600 (0.1 %) | 59.88 | 32.0 |"),
+              std::string::npos)
+        << md;
+    EXPECT_NE(md.find("| s02 | fail |"), std::string::npos);
+    EXPECT_NE(md.find("not reported"), std::string::npos);
+    EXPECT_NE(md.find("No subject was excluded for timing."), std::string::npos);
+    EXPECT_NE(read_text_file(dir / "kept" / "index.html").find("<h2>Presentation timing (online)</h2>"), std::string::npos);
+
+    s.out_dir = dir / "excluded";
+    s.exclude_timing_fail = true;
+    const auto excluded = analyze_file(s);
+    ASSERT_TRUE(excluded.has_value());
+    EXPECT_EQ(excluded->anova.n, 24u);
+    EXPECT_NE(read_text_file(dir / "excluded" / "report.md").find("(--exclude-timing-fail): subject s02."),
+              std::string::npos);
+
+    // A damaged certificate file is an input error at its line.
+    write_text_file(dir / "bad.csv", header + "s01,maybe,90,3600,3598,2,x,0,3598,0,0,0,0,0,0,0,0,0,60,,,45,125,0.05,0.05,\n");
+    s.timing_certificate = dir / "bad.csv";
+    try {
+        analyze_file(s);
+        ADD_FAILURE() << "a bad certificate was read";
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("bad.csv:2:1: error: verdict: expected pass, fail or unknown, got \"maybe\""), std::string::npos) << what;
+        EXPECT_NE(what.find("dropped_share: expected a number, got \"x\""), std::string::npos) << what;
+    }
+    fs::remove_all(dir);
 }
 
 TEST(Apa, FormatsLikeThePaper) {

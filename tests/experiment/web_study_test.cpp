@@ -365,15 +365,18 @@ TEST(OnlineSettings, ReportsEveryBadKeyWithItsLine) {
 // ---- import ----
 
 // The records a browser would send for `subject` answering the first `answered` trials.
+// `run` (a browser's run id, "" for none) and `hour` (of the records' times) make a second browser's run.
 std::vector<json> browser_records(int subject, int answered, const StimulusManifest& manifest,
-                                  const std::string& session = "s1") {
+                                  const std::string& session = "s1", const std::string& run = "", int hour = 10) {
     const Protocol p = load_protocol(web_protocol);
     const auto plan = design_subject(p, assign_lists(read_corpus(p.corpus.sentences), p.design), subject);
     std::vector<json> out;
     int seq = 0;
     auto base = [&](const char* kind) {
-        return json{{"avsi", kind},        {"study", "0123456789abcdef"}, {"experiment", p.name}, {"subject", subject},
-                    {"session", session}, {"seq", ++seq},                {"time_utc", fmt::format("2026-11-24T10:00:{:02}.000Z", seq)}};
+        json r{{"avsi", kind},        {"study", "0123456789abcdef"}, {"experiment", p.name}, {"subject", subject},
+               {"session", session}, {"seq", ++seq},                {"time_utc", fmt::format("2026-11-24T{:02}:00:{:02}.000Z", hour, seq)}};
+        if (!run.empty()) r["run"] = run;
+        return r;
     };
     json s = base("session");
     s["position"] = 1;
@@ -424,12 +427,15 @@ std::string dump(const fs::path& db, const fs::path& dir) {
     return out;
 }
 
-ImportWebResult import(const std::vector<fs::path>& files, const fs::path& db, const fs::path& stimuli) {
+ImportWebResult import(const std::vector<fs::path>& files, const fs::path& db, const fs::path& stimuli,
+                       const std::string& runs = "", bool require_complete = false) {
     ImportWebSettings s;
     s.results = files;
     s.protocol = web_protocol;
     s.database = db;
     s.stimuli = stimuli;
+    if (!runs.empty()) s.runs = parse_run_choice(runs);
+    s.require_complete = require_complete;
     return import_web(s);
 }
 
@@ -444,9 +450,9 @@ TEST_F(WebStudy, ImportsJsonLinesAndTheJatosResultsArchiveAlike) {
     const auto records = browser_records(1, 4, manifest);
     const std::vector<json> first(records.begin(), records.begin() + 6), second(records.begin() + 6, records.end());
     write_zip(dir / "results.jrzip", {{"metadata.json", R"({"apiVersion":"1.0.0","data":[]})"},
-                                      {"study_result_7/comp_result_9/data.txt", lines(first)},
-                                      {"study_result_7/comp_result_10/data.txt", lines(second)},
-                                      {"study_result_7/comp_result_11/data.txt", ""}});
+                                      {"study_result_7/comp-result_9/data.txt", lines(first)},
+                                      {"study_result_7/comp-result_10/data.txt", lines(second)},
+                                      {"study_result_7/comp-result_11/data.txt", ""}});
     EXPECT_EQ(import({dir / "results.jrzip"}, dir / "b.sqlite", stimuli()).trials_added, 4);
     const Store a(dir / "a.sqlite"), b(dir / "b.sqlite");
     ASSERT_EQ(a.responses().size(), 4u);
@@ -492,7 +498,7 @@ TEST_F(WebStudy, RefusesBadResultsAndLeavesTheDatabaseUnchanged) {
     expect_refused({dir / "truncated.txt"}, db, stimuli(),
                    "error: not valid JSON, the file is truncated or damaged (syntax error while parsing", dir);
     // A truncated results archive.
-    write_zip(dir / "whole.zip", {{"study_result_1/comp_result_1/data.txt", s2}});
+    write_zip(dir / "whole.zip", {{"study_result_1/comp-result_1/data.txt", s2}});
     const std::string zip_bytes = read_text_file(dir / "whole.zip");
     write_text_file(dir / "cut.zip", zip_bytes.substr(0, zip_bytes.size() / 2));
     expect_refused({dir / "cut.zip"}, db, stimuli(), "cut.zip: error: not a readable ZIP archive", dir);
@@ -503,8 +509,17 @@ TEST_F(WebStudy, RefusesBadResultsAndLeavesTheDatabaseUnchanged) {
     write_text_file(dir / "other.txt", lines(other));
     expect_refused({dir / "other.txt"}, db, stimuli(),
                    "other.txt:1:1: error: experiment: expected \"web-test\" (the protocol's experiment), got "
-                   "\"pilot-2025\": these are another study's results",
+                   "\"pilot-2025\": these are another study's results (9 records of ",
                    dir);
+    // One error for the cause, not one per record.
+    try {
+        import({dir / "other.txt"}, db, stimuli());
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_EQ(std::count(what.begin(), what.end(), '\n') <= 1 && what.find("another study") == what.rfind("another study"),
+                  true)
+            << what;
+    }
 
     // Trials out of plan order: trial 3 sent before trial 2.
     auto swapped = browser_records(2, 4, manifest);
@@ -520,18 +535,197 @@ TEST_F(WebStudy, RefusesBadResultsAndLeavesTheDatabaseUnchanged) {
     write_text_file(dir / "wrong.txt", lines(wrong));
     expect_refused({dir / "wrong.txt"}, db, stimuli(), "subject 2 trial 3 is test", dir);
     expect_refused({dir / "wrong.txt"}, db, stimuli(), "stimulus_sha256: expected", dir);
+    // Every trial with another build's hash: one error for the cause, with the count.
+    auto rebuilt = browser_records(2, 4, manifest);
+    for (auto& r : rebuilt)
+        if (r["avsi"] == "trial") r["stimulus_sha256"] = std::string(64, 'f');
+    write_text_file(dir / "rebuilt.txt", lines(rebuilt));
+    expect_refused({dir / "rebuilt.txt"}, db, stimuli(),
+                   "the participant saw another file (and 3 more of subject 2's trials: 4 in all with a stimulus hash "
+                   "not in ",
+                   dir);
+    try {
+        import({dir / "rebuilt.txt"}, db, stimuli());
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_EQ(what.find("stimulus_sha256"), what.rfind("stimulus_sha256")) << what;
+    }
+    // Subject 2's records from two exports (another study id): one error with the count.
+    auto mixed = browser_records(2, 4, manifest);
+    for (std::size_t i = 5; i < mixed.size(); ++i) mixed[i]["study"] = "fedcba9876543210";
+    write_text_file(dir / "mixed.txt", lines(mixed));
+    expect_refused({dir / "mixed.txt"}, db, stimuli(),
+                   "mixed.txt:6:1: error: study: subject 2 has records of two study exports (0123456789abcdef and "
+                   "fedcba9876543210, the first at ",
+                   dir);
+    expect_refused({dir / "mixed.txt"}, db, stimuli(), "; 4 records of fedcba9876543210); import each export's", dir);
 
     // An answer that contradicts the stored one for subject 1.
     auto changed = browser_records(1, 4, manifest);
     changed[5]["response"] = "something else";
     write_text_file(dir / "changed.txt", lines(changed));
-    expect_refused({dir / "changed.txt"}, db, stimuli(), "subject 1 trial 1 already has another response", dir);
+    // The error names the results file and line, and says which database holds the other answer.
+    expect_refused({dir / "changed.txt"}, db, stimuli(),
+                   "changed.txt:6:1: error: response: subject 1 trial 1: the answer \"something else\" differs from the "
+                   "one already in " + db.string() + " (\"answer 1\", online session",
+                   dir);
 
     // A good file still imports after all that, adding only what is new.
     write_text_file(dir / "s1-all.txt", lines(browser_records(1, 4, manifest)));
     const ImportWebResult r = import({dir / "s1-all.txt"}, db, stimuli());
     EXPECT_EQ(r.trials_added, 2);
     EXPECT_EQ(r.trials_present, 2);
+}
+
+TEST_F(WebStudy, KeepsOneRunOfASubjectInTwoBrowsersByEachRule) {
+    const fs::path dir = temp_dir("web_runs");
+    const StimulusManifest manifest = read_stimulus_manifest(stimuli());
+    // Browser A answered all 4 trials at 10:00; browser B, opened at 11:00, restarted and answered 2, with the
+    // same words (only the times and sessions differ).
+    auto both = browser_records(1, 4, manifest, "sa", "runA", 10);
+    for (const auto& r : browser_records(1, 2, manifest, "sb", "runB", 11)) both.push_back(r);
+    for (auto& r : both)
+        if (r["avsi"] == "trial") r["response"] = fmt::format("the same words {}", r["position"].get<int>());
+    write_text_file(dir / "both.txt", lines(both));
+
+    expect_refused({dir / "both.txt"}, dir / "none.sqlite", stimuli(),
+                   "subject 1 took the study in 2 browser runs (run runA (started 2026-11-24T10:00:01.000Z, 4 trials, "
+                   "sessions sa); run runB (started 2026-11-24T11:00:01.000Z, 2 trials, sessions sb)); choose the run "
+                   "to keep with --runs first|last|most-complete|session=ID",
+                   dir);
+    struct Case {
+        std::string rule, kept, left_out;
+        int kept_trials, left_trials;
+    };
+    for (const Case& c : {Case{"first", "runA", "runB", 4, 2}, Case{"last", "runB", "runA", 2, 4},
+                          Case{"most-complete", "runA", "runB", 4, 2}, Case{"session=sb", "runB", "runA", 2, 4}}) {
+        SCOPED_TRACE(c.rule);
+        const fs::path db = dir / (c.kept + c.rule.substr(0, 4) + ".sqlite");
+        const ImportWebResult r = import({dir / "both.txt"}, db, stimuli(), c.rule);
+        EXPECT_EQ(r.trials_added, c.kept_trials);
+        ASSERT_EQ(r.left_out.size(), 1u);
+        EXPECT_EQ(r.left_out[0].run, c.left_out);
+        EXPECT_EQ(r.left_out[0].kept_run, c.kept);
+        EXPECT_EQ(r.left_out[0].trials, c.left_trials);
+        EXPECT_EQ(r.left_out[0].kept_trials, c.kept_trials);
+        const Store store(db);
+        ASSERT_EQ(store.responses().size(), static_cast<std::size_t>(c.kept_trials));
+        EXPECT_EQ(store.sessions(1).size(), 1u);
+        // The other run's identical answers are the same answers: importing it next never calls them different.
+        const ImportWebResult again = import({dir / "both.txt"}, db, stimuli(), c.rule == "first" ? "last" : "first");
+        EXPECT_EQ(again.trials_present, c.rule == "most-complete" ? 4 : 2);
+        EXPECT_EQ(again.trials_added, c.kept == "runB" ? 2 : 0);
+    }
+    try {
+        import({dir / "both.txt"}, dir / "none.sqlite", stimuli(), "session=nosuch");
+        ADD_FAILURE() << "imported with an unknown session";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("--runs session=…: subject 1 has 0 runs holding the given sessions"),
+                  std::string::npos)
+            << e.what();
+    }
+    EXPECT_THROW(parse_run_choice("latest"), UsageError);
+    EXPECT_THROW(parse_run_choice("session="), UsageError);
+    EXPECT_EQ(parse_run_choice("session=a,b").sessions, (std::vector<std::string>{"a", "b"}));
+}
+
+TEST_F(WebStudy, AnIdenticalAnswerSentAgainFromAnotherPageLoadIsOneAnswer) {
+    const fs::path dir = temp_dir("web_resend");
+    const StimulusManifest manifest = read_stimulus_manifest(stimuli());
+    auto records = browser_records(1, 4, manifest);
+    json resent = records[5];  // trial 1, sent again by a later page load: another session, time and seq
+    resent["session"] = "s1-reload";
+    resent["seq"] = 100;
+    resent["time_utc"] = "2026-11-24T10:30:00.000Z";
+    records.push_back(resent);
+    write_text_file(dir / "resent.txt", lines(records));
+    const ImportWebResult r = import({dir / "resent.txt"}, dir / "a.sqlite", stimuli());
+    EXPECT_EQ(r.trials_added, 4);
+    EXPECT_EQ(r.duplicates, 1);
+}
+
+TEST_F(WebStudy, ListsIncompleteSubjectsAndRequireCompleteRefusesThem) {
+    const fs::path dir = temp_dir("web_incomplete");
+    const StimulusManifest manifest = read_stimulus_manifest(stimuli());
+    auto records = browser_records(1, 4, manifest);
+    for (const auto& r : browser_records(2, 1, manifest, "s2")) records.push_back(r);
+    write_text_file(dir / "results.txt", lines(records));
+    const ImportWebResult r = import({dir / "results.txt"}, dir / "a.sqlite", stimuli());
+    ASSERT_EQ(r.incomplete.size(), 1u);
+    EXPECT_EQ(r.incomplete[0].subject, 2);
+    EXPECT_EQ(r.incomplete[0].answered, 1);
+    EXPECT_EQ(r.incomplete[0].planned, 4);
+    try {
+        import({dir / "results.txt"}, dir / "b.sqlite", stimuli(), "", true);
+        ADD_FAILURE() << "imported with --require-complete";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("results.txt: error: --require-complete: 1 subject with fewer trials than "
+                                             "the design: subject 2 (1 of 4); nothing was imported"),
+                  std::string::npos)
+            << e.what();
+    }
+    EXPECT_FALSE(fs::exists(dir / "b.sqlite") && !Store(dir / "b.sqlite").responses().empty());
+}
+
+TEST_F(WebStudy, TheTextExportAndTheResultsArchiveTogetherCountEachRecordOnce) {
+    const fs::path dir = temp_dir("web_both_formats");
+    const StimulusManifest manifest = read_stimulus_manifest(stimuli());
+    const auto records = browser_records(1, 4, manifest);
+    write_text_file(dir / "results.txt", lines(records));
+    write_zip(dir / "results.jrzip", {{"study_result_7/comp-result_9/data.txt", lines(records)}});
+    const ImportWebResult r = import({dir / "results.txt", dir / "results.jrzip"}, dir / "a.sqlite", stimuli());
+    EXPECT_EQ(r.trials_added, 4);
+    EXPECT_EQ(r.duplicates, static_cast<int>(records.size()));
+    EXPECT_EQ(r.screening_failed, 1);  // one failed check, not one per copy
+}
+
+TEST_F(WebStudy, TimingCertificateJudgesEachParticipantAgainstTheTolerances) {
+    const fs::path dir = temp_dir("web_timing_certificate");
+    const StimulusManifest manifest = read_stimulus_manifest(stimuli());
+    // Subject 1: every frame 1.5 ms late (within tolerance). Subject 2: the sound 60 ms ahead on every frame
+    // (> 45 ms). Subject 3: in sync, but 4 frames of each clip (about 10 %) never shown.
+    auto records = browser_records(1, 4, manifest, "s1");
+    for (auto r : browser_records(2, 4, manifest, "s2")) {
+        if (r["avsi"] == "trial")
+            for (auto& f : r["frames"]) f[3] = 60.0;
+        records.push_back(r);
+    }
+    for (auto r : browser_records(3, 4, manifest, "s3")) {
+        if (r["avsi"] == "trial") {
+            for (int k = 0; k < 4; ++k) r["frames"].erase(r["frames"].size() - 1);
+            const int total = r["timing"]["frames_total"].get<int>();
+            r["timing"]["frames_shown"] = total - 4;
+            r["timing"]["dropped_frames"] = 4;
+        }
+        records.push_back(r);
+    }
+    write_text_file(dir / "results.txt", lines(records));
+    const ImportWebResult r = import({dir / "results.txt"}, dir / "a.sqlite", stimuli());
+    ASSERT_EQ(r.timing.size(), 3u);
+    EXPECT_EQ(r.timing[0].verdict, TimingVerdict::Pass);
+    EXPECT_DOUBLE_EQ(r.timing[0].offset_median_ms, 1.5);
+    EXPECT_EQ(r.timing[0].dropped_frames, 0);
+    EXPECT_DOUBLE_EQ(*r.timing[0].output_latency_ms, 32.0);
+    EXPECT_DOUBLE_EQ(r.timing[0].refresh_hz, 60.0);
+    EXPECT_EQ(r.timing[1].verdict, TimingVerdict::Fail);
+    EXPECT_EQ(r.timing[1].audio_leading_frames, r.timing[1].offset_frames);
+    ASSERT_EQ(r.timing[1].reasons.size(), 1u);
+    EXPECT_NE(r.timing[1].reasons[0].find("100.0 % of frames outside [-125, +45] ms"), std::string::npos)
+        << r.timing[1].reasons[0];
+    EXPECT_EQ(r.timing[2].verdict, TimingVerdict::Fail);
+    EXPECT_EQ(r.timing[2].dropped_frames, 16);
+    EXPECT_NE(describe(r.timing[2]).find("of frames dropped (16 of"), std::string::npos) << describe(r.timing[2]);
+
+    // The export carries the same verdicts.
+    const auto files = export_store(Store(dir / "a.sqlite"), dir / "export");
+    ASSERT_TRUE(fs::exists(dir / "export" / "timing_certificate.csv"));
+    const CsvTable table = read_csv(dir / "export" / "timing_certificate.csv");
+    const auto verdict = table.require_column("verdict");
+    ASSERT_EQ(table.rows.size(), 3u);
+    EXPECT_EQ(table.rows[0].fields[verdict], "pass");
+    EXPECT_EQ(table.rows[1].fields[verdict], "fail");
+    EXPECT_EQ(table.rows[2].fields[verdict], "fail");
+    EXPECT_EQ(table.rows[0].fields[table.require_column("tolerance_audio_lead_ms")], "45");
 }
 
 TEST_F(WebStudy, MigratesASchemaOneLabDatabaseAndKeepsItsData) {
@@ -555,8 +749,7 @@ TEST_F(WebStudy, MigratesASchemaOneLabDatabaseAndKeepsItsData) {
     write_text_file(dir / "s1.txt", lines(browser_records(1, 4, manifest)));
     EXPECT_EQ(import({dir / "s1.txt"}, dir / "lab.sqlite", stimuli()).trials_added, 4);
     write_text_file(dir / "s2.txt", lines(browser_records(2, 4, manifest)));
-    expect_refused({dir / "s2.txt"}, dir / "lab.sqlite", stimuli(), "subject 2 trial 1 already has another response in the database (lab session",
-                   dir);
+    expect_refused({dir / "s2.txt"}, dir / "lab.sqlite", stimuli(), "(\"first answer\", lab session", dir);
     const CsvTable sessions = read_csv(export_store(Store(dir / "lab.sqlite"), dir / "export")[4]);
     const auto mode = sessions.require_column("mode");
     std::set<std::string> modes;

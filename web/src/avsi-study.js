@@ -13,12 +13,16 @@
 // "empty answer?" confirmation, the sentence text after practice trials),
 // and the end screen with the protocol's completion URL.
 //
-// Records: one JSON object per event, sent when it happens and kept in a
-// localStorage outbox until the destination confirms it: JATOS
-// (jatos.appendResultData, one line each), or the protocol's results_url
-// (POST), or, with neither, a download on the end screen. Every record has
-// avsi (its kind), study, experiment, subject, session (this page load),
-// seq (per subject, across reloads) and time_utc; `avsi import-web` checks
+// Records: one JSON object per event, kept in a localStorage outbox until
+// the destination confirms it: JATOS (jatos.appendResultData), or the
+// protocol's results_url (POST, JSON Lines), or, with neither, a download on
+// the end screen. One sender delivers the outbox: one request in flight at a
+// time (the oldest unsent records, one line each), after a failure a wait
+// that doubles from 3 s up to 60 s with jitter, kept in localStorage so a
+// reload does not retry early, and reset by a success. Every record has
+// avsi (its kind), study, experiment, subject, run (this browser's run of
+// the subject, kept across reloads), session (this page load), seq (per
+// subject and run, across reloads) and time_utc; `avsi import-web` checks
 // them against the design.
 //
 // Resume: the answered positions, screening and level results are kept in
@@ -36,6 +40,12 @@
   'use strict';
 
   const STORAGE_PREFIX = 'avsi:';
+  // The sender's retry waits: the n-th failure in a row waits a uniform
+  // random time in [d/2, d], d = min(SEND_RETRY_MAX_MS, SEND_RETRY_FIRST_MS * 2^(n-1)).
+  const SEND_RETRY_FIRST_MS = 3000;
+  const SEND_RETRY_MAX_MS = 60000;
+  const SEND_TIMEOUT_MS = 30000;   // a request not answered by then counts as failed
+  const SEND_BATCH = 100;          // records per request at most
 
   // ---- small helpers ------------------------------------------------------
 
@@ -112,29 +122,32 @@
     ctx: null,
     refreshHz: 0,
     sounds: new Map(),
-    flushing: false,
     currentPosition: 0,
     jsPsych: null,
     preloadFailure: null,
     screeningFailed: false,
+    otherRun: '',
   };
 
   function storageKey() { return `${STORAGE_PREFIX}${Study.config.study_id}:${Study.subject}`; }
 
   function emptyState() {
-    return { answered: [], seq: 0, level_done: false, screening: {}, outbox: [], log: [] };
+    return { run: randomId(), answered: [], seq: 0, level_done: false, screening: {}, outbox: [], log: [], send_failures: 0, send_after_ms: 0 };
   }
 
   // The saved state: localStorage merged with JATOS' study-session data.
   function loadState() {
     const state = emptyState();
+    let savedHere = false;
     try {
       const saved = JSON.parse(localStorage.getItem(storageKey()) || 'null');
-      if (saved) Object.assign(state, saved);
+      if (saved) { Object.assign(state, saved); savedHere = !!saved.run; }
     } catch (e) { /* a damaged entry is replaced */ }
     if (Study.jatos && jatos.studySessionData && jatos.studySessionData.avsi &&
         jatos.studySessionData.avsi.subject === Study.subject) {
       const s = jatos.studySessionData.avsi;
+      // The same worker's study session continues its run (localStorage lost or another tab).
+      if (s.run && !savedHere) state.run = s.run;
       state.answered = Array.from(new Set([...(state.answered || []), ...(s.answered || [])])).sort((a, b) => a - b);
       state.seq = Math.max(state.seq || 0, s.seq || 0);
       state.level_done = state.level_done || !!s.level_done;
@@ -143,68 +156,116 @@
     return state;
   }
 
-  function saveState() {
+  // The state in this browser's localStorage only.
+  function saveLocalState() {
     try {
       localStorage.setItem(storageKey(), JSON.stringify(Study.state));
     } catch (e) {
       console.warn('avsi: cannot save the state in localStorage', e);
     }
+  }
+
+  // The state in localStorage and (under JATOS) the study-session data.
+  function saveState() {
+    saveLocalState();
     if (Study.jatos) {
       const s = Study.state;
       jatos.studySessionData = Object.assign({}, jatos.studySessionData || {}, {
-        avsi: { subject: Study.subject, answered: s.answered, seq: s.seq, level_done: s.level_done, screening: s.screening },
+        avsi: { subject: Study.subject, run: s.run, answered: s.answered, seq: s.seq, level_done: s.level_done, screening: s.screening },
       });
       Promise.resolve(jatos.setStudySessionData(jatos.studySessionData)).catch(() => {});
     }
   }
 
-  // Sends one record (see the file comment); resolves true once confirmed.
-  async function send(record) {
-    const line = JSON.stringify(record) + '\n';
+  // ---- the sender -----------------------------------------------------------
+
+  const Sender = { inFlight: false, timer: null, requests: 0 };
+
+  // Delivers `records` (the oldest of the outbox) in one request; resolves
+  // true once the destination confirmed them.
+  async function deliver(records) {
+    const text = records.map((r) => JSON.stringify(r) + '\n').join('');
     if (Study.jatos) {
-      try { await jatos.appendResultData(line); return true; } catch (e) { return false; }
+      try { await jatos.appendResultData(text); return true; } catch (e) { return false; }
     }
     const url = Study.config.online.results_url;
-    if (url) {
-      try {
-        const response = await fetch(url, { method: 'POST', headers: { 'Content-Type': 'application/x-ndjson' }, body: line, keepalive: true });
-        return response.ok;
-      } catch (e) { return false; }
+    if (!url) return true;  // download mode: the log is the data
+    const abort = new AbortController();
+    const timer = setTimeout(() => abort.abort(), SEND_TIMEOUT_MS);
+    try {
+      const response = await fetch(url, { method: 'POST', headers: { 'Content-Type': 'application/x-ndjson' }, body: text, keepalive: text.length < 60000, signal: abort.signal });
+      return response.ok;
+    } catch (e) {
+      return false;
+    } finally {
+      clearTimeout(timer);
     }
-    return true;  // download mode: the log is the data
   }
 
-  async function flush() {
-    if (Study.flushing) return;
-    Study.flushing = true;
-    try {
-      while (Study.state.outbox.length) {
-        if (!(await send(Study.state.outbox[0]))) break;
-        Study.state.outbox.shift();
-        saveState();
-      }
-    } finally {
-      Study.flushing = false;
+  // The wait after the n-th failure in a row (see SEND_RETRY_*): "equal jitter".
+  function retryWaitMs(failures) {
+    const d = Math.min(SEND_RETRY_MAX_MS, SEND_RETRY_FIRST_MS * 2 ** Math.min(failures - 1, 30));
+    return d / 2 + Math.random() * (d / 2);
+  }
+
+  function scheduleSend(waitMs) {
+    if (Sender.timer) clearTimeout(Sender.timer);
+    Sender.timer = setTimeout(() => { Sender.timer = null; sendNext(); }, Math.max(0, waitMs));
+  }
+
+  // Sends the head of the outbox unless a request is in flight or a retry
+  // wait (of this page or, through localStorage, of an earlier one) runs.
+  function kickSender() {
+    const s = Study.state;
+    if (!s || Sender.inFlight || Sender.timer || !s.outbox.length) return;
+    const wait = (s.send_after_ms || 0) - Date.now();
+    if (wait > 0) scheduleSend(wait); else sendNext();
+  }
+
+  // The one place that sends: one request at a time; on success the next
+  // batch at once, on failure the next attempt after the retry wait.
+  async function sendNext() {
+    const s = Study.state;
+    if (Sender.inFlight || !s.outbox.length) return;
+    if (Sender.timer) { clearTimeout(Sender.timer); Sender.timer = null; }
+    Sender.inFlight = true;
+    const batch = s.outbox.slice(0, SEND_BATCH);
+    Sender.requests++;
+    let ok = false;
+    try { ok = await deliver(batch); } finally { Sender.inFlight = false; }
+    if (ok) {
+      s.outbox.splice(0, batch.length);
+      s.send_failures = 0;
+      s.send_after_ms = 0;
+      saveLocalState();
+      if (s.outbox.length) sendNext();
+    } else {
+      s.send_failures = (s.send_failures || 0) + 1;
+      const wait = retryWaitMs(s.send_failures);
+      s.send_after_ms = Date.now() + wait;
+      saveLocalState();
+      scheduleSend(wait);
     }
-    if (Study.state.outbox.length) setTimeout(flush, 3000);
   }
 
   // Records an event: kept, queued and sent.
   function emit(kind, fields) {
     const record = Object.assign({
       avsi: kind, study: Study.config.study_id, experiment: Study.config.experiment, subject: Study.subject,
-      session: Study.sessionId, seq: ++Study.state.seq, time_utc: nowUtc(),
+      run: Study.state.run, session: Study.sessionId, seq: ++Study.state.seq, time_utc: nowUtc(),
     }, fields);
     Study.state.log.push(record);
     Study.state.outbox.push(record);
     saveState();
-    flush();
+    kickSender();
     return record;
   }
 
+  // The participant asked to finish: one attempt now (unless one is in
+  // flight), then wait up to `timeoutMs` for the outbox to empty.
   async function waitForOutbox(timeoutMs) {
     const end = performance.now() + timeoutMs;
-    flush();
+    if (!Sender.inFlight) sendNext();
     while (Study.state.outbox.length && performance.now() < end) await sleep(100);
     return Study.state.outbox.length === 0;
   }
@@ -285,6 +346,33 @@
     throw new Error('This link has no subject number. The experimenter\'s link ends in ?subject=N.');
   }
 
+  // Claims the subject for this browser's run: under JATOS in the batch
+  // session (avsi_run_<subject>); resolves the other run's id when another
+  // browser holds the claim, else ''. Without JATOS a browser cannot know
+  // of another; the start screen of a new run says so (runNotice).
+  async function claimRun() {
+    if (!Study.jatos || !jatos.batchSession) return '';
+    const key = `avsi_run_${Study.subject}`;
+    for (let attempt = 0; attempt < 4; attempt++) {
+      const holder = jatos.batchSession.get(key);
+      if (holder) return holder === Study.state.run ? '' : String(holder);
+      try { await jatos.batchSession.set(key, Study.state.run); return ''; } catch (e) { await sleep(200 + 300 * Math.random()); }
+    }
+    return '';
+  }
+
+  // The start screen's warning about a second run of the same subject.
+  function runNotice() {
+    if (Study.otherRun)
+      return '<div class="avsi-text avsi-error">This participant number was already started in another browser or on another device. ' +
+        'If that was you, please close this window and continue there. Starting here begins again at the first sentence, and the experimenter will keep only one of the two runs.</div>';
+    const fresh = Study.state.answered.length === 0 && Study.state.seq === 0;
+    if (fresh && !Study.jatos)
+      return '<div class="avsi-hint">If you already started this study in another browser or on another device, please continue there: ' +
+        'this browser does not know about it and would begin again at the first sentence.</div>';
+    return '';
+  }
+
   // ---- plugins --------------------------------------------------------------
 
   const { ParameterType } = jsPsychModule;
@@ -299,14 +387,17 @@
       display.innerHTML = textHtml(trial.resumed
         ? 'Welcome back. The study continues where it stopped.\n\nPlease use headphones and keep this window open until the end.'
         : 'This study plays short videos with sound.\n\nPlease use headphones, sit in a quiet place and keep this window open until the end.')
-        + '<div id="avsi-start-status" class="avsi-hint"></div><button class="jspsych-btn" data-value="start">Start</button>';
+        + runNotice()
+        + '<div id="avsi-start-status" class="avsi-hint"></div><button class="jspsych-btn" data-value="start">Start</button>'
+        + '<div class="avsi-hint">Enter or Space: start</div>';
       on_load();
       const status = display.querySelector('#avsi-start-status');
       for (;;) {
         await waitForChoice(display, { Enter: 'start', ' ': 'start' });
         const ctx = this.jsPsych.pluginAPI.audioContext();
         try {
-          await ctx.resume();
+          // Without a user gesture Chromium leaves resume() pending: wait a second at most.
+          await Promise.race([ctx.resume(), sleep(1000)]);
           const silence = ctx.createBufferSource();
           silence.buffer = ctx.createBuffer(1, 1, ctx.sampleRate);
           silence.connect(ctx.destination);
@@ -337,6 +428,7 @@
           jatos: Study.jatos,
           jatos_worker: Study.jatos ? String(jatos.workerId) : '',
         },
+        other_run: Study.otherRun || '',
       });
     }
   }
@@ -386,7 +478,7 @@
       display.innerHTML = textHtml('You now hear a steady noise, as loud as the speech in this study.\n\n' +
         'Set the volume of your computer so that the noise is clearly audible and comfortable. ' +
         'Then leave the volume as it is until the end of the study.') +
-        '<button class="jspsych-btn" data-value="ok" disabled>The level is comfortable</button>';
+        '<button class="jspsych-btn" data-value="ok" disabled>The level is comfortable</button><div class="avsi-hint">Enter: the level is comfortable</div>';
       on_load();
       await sleep(1000);
       display.querySelector('button').disabled = false;
@@ -411,7 +503,8 @@
       const question = trial.test === 'antiphase' ? 'Which tone was the softest?' : 'Which noise had a faint tone in it?';
       display.innerHTML = `<div class="avsi-text">Sound check ${trial.index} of ${trial.total}: ${question}</div>` +
         '<div class="avsi-intervals">' + [1, 2, 3].map((i) => `<div class="avsi-interval" id="avsi-interval-${i}">${i}</div>`).join('') + '</div>' +
-        '<div>' + [1, 2, 3].map((i) => `<button class="jspsych-btn" data-value="${i}" disabled>${i}</button>`).join('') + '</div>';
+        '<div>' + [1, 2, 3].map((i) => `<button class="jspsych-btn" data-value="${i}" disabled>${i}</button>`).join('') + '</div>' +
+        '<div class="avsi-hint">Keys 1, 2, 3: answer</div>';
       on_load();
       const ctx = Study.ctx;
       const online = Study.config.online;
@@ -442,9 +535,25 @@
     }
   }
 
-  // A text screen with a Continue button (instructions, breaks).
+  // A text screen (instructions, breaks) with a button that Space and Enter
+  // press too, as in the lab runner (break_text says "Press Space to continue").
+  class TextPlugin {
+    static info = {
+      name: 'avsi-text', version: '1',
+      parameters: { text: { type: ParameterType.STRING, default: '' }, button: { type: ParameterType.STRING, default: 'Continue' } },
+      data: {},
+    };
+    constructor(jsPsych) { this.jsPsych = jsPsych; }
+    async trial(display, trial, on_load) {
+      display.innerHTML = textHtml(trial.text) + `<button class="jspsych-btn" data-value="ok">${escapeHtml(trial.button)}</button>` +
+        `<div class="avsi-hint">Space or Enter: ${escapeHtml(trial.button.toLowerCase())}</div>`;
+      on_load();
+      await waitForChoice(display, { ' ': 'ok', Enter: 'ok' });
+      return { avsi_screen: 'text' };
+    }
+  }
   function textScreen(text, button) {
-    return { type: jsPsychHtmlButtonResponse, stimulus: textHtml(text), choices: [button || 'Continue'], data: { avsi_screen: 'text' } };
+    return { type: TextPlugin, text, button: button || 'Continue' };
   }
 
   // A screen that never ends (failures; the participant reloads or leaves).
@@ -512,7 +621,8 @@
       saveState();
 
       if (t.phase === 'practice') {
-        display.innerHTML = textHtml(`The sentence was:\n\n${t.text || ''}`) + '<button class="jspsych-btn" data-value="ok">Continue</button>' + progress;
+        display.innerHTML = textHtml(`The sentence was:\n\n${t.text || ''}`) + '<button class="jspsych-btn" data-value="ok">Continue</button>' +
+          '<div class="avsi-hint">Space or Enter: continue</div>' + progress;
         await waitForChoice(display, { ' ': 'ok', Enter: 'ok' });
       }
       return record;
@@ -792,13 +902,14 @@
       Study.subject = await resolveSubject();
       Study.plan = Study.config.subjects[String(Study.subject)];
       Study.state = loadState();
+      Study.otherRun = await claimRun();
       const resumed = Study.state.answered.length > 0 || Study.state.level_done || Object.keys(Study.state.screening).length > 0;
       Study.jsPsych = initJsPsych({ use_webaudio: true });
       // jsPsych's data starts empty on every page load: carry the earlier
       // page loads' records over, so its JSON export holds the whole session.
       for (const record of Study.state.log) Study.jsPsych.data.get().push(Object.assign({ trial_type: 'avsi-earlier-page' }, record));
       Study.jsPsych.run(buildTimeline(resumed));
-      flush();
+      kickSender();
     } catch (e) {
       showError(e.message || String(e));
       console.error(e);
@@ -811,6 +922,8 @@
     get currentPosition() { return Study.currentPosition; },
     get answered() { return Study.state ? Study.state.answered.slice() : []; },
     get outbox() { return Study.state ? Study.state.outbox.length : 0; },
+    get sendRequests() { return Sender.requests; },
+    get run() { return Study.state ? Study.state.run : ''; },
     screeningAnswer: (test, index) => screeningTrial(test, index).answer,
     resultsText: () => (Study.state ? resultsText() : ''),
     jsPsychData: () => (Study.jsPsych ? Study.jsPsych.data.get().json() : '[]'),

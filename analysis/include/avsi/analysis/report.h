@@ -75,6 +75,11 @@ struct AnalyzeSettings {
     // The dependent variable's column (`avsi analyze --dv`): percent correct
     // by default, or any numeric column of a long-format table.
     std::string dv = "percent";
+    // timing_certificate.csv from `avsi export` of online sessions: adds the
+    // "Presentation timing" section; with exclude_timing_fail the subjects
+    // whose timing failed are left out of the analysis (and named).
+    std::filesystem::path timing_certificate;
+    bool exclude_timing_fail = false;
 };
 
 // The descriptive report of a dry run or pilot too small to test: fewer than

@@ -151,6 +151,10 @@ struct OnlineSession {
         WebPresentation web;
         Response response;
         std::string answered_utc;
+        // Where the record came from (results file, line, column), for errors.
+        std::string source_file;
+        int source_line = 0;
+        int source_column = 0;
     };
     std::vector<Trial> trials;
     std::vector<ScreeningTrial> screening_trials;

@@ -38,6 +38,7 @@
 
 #include "avsi/core/audio.h"
 #include "avsi/core/protocol.h"
+#include "avsi/experiment/timing_certificate.h"
 
 namespace avsi::experiment {
 
@@ -128,11 +129,48 @@ struct ExportWebResult {
 // existing folder is replaced only if it is an earlier avsi export.
 ExportWebResult export_web(const ExportWebSettings& settings);
 
+// Which run to keep of a subject who took the study in more than one
+// browser (each browser's localStorage holds its own run, so a second
+// browser starts again at trial 1 under a new run id).
+enum class RunRule {
+    Refuse,        // a subject with two runs is an error naming them (the default)
+    First,         // the run that started first
+    Last,          // the run that started last
+    MostComplete,  // the run with the most trials answered (the earlier on a tie)
+    Session,       // the run holding one of `RunChoice::sessions` (browser session ids)
+};
+struct RunChoice {
+    RunRule rule = RunRule::Refuse;
+    std::vector<std::string> sessions;  // for RunRule::Session
+};
+// Parses first|last|most-complete|session=ID[,ID…]; throws UsageError.
+RunChoice parse_run_choice(const std::string& text);
+
 struct ImportWebSettings {
     std::vector<std::filesystem::path> results;  // JATOS results (.txt, .jrzip/.zip) or jsPsych JSON
     std::filesystem::path protocol;
     std::filesystem::path database;
     std::filesystem::path stimuli;   // a folder with manifest.json (the stimulus folder or the exported study)
+    RunChoice runs;                  // which run of a subject with several to keep
+    bool require_complete = false;   // refuse when a subject has fewer trials than the design
+};
+
+// A subject's run left out by the run rule.
+struct LeftOutRun {
+    int subject = 0;
+    std::string run;
+    std::string kept_run;
+    int trials = 0;                     // distinct trials answered in the run left out
+    int kept_trials = 0;
+    std::string started_utc;
+    std::vector<std::string> sessions;  // its browser session ids
+};
+
+// A subject with fewer answered trials than the design.
+struct IncompleteSubject {
+    int subject = 0;
+    int answered = 0;
+    int planned = 0;
 };
 
 struct ImportWebResult {
@@ -146,6 +184,9 @@ struct ImportWebResult {
     int trials_present = 0;
     int screening_failed = 0;   // subjects with a failed headphone check (recorded, not excluded)
     std::vector<std::string> notes;  // per subject: answered, complete or not, screening
+    std::vector<LeftOutRun> left_out;          // runs not imported (RunChoice)
+    std::vector<IncompleteSubject> incomplete;  // subjects with fewer trials than the design
+    std::vector<TimingCertificate> timing;      // the imported subjects' timing certificates (whole database rows)
 };
 
 // Validates every record of every file, then stores them in one
@@ -153,7 +194,9 @@ struct ImportWebResult {
 // the database unchanged on any problem: a truncated file, records of
 // another experiment or export, a subject's trials out of plan order or not
 // matching the design, a stimulus hash not in the manifest, a response that
-// contradicts one already stored.
+// contradicts one already stored (answers are compared by their text and
+// empty-answer confirmation), a subject with two runs and no run rule, and,
+// with `require_complete`, a subject with fewer trials than the design.
 ImportWebResult import_web(const ImportWebSettings& settings);
 
 }  // namespace avsi::experiment
