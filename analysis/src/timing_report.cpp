@@ -10,6 +10,7 @@
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/text.h"
 
 namespace avsi::analysis {
 
@@ -86,20 +87,6 @@ Scores exclude_timing_failures(const Scores& scores, const std::vector<TimingCer
 
 namespace {
 
-std::string html_escape(const std::string& s) {
-    std::string out;
-    for (char c : s) {
-        switch (c) {
-        case '&': out += "&amp;"; break;
-        case '<': out += "&lt;"; break;
-        case '>': out += "&gt;"; break;
-        case '"': out += "&quot;"; break;
-        default: out += c;
-        }
-    }
-    return out;
-}
-
 // The section's cells per subject, shared by the Markdown and HTML tables.
 std::vector<std::string> cells(const TimingCertificateRow& r) {
     return {r.subject,
@@ -162,21 +149,21 @@ void append_timing_section(const fs::path& out_dir, const std::vector<TimingCert
 
     // HTML: the same before </body>.
     std::string h = "<h2>Presentation timing (online)</h2>\n<p>" +
-                    html_escape(fmt::format("Per participant, from {}. ", source.filename().string()) +
+                    xml_escape(fmt::format("Per participant, from {}. ", source.filename().string()) +
                                 (rows.empty() ? "The file lists no participant." : tolerance_text(rows))) +
                     "</p>\n";
     if (!rows.empty()) {
         h += "<table>\n<tr>";
-        for (const auto& c : k_columns) h += "<th>" + html_escape(c) + "</th>";
+        for (const auto& c : k_columns) h += "<th>" + xml_escape(c) + "</th>";
         h += "</tr>\n";
         for (const auto& r : rows) {
             h += "<tr>";
-            for (const auto& c : cells(r)) h += "<td>" + html_escape(c) + "</td>";
+            for (const auto& c : cells(r)) h += "<td>" + xml_escape(c) + "</td>";
             h += "</tr>\n";
         }
         h += "</table>\n";
     }
-    h += "<p>" + html_escape(excluded_text) + "</p>\n";
+    h += "<p>" + xml_escape(excluded_text) + "</p>\n";
     const fs::path html_path = out_dir / "index.html";
     std::string html = read_text_file(html_path);
     const auto body = html.rfind("</body>");
