@@ -164,12 +164,8 @@ ClosureStats constrain_closure(const PhoneSequence& phones, std::span<const doub
         }
         if (weight == 0.0) continue;
         const double norm = std::max(1.0, weight);
-        for (const auto& moved : {bilabial_task_params(), labiodental_task_params()})
-            for (Param p : moved) {
-                const std::size_t i = index(p);
-                if (pull[i] != 0.0 && frames[k][i] == model[k][i])
-                    frames[k][i] = std::clamp(model[k][i] + pull[i] / norm, params()[i].min, params()[i].max);
-            }
+        for (std::size_t i = 0; i < param_count; ++i)  // zero but for the tasks' parameters
+            if (pull[i] != 0.0) frames[k][i] = std::clamp(model[k][i] + pull[i] / norm, params()[i].min, params()[i].max);
     }
 
     // 3. What changed.

@@ -20,6 +20,8 @@ import { createRequire } from 'node:module';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
+import { readCsv } from './harness.mjs';
+
 const here = path.dirname(fileURLToPath(import.meta.url));
 const source = path.resolve(here, '..', '..');
 const args = Object.fromEntries(process.argv.slice(2).reduce((pairs, a, i, all) => (a.startsWith('--') ? [...pairs, [a.slice(2), all[i + 1]]] : pairs), []));
@@ -56,22 +58,6 @@ function runLog(...argv) {
 }
 function runFails(...argv) {
   try { execFileSync(avsi, argv, { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'] }); return null; } catch (e) { return { status: e.status, stderr: String(e.stderr) }; }
-}
-function readCsv(file) {
-  // The exports quote fields with commas or quotes; the test's values have neither except responses.
-  const lines = fs.readFileSync(file, 'utf8').trim().split('\n');
-  const parse = (line) => {
-    const out = []; let field = ''; let quoted = false;
-    for (let i = 0; i < line.length; i++) {
-      const c = line[i];
-      if (quoted) { if (c === '"' && line[i + 1] === '"') { field += '"'; i++; } else if (c === '"') quoted = false; else field += c; }
-      else if (c === '"') quoted = true; else if (c === ',') { out.push(field); field = ''; } else field += c;
-    }
-    out.push(field);
-    return out;
-  };
-  const header = parse(lines[0]);
-  return lines.slice(1).map((l) => Object.fromEntries(parse(l).map((v, i) => [header[i], v])));
 }
 
 const started = Date.now();
