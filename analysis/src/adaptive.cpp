@@ -35,6 +35,8 @@ std::string to_string(AdaptiveVariable v) {
     return v == AdaptiveVariable::Bands ? "bands" : v == AdaptiveVariable::CutoffHz ? "cutoff" : "snr";
 }
 
+std::string to_string(MaskerStage stage) { return stage == MaskerStage::AfterVocoding ? "after" : "before"; }
+
 std::string AdaptiveProtocol::unit() const {
     return variable == AdaptiveVariable::Bands ? "bands" : variable == AdaptiveVariable::CutoffHz ? "Hz" : "dB";
 }
@@ -599,7 +601,8 @@ void list_levels(AdaptiveProtocol& a, const Protocol& protocol, DiagnosticList& 
     TrackSettings& t = a.track;
     const std::string variable = to_string(a.variable);
     for (const char* key : {"start_snr_db", "min_snr_db", "max_snr_db", "large_step_db", "small_step_db",
-                            "practice_snr_db", "noise", "level_rule", "fixed_level_dbfs", "snr_reference"})
+                            "practice_snr_db", "noise", "level_rule", "fixed_level_dbfs", "snr_reference",
+                            "noise_stage", "noise_lead_ms", "noise_tail_ms"})
         if (c.find(key))  // find() also marks the key known: one error, not a second "unknown key"
             c.report(key, fmt::format("expected only with variable = \"snr\", not \"{}\" (a list variable steps on "
                                       "`levels`: start_level, large_step_levels, small_step_levels)",
@@ -702,6 +705,13 @@ AdaptiveProtocol adaptive_protocol(const Protocol& protocol) {
     }
     a.fixed_level_dbfs = c.get_number("fixed_level_dbfs", protocol.corpus.level_dbfs, -80.0, -3.0, problems);
     a.snr_reference = c.get_choice("snr_reference", {"active", "whole"}, "active", problems);
+    if (!a.list_variable()) {
+        a.noise_stage = c.get_choice("noise_stage", {"before", "after"}, "before", problems) == "after"
+                            ? MaskerStage::AfterVocoding
+                            : MaskerStage::BeforeVocoding;
+        a.noise_lead_s = c.get_number("noise_lead_ms", 1000.0 * a.noise_lead_s, 0.0, 5000.0, problems) / 1000.0;
+        a.noise_tail_s = c.get_number("noise_tail_ms", 1000.0 * a.noise_tail_s, 0.0, 5000.0, problems) / 1000.0;
+    }
     if (a.list_variable()) {
         list_levels(a, protocol, problems);
     } else {
@@ -765,6 +775,34 @@ AdaptiveProtocol adaptive_protocol(const Protocol& protocol) {
     c.check_unknown_keys(problems);
     problems.throw_if_any();
     return a;
+}
+
+std::string masker_description(const AdaptiveProtocol& a) {
+    if (!a.enabled || a.list_variable()) return "";
+    const std::string noise = a.noise == "speech-shaped"
+                                  ? std::string("speech-shaped noise (the long-term spectrum of each sentence)")
+                                  : fmt::format("the noise recording {}", std::filesystem::path(a.noise).filename().string());
+    const std::string rule =
+        a.level_rule == LevelRule::NoiseVaries
+            ? std::string("the speech stayed at the stimulus level and the noise level varied")
+            : fmt::format("the noise stayed at {:g} dBFS and the speech level varied", a.fixed_level_dbfs);
+    const std::string stage =
+        a.noise_stage == MaskerStage::BeforeVocoding
+            ? std::string("added to the speech before vocoding (the mixture was vocoded at run time with the stimuli's "
+                          "vocoder settings and carrier seed; conditions with clean audio were not vocoded)")
+            : std::string("added to the presented audio after vocoding");
+    const std::string timing =
+        a.noise_lead_s > 0 || a.noise_tail_s > 0
+            ? fmt::format("it started {:g} ms before the stimulus (the face shown at rest) and ended {:g} ms after it, "
+                          "with {:g} ms raised-cosine ramps",
+                          1000.0 * a.noise_lead_s, 1000.0 * a.noise_tail_s, 1000.0 * a.noise_ramp_s)
+            : std::string("it ran exactly as long as the stimulus");
+    return fmt::format("Masker: {}, {}; {}; the SNR's speech level is the RMS of {}; {}; a new noise excerpt was drawn "
+                       "for every presentation.",
+                       noise, stage, rule,
+                       a.snr_reference == "active" ? "the active speech (20 ms frames within 40 dB of the loudest)"
+                                                   : "the whole sentence",
+                       timing);
 }
 
 std::vector<std::string> adaptive_design_warnings(const AdaptiveProtocol& a, int keywords) {

@@ -502,12 +502,14 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     std::string md = fmt::format("# {}\n\nData: `{}`{}. Procedure: {}.\n\n", settings.title, settings.source.string(),
                                  settings.protocol.empty() ? "" : fmt::format(", protocol `{}`", settings.protocol.string()),
                                  procedure);
+    if (!a.masker.empty()) md += a.masker + "\n\n";
     std::string html = fmt::format(
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{0}</title><style>body{{font-family:sans-serif;"
         "max-width:60rem;margin:2rem auto;padding:0 1rem}}table{{border-collapse:collapse}}td,th{{border:1px solid "
         "#ccc;padding:.2rem .5rem;text-align:right}}th{{background:#f3f3f3}}</style></head><body>\n<h1>{0}</h1>\n"
         "<p>Data: <code>{1}</code>. Procedure: {2}.</p>\n",
         detail::html_escape(settings.title), detail::html_escape(settings.source.string()), detail::html_escape(procedure));
+    if (!a.masker.empty()) html += "<p>" + detail::html_escape(a.masker) + "</p>\n";
 
     // SRT means.
     md += fmt::format("## SRT by condition ({}; lower is better)\n\n", a.threshold_label);
@@ -666,6 +668,7 @@ SrtAnalysis analyze_adaptive_file(const AdaptiveAnalyzeSettings& s) {
     int keywords = 1;
     for (const auto& r : rows) keywords = std::max(keywords, r.keywords);
     a.warnings = adaptive_design_warnings(adaptive, keywords);
+    a.masker = masker_description(adaptive);
     for (const auto& w : a.warnings) log_warning("{}", w);
     SrtReportSettings rs;
     rs.out_dir = s.out_dir;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 
 #include <fmt/format.h>
 
@@ -10,8 +11,10 @@
 #include "avsi/core/error.h"
 #include "avsi/core/rng.h"
 #include "avsi/core/audio.h"
+#include "avsi/core/log.h"
 #include "avsi/stimuli/builder.h"
 #include "avsi/vocoder/masking.h"
+#include "avsi/vocoder/vocoder.h"
 
 namespace avsi::experiment {
 
@@ -28,6 +31,13 @@ AdaptiveSession::AdaptiveSession(const Protocol& protocol, const Corpus& corpus,
     scoring.vocabulary = analysis::corpus_vocabulary(corpus);
     m_scorer = std::make_unique<analysis::KeywordScorer>(scoring);
     for (const auto& c : protocol.conditions) m_tracks.emplace(c.name, analysis::AdaptiveTrack(m_settings.track));
+    // Noise before vocoding: the stimuli's vocoder, for the mixture.
+    if (!m_settings.list_variable() && m_settings.noise_stage == analysis::MaskerStage::BeforeVocoding)
+        for (const auto& c : protocol.conditions)
+            if (c.audio == ConditionAudio::Vocoded) {
+                m_vocoder = stimuli::protocol_vocoder_settings(protocol);
+                break;
+            }
     // Replay: each stored presentation of a track, in order, must be at the level the rules give.
     for (const auto& row : stored) {
         const AdaptiveRecord& r = row.record;
@@ -73,7 +83,19 @@ std::filesystem::path AdaptiveSession::variant_path(const PlannedTrial& trial) c
 }
 
 void AdaptiveSession::check_variants(const std::vector<PlannedTrial>& plan) const {
-    if (!m_settings.list_variable()) return;
+    if (m_stimuli_dir.empty()) return;
+    if (!m_settings.list_variable()) {
+        for (const auto& t : plan) {
+            if (!vocodes_mixture(t)) continue;
+            const auto path = m_stimuli_dir / stimuli::unvocoded_audio_path(t.stimulus);
+            if (!std::filesystem::is_regular_file(path))
+                throw InputError(path, fmt::format("the unvocoded speech of {} is missing (noise_stage = \"before\" "
+                                                   "vocodes speech + noise at run time): build the stimuli with this "
+                                                   "protocol (avsi build-stimuli)",
+                                                   t.stimulus));
+        }
+        return;
+    }
     const std::string variable = analysis::to_string(m_settings.variable);
     for (const auto& t : plan) {
         std::vector<double> levels = t.phase == Phase::Test ? m_settings.levels : std::vector{m_settings.practice_level};
@@ -90,6 +112,66 @@ void AdaptiveSession::check_variants(const std::vector<PlannedTrial>& plan) cons
 int AdaptiveSession::next_attempt(const PlannedTrial& trial) const {
     const auto it = m_attempts.find(trial.position);
     return it == m_attempts.end() ? 1 : it->second + 1;
+}
+
+namespace {
+
+// `frames` samples of a noise recording: a seeded excerpt when it is longer,
+// else the recording looped from a seeded start.
+std::vector<double> noise_excerpt(const std::vector<double>& noise, std::size_t frames, std::uint64_t seed) {
+    Rng rng(seed);
+    std::vector<double> out(frames);
+    if (noise.size() >= frames) {
+        const std::size_t offset = rng.uniform_int(noise.size() - frames + 1);
+        std::copy_n(noise.begin() + static_cast<std::ptrdiff_t>(offset), frames, out.begin());
+    } else {
+        const std::size_t offset = rng.uniform_int(noise.size());
+        for (std::size_t i = 0; i < frames; ++i) out[i] = noise[(offset + i) % noise.size()];
+    }
+    return out;
+}
+
+// Raised-cosine ramps over the first `in` and the last `out` samples.
+void ramp_ends(std::vector<double>& x, std::size_t in, std::size_t out) {
+    const double pi = std::acos(-1.0);
+    for (std::size_t i = 0; i < in && i < x.size(); ++i) x[i] *= 0.5 * (1.0 - std::cos(pi * double(i) / double(in)));
+    for (std::size_t i = 0; i < out && i < x.size(); ++i)
+        x[x.size() - 1 - i] *= 0.5 * (1.0 - std::cos(pi * double(i) / double(out)));
+}
+
+double rms_of(std::span<const double> x) {
+    double sum = 0.0;
+    for (double v : x) sum += v * v;
+    return x.empty() ? 0.0 : std::sqrt(sum / double(x.size()));
+}
+
+}  // namespace
+
+const ProtocolCondition& AdaptiveSession::condition(const PlannedTrial& trial) const {
+    const int i = m_protocol.condition_index(trial.condition);
+    if (i < 0)
+        throw InputError(m_protocol.path, 0, 0, "condition", fmt::format("no condition \"{}\"", trial.condition));
+    return m_protocol.conditions[static_cast<std::size_t>(i)];
+}
+
+bool AdaptiveSession::vocodes_mixture(const PlannedTrial& trial) const {
+    return !m_settings.list_variable() && m_settings.noise_stage == analysis::MaskerStage::BeforeVocoding &&
+           condition(trial).audio == ConditionAudio::Vocoded;
+}
+
+std::vector<float> AdaptiveSession::unvocoded_speech(const PlannedTrial& trial, const std::vector<float>& presented,
+                                                     int sample_rate) const {
+    if (m_stimuli_dir.empty()) return presented;  // a test pattern: its audio is not vocoded
+    const auto path = m_stimuli_dir / stimuli::unvocoded_audio_path(trial.stimulus);
+    if (!std::filesystem::is_regular_file(path))
+        throw InputError(path, "the stimulus's unvocoded speech is missing (noise_stage = \"before\" vocodes speech + "
+                               "noise at run time): run avsi build-stimuli with this protocol");
+    const Audio clean = read_audio(path);
+    if (clean.sample_rate_hz != sample_rate)
+        throw InputError(path, 0, 0, "sample_rate",
+                         fmt::format("expected the stimulus video's audio rate {} Hz, got {} Hz", sample_rate,
+                                     clean.sample_rate_hz));
+    return clean.mono();
 }
 
 MixedPresentation AdaptiveSession::mix(const PlannedTrial& trial, const std::vector<float>& speech, int sample_rate) {
@@ -113,43 +195,77 @@ MixedPresentation AdaptiveSession::mix(const PlannedTrial& trial, const std::vec
         out.noise_gain_db = kNoNoiseDbfs;
         return out;
     }
+    const bool vocode_mixture = vocodes_mixture(trial);
+    const std::vector<float> clean = vocode_mixture ? unvocoded_speech(trial, speech, sample_rate) : speech;
+    if (clean.empty()) throw InputError(trial.stimulus, "the stimulus has no audio to mix noise with");
     const std::uint64_t seed = derive_seed(
         m_protocol.seed, fmt::format("adaptive-noise/{}/{}/{}", trial.subject, trial.position, out.attempt));
-    Audio s;
-    s.sample_rate_hz = sample_rate;
-    s.samples = speech;
-    if (s.samples.empty()) throw InputError(trial.stimulus, "the stimulus has no audio to mix noise with");
     const auto reference = vocoder::parse_snr_reference(m_settings.snr_reference, "adaptive.snr_reference");
-    // The noise: a recording (loaded once per rate) or noise shaped like this sentence.
+
+    // The speech at its level: the stimulus level, or scaled so the noise
+    // lands at fixed_level_dbfs (level_rule = "speech").
+    const std::vector<double> s(clean.begin(), clean.end());
+    const double speech_rms = vocoder::speech_level_rms(s, sample_rate, reference);
+    if (!(speech_rms > 0)) throw InputError(trial.stimulus, "the stimulus audio is silent: no SNR can be set");
+    const double speech_gain = m_settings.level_rule == analysis::LevelRule::SpeechVaries
+                                   ? std::pow(10.0, m_settings.fixed_level_dbfs / 20.0) /
+                                         (speech_rms * std::pow(10.0, -out.level_db / 20.0))
+                                   : 1.0;
+    const double noise_rms = speech_gain * speech_rms * std::pow(10.0, -out.level_db / 20.0);
+
+    // The masker over the whole presentation: lead, the stimulus, tail. Its
+    // level is set on the stimulus's span, where the SNR is defined.
+    const auto lead = static_cast<std::size_t>(std::lround(m_settings.noise_lead_s * sample_rate));
+    const auto tail = static_cast<std::size_t>(std::lround(m_settings.noise_tail_s * sample_rate));
+    const std::size_t frames = lead + s.size() + tail;
     std::vector<double> noise;
     if (m_settings.noise == "speech-shaped") {
-        const auto spectrum = vocoder::long_term_spectrum({s});
-        noise = vocoder::speech_shaped_noise(spectrum, s.frames(), sample_rate, seed);
+        Audio a;
+        a.sample_rate_hz = sample_rate;
+        a.samples = clean;
+        noise = vocoder::speech_shaped_noise(vocoder::long_term_spectrum({a}), frames, sample_rate, seed);
     } else {
         auto it = m_noise_by_rate.find(sample_rate);
         if (it == m_noise_by_rate.end())
             it = m_noise_by_rate.emplace(sample_rate, vocoder::load_noise(m_settings.noise, sample_rate)).first;
-        noise = it->second;
+        noise = noise_excerpt(it->second, frames, seed);
     }
-    double speech_gain = 1.0;
-    if (m_settings.level_rule == analysis::LevelRule::SpeechVaries) {
-        // The noise stays at fixed_level_dbfs: scale the speech so the mixed
-        // noise (speech_rms · 10^(−snr/20)) lands there.
-        std::vector<double> d(speech.begin(), speech.end());
-        const double speech_rms = vocoder::speech_level_rms(d, sample_rate, reference);
-        if (!(speech_rms > 0)) throw InputError(trial.stimulus, "the stimulus audio is silent: no SNR can be set");
-        speech_gain = std::pow(10.0, m_settings.fixed_level_dbfs / 20.0) / (speech_rms * std::pow(10.0, -out.level_db / 20.0));
-        for (float& v : s.samples) v = static_cast<float>(v * speech_gain);
+    const double span_rms = rms_of(std::span<const double>(noise).subspan(lead, s.size()));
+    if (!(span_rms > 0)) throw InputError(m_settings.noise, "the noise is silent over the stimulus: no SNR can be set");
+    const auto ramp = static_cast<std::size_t>(std::lround(m_settings.noise_ramp_s * sample_rate));
+    for (double& v : noise) v *= noise_rms / span_rms;
+    ramp_ends(noise, std::min(ramp, lead), std::min(ramp, tail));
+    std::vector<double> mixture = std::move(noise);
+    for (std::size_t i = 0; i < s.size(); ++i) mixture[lead + i] += speech_gain * s[i];
+
+    out.lead_s = double(lead) / sample_rate;
+    double limit_gain = 1.0;
+    if (vocode_mixture) {
+        // Noise before vocoding: the mixture through the stimuli's vocoder,
+        // with the sentence's carrier seed (vocode() limits its own output).
+        vocoder::VocoderSettings v = m_vocoder;
+        v.seed = stimuli::sentence_vocoder_seed(m_vocoder, sentence(trial).id);
+        Audio in;
+        in.sample_rate_hz = sample_rate;
+        in.samples.assign(mixture.begin(), mixture.end());
+        vocoder::VocoderResult r = vocoder::vocode(in, v);
+        out.vocoder_input = std::move(in.samples);
+        out.samples = std::move(r.audio.samples);
+        limit_gain = std::pow(10.0, r.limit_gain_db / 20.0);
+    } else {
+        double peak = 0.0;
+        for (double x : mixture) peak = std::max(peak, std::fabs(x));
+        if (peak > 1.0) {
+            limit_gain = 1.0 / peak;
+            log_warning("trial {}: the mixture at {:.1f} dB SNR would clip (peak {:.2f}); scaled down by {:.2f} dB",
+                        trial.position, out.level_db, peak, 20.0 * std::log10(limit_gain));
+        }
+        out.samples.resize(mixture.size());
+        for (std::size_t i = 0; i < mixture.size(); ++i) out.samples[i] = static_cast<float>(mixture[i] * limit_gain);
     }
-    vocoder::MixSettings mix;
-    mix.snr_db = out.level_db;
-    mix.reference = reference;
-    mix.seed = seed;
-    vocoder::MixResult r = vocoder::mix_at_snr(s, noise, mix);
-    out.samples = std::move(r.audio.samples);
-    out.limit_gain_db = r.limit_gain_db;
-    out.speech_gain_db = 20.0 * std::log10(speech_gain) + r.limit_gain_db;
-    out.noise_gain_db = 20.0 * std::log10(r.noise_rms) + r.limit_gain_db;
+    out.limit_gain_db = 20.0 * std::log10(limit_gain);
+    out.speech_gain_db = 20.0 * std::log10(speech_gain) + out.limit_gain_db;
+    out.noise_gain_db = 20.0 * std::log10(noise_rms) + out.limit_gain_db;
     return out;
 }
 

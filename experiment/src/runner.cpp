@@ -497,6 +497,11 @@ RunResult run_session(const RunSettings& settings) {
                                              analysis::to_string(adaptive->settings().variable)));
             adaptive->set_stimuli_dir(settings.stimuli_dir);
             adaptive->check_variants(plan);
+        } else if (!settings.stimuli_dir.empty()) {
+            // Noise before vocoding reads each stimulus's unvocoded speech
+            // (a test pattern without --stimuli: the pattern's own audio).
+            adaptive->set_stimuli_dir(settings.stimuli_dir);
+            adaptive->check_variants(plan);
         }
     }
     const std::vector<int> answered = store.answered_positions(settings.subject);
@@ -783,10 +788,12 @@ RunResult run_session(const RunSettings& settings) {
 
         // Stimulus frame for the coming flip, chosen on the audio clock.
         int frame_to_show = -1;
+        bool lead_frame = false;  // the first frame shown during the masker's lead
         if (machine.screen() == Screen::Stimulus && playback.source) {
             if (!playback.started) {
                 if (const auto onset = audio->onset_s()) {
-                    playback.pacer->start(*onset);
+                    // The masker's lead plays before the video starts.
+                    playback.pacer->start(*onset + (playback.mixed ? playback.mixed->lead_s : 0.0));
                     playback.started = true;
                     if (const std::string detail = audio->onset_detail(); !detail.empty())
                         log_info("trial {}: audio {}", machine.trial() ? machine.trial()->position : 0, detail);
@@ -796,6 +803,14 @@ RunResult run_session(const RunSettings& settings) {
                 const int k = playback.pacer->frame_for(next_flip_s);
                 if (k >= playback.pacer->frame_count()) {
                     if (!audio->playing()) machine.stimulus_finished(next_flip_s);
+                } else if (k < 0 && !playback.shown_any) {
+                    // The masker's lead: the first frame (the face at rest), outside the pacer's count.
+                    if (!playback.have_frame) playback.have_frame = playback.source->next_frame(playback.frame);
+                    if (playback.have_frame && playback.uploaded != playback.frame.index) {
+                        window.upload(playback.frame);
+                        playback.uploaded = playback.frame.index;
+                    }
+                    lead_frame = playback.have_frame;
                 } else if (k >= 0) {
                     while ((!playback.have_frame || playback.frame.index < k) && playback.source->next_frame(playback.frame)) {
                         playback.have_frame = true;
@@ -834,7 +849,7 @@ RunResult run_session(const RunSettings& settings) {
                 break;
             case Screen::Fixation: centered_text("+", 0.5f); break;
             case Screen::Stimulus:
-                if (frame_to_show >= 0 || playback.shown_any) {
+                if (frame_to_show >= 0 || playback.shown_any || lead_frame) {
                     const float scale = std::min(display.x * 0.9f / window.texture_width(), display.y * 0.8f / window.texture_height());
                     const ImVec2 size(window.texture_width() * scale, window.texture_height() * scale);
                     // The video is opaque: drawn without blending (no read of

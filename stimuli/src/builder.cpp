@@ -184,6 +184,7 @@ struct Job {
     std::uint64_t head_seed = 0;
     json entry;  // the manifest entry once built (or reused)
     std::vector<Variant> variants;  // adaptive list variable: the audio at each level
+    std::filesystem::path unvocoded;  // adaptive SNR, noise before vocoding: the speech before vocoding
 };
 
 // The highest sample peak a stimulus may have after its level is set:
@@ -474,7 +475,7 @@ Plan::Plan(const BuildSettings& settings)
             job.condition = &c;
             job.video = std::filesystem::path(s.id) / (c.name + ".mp4");
             job.wav = std::filesystem::path(s.id) / (c.name + ".wav");
-            job.vocoder_seed = derive_seed(vocoder_base.seed, "vocoder/" + s.id);
+            job.vocoder_seed = sentence_vocoder_seed(vocoder_base, s.id);
             job.blink_seed = derive_seed(protocol.seed, "blinks/" + s.id + "/" + c.name);
             job.gaze_seed = derive_seed(protocol.seed, "gaze/" + s.id + "/" + c.name);
             job.head_seed = derive_seed(protocol.seed, "head-motion/" + s.id + "/" + c.name);
@@ -485,12 +486,16 @@ Plan::Plan(const BuildSettings& settings)
                     job.variants.push_back({level, variant_audio_path(job.video, variable, level)});
                 variants_key = {{"variable", variable}, {"levels", adaptive.levels}};
             }
+            if (adaptive.enabled && !adaptive.list_variable() &&
+                adaptive.noise_stage == analysis::MaskerStage::BeforeVocoding && c.audio == ConditionAudio::Vocoded)
+                job.unvocoded = unvocoded_audio_path(job.video);
             json key = {{"settings", settings_json},
                               {"audio", audio_key},
                               {"condition", {{"face", to_string(c.face)}, {"audio", to_string(c.audio)},
                                              {"model", model_hash.count(c.name) ? model_hash[c.name] : ""}}},
                               {"seeds", {{"vocoder", job.vocoder_seed}, {"blinks", job.blink_seed}}}};
             if (!variants_key.is_null()) key["variants"] = variants_key;
+            if (!job.unvocoded.empty()) key["unvocoded"] = true;
             // Layers (only when the condition has them, so speech-only stimuli keep their hashes).
             if (layers.count(c.name) && layers.at(c.name).configured)
                 key["layers"] = {{"stack", json::parse(layer_settings_json(layers.at(c.name)))},
@@ -620,6 +625,14 @@ void verify_one(const Job& job, const std::map<std::string, json>& entries, cons
         else if (!std::filesystem::exists(out_dir / variant.wav)) add("the variant " + name + " is missing");
         else if (sha256_file(out_dir / variant.wav) != l->second)
             add("the variant " + name + " differs from the one built (SHA-256)");
+    }
+    if (!job.unvocoded.empty()) {
+        const std::string name = job.unvocoded.generic_string();
+        const json u = e.value("unvocoded", json());
+        if (!u.is_object()) add(fmt::format("the unvocoded speech {} is not listed in the manifest", name));
+        else if (!std::filesystem::exists(out_dir / job.unvocoded)) add("the unvocoded speech " + name + " is missing");
+        else if (sha256_file(out_dir / job.unvocoded) != json_string(u, "sha256"))
+            add("the unvocoded speech " + name + " differs from the one built (SHA-256)");
     }
     try {
         const DecodedVideo v = decode_video(video);
@@ -823,6 +836,16 @@ std::filesystem::path variant_audio_path(const std::filesystem::path& video, con
     return video.parent_path() / fmt::format("{}.{}-{:g}.wav", video.stem().string(), variable, level);
 }
 
+std::filesystem::path unvocoded_audio_path(const std::filesystem::path& video) {
+    return video.parent_path() / (video.stem().string() + ".unvocoded.wav");
+}
+
+vocoder::VocoderSettings protocol_vocoder_settings(const Protocol& protocol) { return vocoder_settings(protocol); }
+
+std::uint64_t sentence_vocoder_seed(const vocoder::VocoderSettings& base, const std::string& sentence_id) {
+    return derive_seed(base.seed, "vocoder/" + sentence_id);
+}
+
 BuildReport build_stimuli(const BuildSettings& settings) {
     const auto start = std::chrono::steady_clock::now();
     Plan plan(settings);
@@ -1008,6 +1031,18 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                 }
                 const auto video_path = settings.out_dir / job.video;
                 write_audio(settings.out_dir / job.wav, audio);
+                // Noise before vocoding: the runner vocodes speech + noise, so
+                // it needs the speech as it was before the vocoder.
+                json unvocoded = nullptr;
+                if (!job.unvocoded.empty()) {
+                    const Presented& clean =
+                        sp.as(ConditionAudio::Clean, vocoder_base, job.vocoder_seed, protocol.corpus.level_dbfs);
+                    write_audio(settings.out_dir / job.unvocoded, clean.audio);
+                    unvocoded = {{"wav", job.unvocoded.generic_string()},
+                                 {"gain_db", clean.level.gain_db},
+                                 {"peak_dbfs", clean.level.peak_dbfs},
+                                 {"sha256", sha256_file(settings.out_dir / job.unvocoded)}};
+                }
                 // The adaptive list variable's levels: the same vocoder and
                 // seed with that band count or cutoff, at the speech level.
                 json variants = nullptr;
@@ -1096,6 +1131,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                     job.entry["variants"] = {{"variable", analysis::to_string(plan.adaptive.variable)},
                                              {"unit", plan.adaptive.unit()},
                                              {"files", variants}};
+                if (!unvocoded.is_null()) job.entry["unvocoded"] = unvocoded;
                 progress.advance();
             }
         } catch (...) {

@@ -387,6 +387,47 @@ practice = 0
 
 }  // namespace
 
+// The masker's stage and timing: before vocoding with a 500 ms lead and
+// tail by default, as the methods text says; "after" and other timings on
+// request; bad values and list variables refused at the key.
+TEST(AdaptiveProtocol, TheMaskerGoesInBeforeVocodingOverTheWholePresentationByDefault) {
+    const AdaptiveProtocol a = adaptive_protocol(list_protocol(""));
+    EXPECT_EQ(a.noise_stage, MaskerStage::BeforeVocoding);
+    EXPECT_DOUBLE_EQ(a.noise_lead_s, 0.5);
+    EXPECT_DOUBLE_EQ(a.noise_tail_s, 0.5);
+    const std::string text = masker_description(a);
+    EXPECT_NE(text.find("Masker: speech-shaped noise (the long-term spectrum of each sentence), added to the speech "
+                        "before vocoding"),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("it started 500 ms before the stimulus (the face shown at rest) and ended 500 ms after it, "
+                        "with 20 ms raised-cosine ramps"),
+              std::string::npos)
+        << text;
+    const AdaptiveProtocol after =
+        adaptive_protocol(list_protocol("noise_stage = \"after\"\nnoise_lead_ms = 0\nnoise_tail_ms = 0\n"));
+    EXPECT_EQ(after.noise_stage, MaskerStage::AfterVocoding);
+    EXPECT_NE(masker_description(after).find("added to the presented audio after vocoding"), std::string::npos);
+    EXPECT_NE(masker_description(after).find("it ran exactly as long as the stimulus"), std::string::npos);
+    try {
+        adaptive_protocol(list_protocol("noise_stage = \"during\"\nnoise_lead_ms = -5\n"));
+        FAIL() << "accepted";
+    } catch (const InputError& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("adaptive.noise_stage"), std::string::npos) << m;
+        EXPECT_NE(m.find("adaptive.noise_lead_ms"), std::string::npos) << m;
+    }
+    try {
+        adaptive_protocol(list_protocol("variable = \"bands\"\nlevels = [2, 4]\nnoise_stage = \"before\"\n"));
+        FAIL() << "accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("adaptive.noise_stage: expected only with variable = \"snr\""),
+                  std::string::npos)
+            << e.what();
+    }
+    EXPECT_EQ(masker_description(adaptive_protocol(list_protocol("variable = \"bands\"\nlevels = [2, 4]\n"))), "");
+}
+
 TEST(AdaptiveListVariable, BandTrackStepsByPositionOnTheLevelsAsComputedByHand) {
     const AdaptiveProtocol a = adaptive_protocol(
         list_protocol("variable = \"bands\"\nlevels = [1, 2, 3, 4, 6, 8, 12, 16]\nstart_level = 4\n"

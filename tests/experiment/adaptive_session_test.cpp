@@ -1,5 +1,6 @@
 // Adaptive SRT sessions without a window (experiment/adaptive_session.h):
-// the noise mixed at exactly the track's SNR under both level rules, the live
+// the noise mixed at exactly the track's SNR under both level rules and both
+// noise stages, the live
 // score stepping the track, a resume that replays the stored presentations to
 // the same next level, the interleaved design, the machine's repeat of a
 // first sentence, and the store's schema migration to version 3.
@@ -18,6 +19,7 @@
 #include "avsi/core/audio.h"
 #include "avsi/core/files.h"
 #include "avsi/vocoder/masking.h"
+#include "avsi/vocoder/vocoder.h"
 #include "test_support.h"
 
 namespace avsi::experiment {
@@ -42,19 +44,27 @@ std::vector<float> speechlike(int rate) {
     return s;
 }
 
-// The SNR in the mixture: the speech part is gain·speech, the noise part what is left.
-double measured_snr_db(const std::vector<float>& mixed, const std::vector<float>& speech, double speech_gain_db,
-                       int rate) {
+// The SNR in a mixture whose stimulus span starts at `lead`: the speech part
+// is gain·speech, the noise part what is left of the span.
+double measured_snr_db(const std::vector<float>& mixed, std::size_t lead, const std::vector<float>& speech,
+                       double speech_gain_db, int rate) {
     const double g = std::pow(10.0, speech_gain_db / 20.0);
-    std::vector<double> s(speech.size()), n(speech.size());
+    std::vector<double> s(speech.size());
     double nn = 0;
     for (std::size_t i = 0; i < speech.size(); ++i) {
         s[i] = g * speech[i];
-        n[i] = mixed[i] - s[i];
-        nn += n[i] * n[i];
+        const double n = mixed[lead + i] - s[i];
+        nn += n * n;
     }
     const double speech_rms = vocoder::speech_level_rms(s, rate, vocoder::SnrReference::ActiveFrames);
-    return 20 * std::log10(speech_rms / std::sqrt(nn / n.size()));
+    return 20 * std::log10(speech_rms / std::sqrt(nn / speech.size()));
+}
+
+// The RMS in dBFS of x[from, to).
+double rms_dbfs(const std::vector<float>& x, std::size_t from, std::size_t to) {
+    double sum = 0;
+    for (std::size_t i = from; i < to; ++i) sum += double(x[i]) * x[i];
+    return 10 * std::log10(sum / double(to - from));
 }
 
 std::vector<PlannedTrial> plan_of(const Protocol& p, const Corpus& c, int subject) {
@@ -63,29 +73,67 @@ std::vector<PlannedTrial> plan_of(const Protocol& p, const Corpus& c, int subjec
 
 }  // namespace
 
-TEST(AdaptiveSession, MixesTheNoiseAtExactlyTheTracksSnrUnderBothLevelRules) {
+// Both noise stages under both level rules: the masker at exactly the
+// track's SNR over the stimulus's span (at the vocoder's input when the noise
+// goes before it, the output then the vocoder's of that input, sample for
+// sample), running through the lead and the tail at its level.
+TEST(AdaptiveSession, MixesTheNoiseAtExactlyTheTracksSnrUnderBothLevelRulesAndStages) {
     Protocol p = load_protocol(kProtocol);
     const Corpus corpus = read_corpus(p.corpus.sentences);
     const auto plan = plan_of(p, corpus, 1);
     const auto speech = speechlike(16000);
-    for (const std::string rule : {"noise", "speech"}) {
-        SCOPED_TRACE(rule);
-        ConfigValue v;
-        v.string = rule;
-        p.adaptive.set("level_rule", v);
-        AdaptiveSession a(p, corpus, {}, "db");
-        for (const auto& t : plan) {
-            if (t.phase != Phase::Test) continue;
-            const MixedPresentation m = a.mix(t, speech, 16000);
-            EXPECT_DOUBLE_EQ(m.level_db, a.level_db(t));
-            EXPECT_NEAR(measured_snr_db(m.samples, speech, m.speech_gain_db, 16000), m.level_db, 0.01);
-            if (rule == "speech" && m.limit_gain_db == 0.0) {
-                EXPECT_NEAR(m.noise_gain_db, p.corpus.level_dbfs, 1e-6);
+    const int rate = 16000;
+    for (const std::string stage : {"before", "after"}) {
+        for (const std::string rule : {"noise", "speech"}) {
+            SCOPED_TRACE(stage + ", " + rule);
+            ConfigValue v;
+            v.string = rule;
+            p.adaptive.set("level_rule", v);
+            v.string = stage;
+            p.adaptive.set("noise_stage", v);
+            AdaptiveSession a(p, corpus, {}, "db");
+            EXPECT_EQ(a.settings().noise_lead_s, 0.5);
+            const std::size_t lead = 8000, tail = 8000;
+            int presentations = 0;
+            for (const auto& t : plan) {
+                if (t.phase != Phase::Test) continue;
+                const MixedPresentation m = a.mix(t, speech, rate);
+                EXPECT_DOUBLE_EQ(m.level_db, a.level_db(t));
+                EXPECT_DOUBLE_EQ(m.lead_s, 0.5);
+                ASSERT_EQ(m.samples.size(), lead + speech.size() + tail);
+                // The SNR where it is set: the vocoder's input (before the
+                // vocoder's own limiter) or the output.
+                const std::vector<float>& at = stage == "before" ? m.vocoder_input : m.samples;
+                ASSERT_EQ(at.size(), m.samples.size());
+                const double gain_db = m.speech_gain_db - (stage == "before" ? m.limit_gain_db : 0.0);
+                EXPECT_NEAR(measured_snr_db(at, lead, speech, gain_db, rate), m.level_db, 0.01);
+                // The masker runs before and after the stimulus at its level
+                // (ramps left out; within 3 dB: the test signal's line spectrum
+                // makes its speech-shaped noise narrowband, slowly fluctuating).
+                const double noise_db = m.noise_gain_db - (stage == "before" ? m.limit_gain_db : 0.0);
+                EXPECT_NEAR(rms_dbfs(at, 400, lead), noise_db, 3.0);
+                EXPECT_NEAR(rms_dbfs(at, lead + speech.size(), at.size() - 400), noise_db, 3.0);
+                EXPECT_EQ(at.front(), 0.0f);  // ramped in from silence
+                if (rule == "speech" && m.limit_gain_db == 0.0) {
+                    EXPECT_NEAR(m.noise_gain_db, p.corpus.level_dbfs, 1e-6);
+                }
+                if (stage == "before") {
+                    vocoder::VocoderSettings vs = stimuli::protocol_vocoder_settings(p);
+                    vs.seed = stimuli::sentence_vocoder_seed(vs, corpus.sentence(t.sentence).id);
+                    Audio in;
+                    in.sample_rate_hz = rate;
+                    in.samples = m.vocoder_input;
+                    EXPECT_EQ(vocoder::vocode(in, vs).audio.samples, m.samples);
+                } else {
+                    EXPECT_TRUE(m.vocoder_input.empty());
+                }
+                ++presentations;
+                // Every keyword wrong: the tracks climb, so later mixtures are at other SNRs.
+                a.record(t, m, "", std::vector<bool>(3, false), std::vector<bool>(3, false));
             }
-            // Every keyword wrong: the tracks climb, so later mixtures are at other SNRs.
-            a.record(t, m, "", std::vector<bool>(3, false), std::vector<bool>(3, false));
+            EXPECT_EQ(presentations, 20);
+            EXPECT_GT(a.track("audio-only").level_db(), 0.0);
         }
-        EXPECT_GT(a.track("audio-only").level_db(), 0.0);
     }
 }
 

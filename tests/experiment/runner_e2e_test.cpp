@@ -21,6 +21,7 @@
 #include "avsi/core/audio.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/rng.h"
+#include "avsi/experiment/adaptive_session.h"
 #include "avsi/experiment/design.h"
 #include "avsi/experiment/media.h"
 #include "avsi/experiment/runner.h"
@@ -488,8 +489,8 @@ TEST_F(RunnerE2E, AStimulusChangedAfterTheBuildIsRefused) {
 
 // An adaptive SRT session (tests/data/adaptive: two interleaved HINT-style
 // tracks, speech-shaped noise mixed live) killed twice in the middle of its
-// tracks and resumed: every presentation's captured device audio has the
-// noise at the logged SNR (measured from the capture), each track continues
+// tracks and resumed: every presentation's captured device audio is what the
+// session mixes for it at the logged level, each track continues
 // at the level it left off at, and no trial is lost or answered twice.
 TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
     const fs::path dir = temp_dir("e2e_adaptive");
@@ -568,36 +569,44 @@ TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
         EXPECT_EQ(replay.sentences(), 10);
     }
 
-    // The captured device audio: the clean test-pattern audio times the logged
-    // speech gain, plus noise whose level gives the logged SNR.
+    // The captured device audio (noise before vocoding, the default): for
+    // every presentation, sample for sample what a fresh AdaptiveSession
+    // mixes for that trial after the presentations stored before it — the
+    // test pattern's audio and the masker vocoded together, the masker
+    // running from 0.5 s before the clip to 0.5 s after it.
+    // adaptive_session_test.cpp checks that mixture's SNR at the vocoder's
+    // input exactly, and the noise-after test below checks it from a capture.
     TestPatternSettings pattern;
     pattern.fps = p.render.fps;
     const auto clip = make_test_pattern(pattern);
-    const std::vector<float>& clean = clip->audio();
+    const std::size_t lead = static_cast<std::size_t>(clip->sample_rate() / 2);
+    std::vector<Store::AdaptiveRow> stored;
+    {
+        Store store(db);
+        stored = store.adaptive_trials(1);
+    }
+    ASSERT_EQ(stored.size(), t.rows.size());
     int measured = 0;
-    for (const auto& row : t.rows) {
-        const int trial = std::stoi(row.fields[c_trial]), attempt = std::stoi(row.fields[c_attempt]);
+    for (std::size_t k = 0; k < stored.size(); ++k) {
+        const int trial = stored[k].position, attempt = stored[k].record.attempt;
         const fs::path wav = dir / "audio" / (attempt == 1 ? fmt::format("trial{:03}.wav", trial)
                                                            : fmt::format("trial{:03}_{}.wav", trial, attempt));
         SCOPED_TRACE(wav.string());
+        AdaptiveSession replay(p, corpus, std::vector<Store::AdaptiveRow>(stored.begin(), stored.begin() + k),
+                               db.string());
+        const auto planned =
+            std::find_if(plan.begin(), plan.end(), [&](const PlannedTrial& x) { return x.position == trial; });
+        ASSERT_NE(planned, plan.end());
+        const MixedPresentation m = replay.mix(*planned, clip->audio(), clip->sample_rate());
+        EXPECT_EQ(m.level_db, stored[k].record.level_db);
+        EXPECT_EQ(m.attempt, attempt);
         const Audio captured = read_audio(wav);
-        ASSERT_EQ(captured.samples.size(), clean.size());
-        const double g = std::pow(10.0, *parse_double(row.fields[c_gain]) / 20.0);
-        std::vector<double> speech(clean.size());
-        double noise_sq = 0;
-        for (std::size_t i = 0; i < clean.size(); ++i) {
-            speech[i] = g * clean[i];
-            const double n = captured.samples[i] - speech[i];
-            noise_sq += n * n;
-        }
-        const double snr = 20 * std::log10(vocoder::speech_level_rms(speech, clip->sample_rate(),
-                                                                      vocoder::SnrReference::ActiveFrames) /
-                                           std::sqrt(noise_sq / clean.size()));
-        EXPECT_NEAR(snr, *parse_double(row.fields[c_level]), 0.01);
-        ++measured;
+        ASSERT_EQ(captured.samples.size(), lead + clip->audio().size() + lead);
+        EXPECT_EQ(captured.samples, m.samples);
+        measured += captured.samples == m.samples;
     }
     EXPECT_EQ(measured, static_cast<int>(t.rows.size()));
-    std::cerr << "[ info ] " << kills << " kills, " << t.rows.size() << " presentations measured from the capture\n";
+    std::cerr << "[ info ] " << kills << " kills, " << t.rows.size() << " presentations matched to the session mixture\n";
 
     // The report on the exported tracks (one subject: no ANOVA, SRTs and plots).
     ASSERT_EQ(run({"analyze", (dir / "export" / "adaptive_trials.csv").string(), "--protocol", protocol.string(),
@@ -607,7 +616,74 @@ TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
         << read_text_file(dir / "analyze.txt");
     const CsvTable srt = read_csv(dir / "report" / "srt.csv");
     ASSERT_EQ(srt.rows.size(), 2u);
+    // The methods text names the masker's stage and timing.
+    EXPECT_NE(read_text_file(dir / "report" / "report.md").find("added to the speech before vocoding"),
+              std::string::npos);
     EXPECT_TRUE(fs::exists(dir / "report" / "tracks" / "subject_1.png"));
+}
+
+// noise_stage = "after": the masker is added to the presented (here the
+// test pattern's) audio, so the capture is that audio times the logged speech
+// gain plus noise at exactly the logged SNR over the clip's span; the masker
+// also runs 0.5 s before and after the clip at its level.
+TEST_F(RunnerE2E, AdaptiveNoiseAfterVocodingIsAtTheLoggedSnrInTheCapture) {
+    const fs::path dir = temp_dir("e2e_adaptive_after");
+    const fs::path source = fs::path(AVSI_TEST_DATA_DIR) / "adaptive";
+    fs::copy_file(source / "corpus.csv", dir / "corpus.csv");
+    const fs::path protocol = dir / "after.toml";
+    write_text_file(protocol, read_text_file(source / "protocol.toml") + "noise_stage = \"after\"\n");
+    const Protocol p = load_protocol(protocol);
+    ASSERT_EQ(analysis::adaptive_protocol(p).noise_stage, analysis::MaskerStage::AfterVocoding);
+    const Corpus corpus = read_corpus(p.corpus.sentences);
+    const std::vector<PlannedTrial> plan = make_design(p, corpus, 1);
+    std::string script;
+    for (std::size_t i = 0; i < plan.size(); ++i)
+        script += i % 3 == 0 ? std::string("-\n") : corpus.sentence(plan[i].sentence).text + "\n";
+    write_text_file(dir / "script.txt", script);
+    const fs::path db = dir / "after.sqlite";
+    std::vector<std::string> args = run_args(protocol, 1, db, dir / "script.txt");
+    args.insert(args.end(), {"--audio-capture", (dir / "audio").string()});
+    ASSERT_EQ(run(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    const CsvTable t = read_csv(dir / "export" / "adaptive_trials.csv");
+    const auto c_trial = t.require_column("trial"), c_attempt = t.require_column("attempt"),
+               c_level = t.require_column("level_db"), c_gain = t.require_column("speech_gain_db"),
+               c_noise = t.require_column("noise_gain_db");
+    TestPatternSettings pattern;
+    pattern.fps = p.render.fps;
+    const auto clip = make_test_pattern(pattern);
+    const std::vector<float>& clean = clip->audio();
+    const std::size_t lead = static_cast<std::size_t>(clip->sample_rate() / 2);
+    int measured = 0;
+    for (const auto& row : t.rows) {
+        const int trial = std::stoi(row.fields[c_trial]), attempt = std::stoi(row.fields[c_attempt]);
+        const fs::path wav = dir / "audio" / (attempt == 1 ? fmt::format("trial{:03}.wav", trial)
+                                                           : fmt::format("trial{:03}_{}.wav", trial, attempt));
+        SCOPED_TRACE(wav.string());
+        const Audio captured = read_audio(wav);
+        ASSERT_EQ(captured.samples.size(), lead + clean.size() + lead);
+        const double g = std::pow(10.0, *parse_double(row.fields[c_gain]) / 20.0);
+        std::vector<double> speech(clean.size());
+        double noise_sq = 0;
+        for (std::size_t i = 0; i < clean.size(); ++i) {
+            speech[i] = g * clean[i];
+            const double n = captured.samples[lead + i] - speech[i];
+            noise_sq += n * n;
+        }
+        const double snr = 20 * std::log10(vocoder::speech_level_rms(speech, clip->sample_rate(),
+                                                                      vocoder::SnrReference::ActiveFrames) /
+                                           std::sqrt(noise_sq / clean.size()));
+        EXPECT_NEAR(snr, *parse_double(row.fields[c_level]), 0.01);
+        double tail_sq = 0;
+        const std::size_t tail_from = lead + clean.size(), tail_to = captured.samples.size() - lead / 10;
+        for (std::size_t i = tail_from; i < tail_to; ++i) tail_sq += double(captured.samples[i]) * captured.samples[i];
+        // The tail at the noise level: within 3 dB, as the test pattern's line
+        // spectrum makes its speech-shaped noise narrowband (slow level swings).
+        EXPECT_NEAR(10 * std::log10(tail_sq / double(tail_to - tail_from)), *parse_double(row.fields[c_noise]), 3.0);
+        ++measured;
+    }
+    EXPECT_EQ(measured, static_cast<int>(t.rows.size()));
+    EXPECT_GE(measured, 20);
 }
 
 // The experimenter's score check: scripted marks after " ## " correct the live

@@ -554,4 +554,69 @@ TEST_F(BuilderFixture, BandCountTracksGetAnAudioVariantPerLevelListedAndVerified
     EXPECT_EQ(build_stimuli(s).rendered, 2u);
 }
 
+// An SNR track with the masker before vocoding (noise_stage = "before", the
+// default): each vocoded stimulus gets its speech before the vocoder beside
+// the MP4 (the clean condition's audio, sample for sample), listed with its
+// SHA-256 and verified; with noise_stage = "after" there is none, and the
+// stimuli are rebuilt (their inputs changed).
+TEST_F(BuilderFixture, SnrTracksWithNoiseBeforeVocodingGetTheUnvocodedSpeech) {
+    auto protocol = protocol_with_vocoder(dir / "p", "bands = 3\nlow_hz = 100\nhigh_hz = 5000\n");
+    const std::string text = read_text_file(protocol);
+    ASSERT_NE(text.find("name = \"audio-only\""), std::string::npos);
+    const std::string adaptive = "\n[adaptive]\nsrt_from = 1\n";
+    write_text_file(protocol, text + adaptive);
+    BuildSettings s = settings("unvocoded");
+    s.protocol_path = protocol;
+    s.max_sentences = 1;
+    s.all_sentences = true;
+    const BuildReport report = build_stimuli(s);
+    ASSERT_GE(report.rendered, 2u);
+    const auto manifest = nlohmann::json::parse(read_text_file(s.out_dir / "manifest.json"));
+    std::map<std::string, std::vector<float>> clean_audio;  // sentence → its clean condition's audio
+    for (const auto& e : manifest["stimuli"])
+        if (e["audio"] == "clean")
+            clean_audio[e["sentence"].get<std::string>()] = read_audio(s.out_dir / e["wav"].get<std::string>()).samples;
+    int vocoded = 0;
+    for (const auto& e : manifest["stimuli"]) {
+        SCOPED_TRACE(e["path"].get<std::string>());
+        if (e["audio"] != "vocoded") {
+            EXPECT_FALSE(e.contains("unvocoded"));
+            continue;
+        }
+        ASSERT_TRUE(e.contains("unvocoded"));
+        const std::string wav = e["unvocoded"]["wav"].get<std::string>();
+        EXPECT_EQ(wav, unvocoded_audio_path(e["path"].get<std::string>()).generic_string());
+        EXPECT_EQ(sha256_file(s.out_dir / wav), e["unvocoded"]["sha256"].get<std::string>());
+        const Audio u = read_audio(s.out_dir / wav);
+        const Audio v = read_audio(s.out_dir / e["wav"].get<std::string>());
+        EXPECT_EQ(u.sample_rate_hz, v.sample_rate_hz);
+        EXPECT_EQ(u.samples.size(), v.samples.size());
+        EXPECT_NE(u.samples, v.samples);
+        const auto c = clean_audio.find(e["sentence"].get<std::string>());
+        if (c != clean_audio.end()) {
+            EXPECT_EQ(u.samples, c->second);
+        }
+        ++vocoded;
+    }
+    ASSERT_GT(vocoded, 0);
+    EXPECT_EQ(verify_stimuli(s).problems.size(), 0u);
+    // A changed unvocoded file is found.
+    const std::string first = [&] {
+        for (const auto& e : manifest["stimuli"])
+            if (e.contains("unvocoded")) return e["unvocoded"]["wav"].get<std::string>();
+        return std::string();
+    }();
+    Audio a = read_audio(s.out_dir / first);
+    a.samples[100] += 0.01f;
+    write_audio(s.out_dir / first, a);
+    std::string all;
+    for (const auto& p : verify_stimuli(s).problems) all += p + "\n";
+    EXPECT_NE(all.find("the unvocoded speech " + first + " differs from the one built"), std::string::npos) << all;
+    // Noise after vocoding: no unvocoded speech, and the vocoded stimuli are out of date.
+    write_text_file(protocol, text + adaptive + "noise_stage = \"after\"\n");
+    EXPECT_EQ(build_stimuli(s).rendered, static_cast<std::size_t>(vocoded));
+    const auto after = nlohmann::json::parse(read_text_file(s.out_dir / "manifest.json"));
+    for (const auto& e : after["stimuli"]) EXPECT_FALSE(e.contains("unvocoded"));
+}
+
 }  // namespace avsi::stimuli

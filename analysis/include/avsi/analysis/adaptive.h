@@ -73,11 +73,16 @@ enum class TrackOrder { Interleaved, Blocked };
 // Which signal the SNR moves: the noise (speech level fixed) or the speech (noise fixed).
 enum class LevelRule { NoiseVaries, SpeechVaries };
 
+// Where an SNR track's masker is added: to the speech before it is vocoded,
+// or to the vocoded stimulus audio.
+enum class MaskerStage { BeforeVocoding, AfterVocoding };
+
 std::string to_string(AdaptiveProcedure procedure);
 std::string to_string(SrtEstimator estimator);
 std::string to_string(TrackOrder order);
 std::string to_string(LevelRule rule);
 std::string to_string(AdaptiveVariable variable);
+std::string to_string(MaskerStage stage);  // "before" or "after" (vocoding)
 
 // The rules of one track (every condition's track of a protocol uses the same).
 struct TrackSettings {
@@ -312,6 +317,17 @@ struct AdaptiveProtocol {
     std::string noise = "speech-shaped";  // or a noise recording (resolved path)
     double fixed_level_dbfs = -26.0;      // the level that stays: the noise's when the speech varies
     std::string snr_reference = "active"; // vocoder::parse_snr_reference: "whole" or "active"
+    // Where the masker enters (noise_stage): before vocoding (the mixture is
+    // vocoded at run time, as `avsi vocode --noise-stage before` and CI
+    // simulations do) or after it (added to the stimulus's vocoded audio).
+    // Conditions with clean audio are not vocoded either way.
+    MaskerStage noise_stage = MaskerStage::BeforeVocoding;
+    // The masker runs over the whole presentation: it starts noise_lead_s
+    // before the stimulus (the face shown at rest) and ends noise_tail_s
+    // after it, with raised-cosine ramps of noise_ramp_s at its ends.
+    double noise_lead_s = 0.5;
+    double noise_tail_s = 0.5;
+    double noise_ramp_s = 0.02;
     double practice_snr_db = 10.0;        // warm-up and practice sentences (fixed)
     bool confirm_scores = false;          // the experimenter confirms or corrects each score
     std::string reference;                // the audio-only condition (visual benefit); "" = the first
@@ -347,6 +363,11 @@ AdaptiveProtocol adaptive_protocol(const Protocol& protocol);
 // Design-time problems of an adaptive protocol: each condition whose ceiling
 // is at or below the per-keyword proportion the track aims at (`keywords`
 // keywords per sentence), so its track cannot converge and climbs to the bound.
+// The masker of an SNR track as a methods section states it: the noise, the
+// level rule, the SNR's speech level, the stage and the timing ("" for a
+// list variable, which mixes no noise).
+std::string masker_description(const AdaptiveProtocol& adaptive);
+
 std::vector<std::string> adaptive_design_warnings(const AdaptiveProtocol& adaptive, int keywords);
 
 }  // namespace avsi::analysis

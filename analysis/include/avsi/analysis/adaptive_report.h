@@ -83,6 +83,7 @@ struct SrtAnalysis {
     int excluded_tracks = 0;              // tracks left out (not converged)
     std::vector<std::string> excluded;    // "subject s03, audio-only: at the upper bound from sentence 6"
     std::vector<std::string> warnings;    // design warnings (ceilings below the tracked target)
+    std::string masker;                   // masker_description of the protocol ("" without noise)
     // The variable's units: "dB" (SNR), or "bands" / "Hz" for a list variable
     // (whose track steps, levels and thresholds are then in those units).
     std::string unit = "dB";

@@ -11,10 +11,20 @@
 // which signal moves: the noise (the speech stays at the stimulus level) or
 // the speech (the noise stays at fixed_level_dbfs). The SNR's speech level is
 // vocoder::speech_level_rms with the protocol's reference (active frames by
-// default), the noise's the RMS of the excerpt mixed. A mixture that would
-// clip is scaled down as a whole (the SNR is unchanged) and the gain logged.
-// The noise of each presentation is seeded by (experiment seed, subject,
-// position, attempt), so a repeated run mixes the same noise.
+// default), the noise's its RMS over the stimulus's span. A mixture that
+// would clip is scaled down as a whole (the SNR is unchanged) and the gain
+// logged. The noise of each presentation is seeded by (experiment seed,
+// subject, position, attempt), so a repeated run mixes the same noise.
+//
+// The masker runs over the whole presentation, not only the sentence: it
+// starts noise_lead_ms before the stimulus (the runner shows the face at
+// rest until the video starts) and ends noise_tail_ms after it, with
+// raised-cosine ramps at its ends. noise_stage = "before" (the default, as
+// `avsi vocode`) adds it to the speech before vocoding and vocodes the
+// mixture at run time with the stimuli's vocoder and the sentence's carrier
+// seed, from the unvocoded speech the builder writes beside each vocoded
+// stimulus; "after" adds it to the stimulus's vocoded audio. Vocoding a
+// sentence at run time takes milliseconds as well.
 //
 // Score check (confirm_scores = true, with session.response_mode =
 // "experimenter"): the runner shows the live score of each answer keyword by
@@ -43,6 +53,7 @@
 #include "avsi/core/protocol.h"
 #include "avsi/experiment/design.h"
 #include "avsi/experiment/store.h"
+#include "avsi/vocoder/vocoder.h"
 
 namespace avsi::analysis {
 class KeywordScorer;
@@ -62,6 +73,12 @@ struct MixedPresentation {
     double speech_gain_db = 0.0; // applied to the stimulus audio, limiter included
     double noise_gain_db = 0.0;  // the noise RMS in dBFS after the limiter
     double limit_gain_db = 0.0;
+    // The masker's lead: the stimulus's video starts this long after the
+    // audio (the face is shown at rest meanwhile).
+    double lead_s = 0.0;
+    // Noise before vocoding: the mixture at the vocoder's input (the SNR and
+    // the gains above are measured there); empty otherwise.
+    std::vector<float> vocoder_input;
 };
 
 class AdaptiveSession {
@@ -77,12 +94,14 @@ public:
 
     const analysis::AdaptiveProtocol& settings() const { return m_settings; }
 
-    // List variables: the stimulus folder the variants are read from (the
-    // planned stimulus paths are relative to it).
+    // The stimulus folder the variants and the unvocoded speech are read
+    // from (the planned stimulus paths are relative to it).
     void set_stimuli_dir(std::filesystem::path dir) { m_stimuli_dir = std::move(dir); }
-    // List variables: every level's variant of every test trial of `plan` is
-    // there (InputError naming the first missing one), so a session does not
-    // stop mid-track on a missing file.
+    // Every file the session will read is there (InputError naming the first
+    // missing one), so a session does not stop mid-track on a missing file:
+    // for a list variable every level's variant of every test trial of
+    // `plan`; for noise before vocoding the unvocoded speech of each vocoded
+    // trial. Needs the stimulus folder (nothing to check for a test pattern).
     void check_variants(const std::vector<PlannedTrial>& plan) const;
 
     // The level the trial's next presentation gets, in the variable's units:
@@ -93,8 +112,14 @@ public:
     // Presentations of the trial already stored (repeats), + 1.
     int next_attempt(const PlannedTrial& trial) const;
 
-    // Mixes the masking noise into `speech` (mono) at level_db(trial); for a
-    // list variable, returns the variant's samples instead (InputError when it
+    // Mixes the masking noise at level_db(trial) into the trial's speech:
+    // `speech` (the stimulus's audio, mono) when the noise goes after
+    // vocoding or the condition is clean; the stimulus's unvocoded speech
+    // (stimuli::unvocoded_audio_path; `speech` itself for a test pattern,
+    // with no stimuli folder) when it goes before, the mixture then vocoded.
+    // The masker spans lead + stimulus + tail, scaled so that its RMS over
+    // the stimulus's span gives the SNR, ramped at its ends. For a list
+    // variable, returns the variant's samples instead (InputError when a file
     // is missing or at another sample rate than `sample_rate`).
     MixedPresentation mix(const PlannedTrial& trial, const std::vector<float>& speech, int sample_rate);
 
@@ -114,6 +139,11 @@ public:
 
 private:
     const Sentence& sentence(const PlannedTrial& trial) const;
+    const ProtocolCondition& condition(const PlannedTrial& trial) const;
+    // Whether the trial's masker goes in before its condition's vocoder.
+    bool vocodes_mixture(const PlannedTrial& trial) const;
+    std::vector<float> unvocoded_speech(const PlannedTrial& trial, const std::vector<float>& presented,
+                                        int sample_rate) const;
 
     const Protocol& m_protocol;
     const Corpus& m_corpus;
@@ -123,6 +153,7 @@ private:
     std::map<int, int> m_attempts;  // position → presentations stored
     std::map<int, std::vector<double>> m_noise_by_rate;  // a noise recording, per sample rate
     std::filesystem::path m_stimuli_dir;
+    vocoder::VocoderSettings m_vocoder;  // noise before vocoding: the stimuli's vocoder
 };
 
 }  // namespace avsi::experiment

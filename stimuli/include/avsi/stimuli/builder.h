@@ -23,10 +23,12 @@
 
 #include "avsi/core/audio.h"
 #include "avsi/core/phones.h"
+#include "avsi/core/protocol.h"
 #include "avsi/stimuli/animation.h"
 #include "avsi/stimuli/layers.h"
 #include "avsi/stimuli/lod.h"
 #include "avsi/synth/trajectory.h"
+#include "avsi/vocoder/vocoder.h"
 
 namespace avsi::stimuli {
 
@@ -93,6 +95,19 @@ VerifyReport verify_stimuli(const BuildSettings& settings);
 // current level while it shows the MP4's video.
 std::filesystem::path variant_audio_path(const std::filesystem::path& video, const std::string& variable,
                                          double level);
+
+// Adaptive SNR tracks with the masker added before vocoding ([adaptive]
+// noise_stage = "before", the default): the speech of a vocoded stimulus
+// before vocoding, at the corpus speech level, "<sentence>/<condition>.unvocoded.wav"
+// beside the MP4 (listed under "unvocoded" in the manifest entry, checked by
+// --verify). The lab runner mixes the noise into it and vocodes the mixture
+// with protocol_vocoder_settings and the sentence's carrier seed.
+std::filesystem::path unvocoded_audio_path(const std::filesystem::path& video);
+
+// The protocol's [vocoder] settings as the builder applies them (InputError at the key).
+vocoder::VocoderSettings protocol_vocoder_settings(const Protocol& protocol);
+// The carrier seed of a sentence's vocoded audio (shared by its vocoded conditions).
+std::uint64_t sentence_vocoder_seed(const vocoder::VocoderSettings& base, const std::string& sentence_id);
 
 // One stimulus definition (a protocol's sentence × condition) as the builder
 // makes it, without rendering: the condition's trajectory (the still face's
