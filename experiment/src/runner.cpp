@@ -430,552 +430,649 @@ std::optional<std::vector<bool>> scripted_marks(const std::string& line, int att
     return marks;
 }
 
-}  // namespace
+// One run of a subject's session: the steps of run_session as members, the
+// state they share as fields. Construction prepares everything that can be
+// checked without a window (protocol, plan, stimuli, tracks); run() opens the
+// devices and turns keys, time and the machine's actions into drawing, sound
+// and database writes, one display refresh per loop.
+class SessionRun {
+public:
+    explicit SessionRun(const RunSettings& settings)
+        : m_settings(checked(settings)),
+          m_protocol(load_protocol(settings.protocol)),
+          m_corpus(read_corpus(m_protocol.corpus.sentences)),
+          m_scripted(!settings.script.empty()),
+          m_script(m_scripted ? read_script(settings.script) : std::vector<std::string>{}),
+          m_opener(make_stimulus_opener(settings, m_protocol.render.fps)),
+          m_store(settings.database) {
+        claim_database();
+        load_plan();
+        check_stimuli();
+        replay_tracks();
+        refuse_if_complete();
+        make_machine();
+    }
 
-RunResult run_session(const RunSettings& settings) {
-    if (settings.subject < 1) throw UsageError(fmt::format("--subject: expected a number ≥ 1, got {}", settings.subject));
-    const Protocol protocol = load_protocol(settings.protocol);
-    const Corpus corpus = read_corpus(protocol.corpus.sentences);
-    const bool scripted = !settings.script.empty();
-    std::vector<std::string> script;
-    if (scripted) script = read_script(settings.script);
-    auto opener = make_stimulus_opener(settings, protocol.render.fps);
+    RunResult run() {
+        open_devices();
+        begin_session();
+        while (m_running) {
+            glfwPollEvents();
+            const double next_flip_s = m_last_flip_s + (m_simulated ? m_period_s : m_flip_period->seconds());
+            if (glfwWindowShouldClose(m_window->handle()) && !m_machine->finished()) {
+                if (m_machine->screen() != Screen::Paused) m_machine->escape(next_flip_s);
+                m_machine->quit();
+            }
+            ImGui_ImplOpenGL3_NewFrame();
+            ImGui_ImplGlfw_NewFrame();
+            ImGui::NewFrame();
+            score_answer_to_check();
+            if (m_scripted) scripted_input(next_flip_s);
+            else key_input(next_flip_s);
+            m_machine->tick(next_flip_s);
+            // The machine's actions, in order; a commit finishes before anything else happens.
+            for (auto& action : m_machine->take_actions()) perform(action, next_flip_s);
+            const FrameChoice frame = choose_frame(next_flip_s);
+            draw_screen(frame, next_flip_s);
+            flip(frame);
+        }
+        return finish();
+    }
 
-    Store store(settings.database);
+private:
+    // The stimulus frame for the coming flip: a frame of the clip, or the
+    // first frame held during the masker's lead (outside the pacer's count).
+    struct FrameChoice {
+        int frame = -1;
+        bool lead = false;
+    };
+
+    const PlannedTrial& planned(int index) const { return m_plan[static_cast<std::size_t>(index)]; }
+
+    static const RunSettings& checked(const RunSettings& s) {
+        if (s.subject < 1) throw UsageError(fmt::format("--subject: expected a number ≥ 1, got {}", s.subject));
+        return s;
+    }
+
     // One runner per subject: a second one stops here, before any window or
     // write (the first one's sessions stay as they are).
-    const std::string broken_lock = store.lock_subject(settings.subject);
-    if (!broken_lock.empty()) log_warning("{}: subject {}: {}", settings.database.string(), settings.subject, broken_lock);
-    if (const auto name = store.meta("experiment"); name && *name != protocol.name)
-        throw InputError(settings.database, fmt::format("this database belongs to experiment \"{}\", the protocol "
-                                                        "is \"{}\"; give another --db",
-                                                        *name, protocol.name));
-    store.set_meta("experiment", protocol.name);
-    store.set_meta("protocol_sha256", sha256_file(settings.protocol));
+    void claim_database() {
+        const std::string broken_lock = m_store.lock_subject(m_settings.subject);
+        if (!broken_lock.empty())
+            log_warning("{}: subject {}: {}", m_settings.database.string(), m_settings.subject, broken_lock);
+        if (const auto name = m_store.meta("experiment"); name && *name != m_protocol.name)
+            throw InputError(m_settings.database, fmt::format("this database belongs to experiment \"{}\", the protocol "
+                                                              "is \"{}\"; give another --db",
+                                                              *name, m_protocol.name));
+        m_store.set_meta("experiment", m_protocol.name);
+        m_store.set_meta("protocol_sha256", sha256_file(m_settings.protocol));
+    }
 
     // The plan: stored on the subject's first session, reused on every resume.
-    std::vector<PlannedTrial> plan = store.planned_trials(settings.subject);
-    const std::vector<PlannedTrial> designed =
-        design_subject(protocol, assign_lists(corpus, protocol.design), settings.subject);
-    if (plan.empty()) {
-        plan = designed;
-        store.add_subject(settings.subject, plan);
-    } else if (plan != designed) {
-        log_warning("subject {}: the protocol or corpus changed since the first session; keeping the stored "
-                    "trial list so the subject's lists stay the same",
-                    settings.subject);
+    void load_plan() {
+        m_plan = m_store.planned_trials(m_settings.subject);
+        const std::vector<PlannedTrial> designed =
+            design_subject(m_protocol, assign_lists(m_corpus, m_protocol.design), m_settings.subject);
+        if (m_plan.empty()) {
+            m_plan = designed;
+            m_store.add_subject(m_settings.subject, m_plan);
+        } else if (m_plan != designed) {
+            log_warning("subject {}: the protocol or corpus changed since the first session; keeping the stored "
+                        "trial list so the subject's lists stay the same",
+                        m_settings.subject);
+        }
+        if (m_scripted && m_script.size() < m_plan.size())
+            throw InputError(m_settings.script,
+                             fmt::format("the script has {} responses, subject {} has {} planned trials "
+                                         "(one line per trial in plan order)",
+                                         m_script.size(), m_settings.subject, m_plan.size()));
     }
-    if (scripted && script.size() < plan.size())
-        throw InputError(settings.script, fmt::format("the script has {} responses, subject {} has {} planned trials "
-                                                      "(one line per trial in plan order)",
-                                                      script.size(), settings.subject, plan.size()));
 
     // Every planned stimulus listed in the manifest, present and unchanged.
-    std::string stimuli_note = "test pattern";
-    if (auto* folder = dynamic_cast<StimulusFolderOpener*>(opener.get())) {
-        if (!folder->manifest().experiment.empty() && folder->manifest().experiment != protocol.name)
-            throw InputError(settings.stimuli_dir / "manifest.json", 0, 0, "experiment",
-                             fmt::format("expected stimuli built for experiment \"{}\", got \"{}\"", protocol.name,
+    void check_stimuli() {
+        auto* folder = dynamic_cast<StimulusFolderOpener*>(m_opener.get());
+        if (!folder) return;
+        if (!folder->manifest().experiment.empty() && folder->manifest().experiment != m_protocol.name)
+            throw InputError(m_settings.stimuli_dir / "manifest.json", 0, 0, "experiment",
+                             fmt::format("expected stimuli built for experiment \"{}\", got \"{}\"", m_protocol.name,
                                          folder->manifest().experiment));
         std::vector<std::string> stimuli;
-        for (const auto& t : plan) stimuli.push_back(t.stimulus);
+        for (const auto& t : m_plan) stimuli.push_back(t.stimulus);
         folder->verify(stimuli);
-        stimuli_note = fmt::format("{} (manifest.json sha256 {}, {} stimuli checked)", settings.stimuli_dir.string(),
-                                   folder->manifest().sha256, std::set<std::string>(stimuli.begin(), stimuli.end()).size());
+        m_stimuli_note = fmt::format("{} (manifest.json sha256 {}, {} stimuli checked)", m_settings.stimuli_dir.string(),
+                                     folder->manifest().sha256,
+                                     std::set<std::string>(stimuli.begin(), stimuli.end()).size());
     }
+
     // Adaptive SRT tracks: replayed from the stored presentations.
-    std::unique_ptr<AdaptiveSession> adaptive;
-    if (protocol.adaptive.present()) {
-        adaptive = std::make_unique<AdaptiveSession>(protocol, corpus, store.adaptive_trials(settings.subject),
-                                                     settings.database.string());
-        if (adaptive->settings().list_variable()) {
+    void replay_tracks() {
+        if (!m_protocol.adaptive.present()) return;
+        m_adaptive = std::make_unique<AdaptiveSession>(m_protocol, m_corpus, m_store.adaptive_trials(m_settings.subject),
+                                                       m_settings.database.string());
+        if (m_adaptive->settings().list_variable()) {
             // Band-count / cutoff tracks play the builder's audio variants.
-            if (settings.stimuli_dir.empty())
+            if (m_settings.stimuli_dir.empty())
                 throw UsageError(fmt::format("--stimuli: a \"{}\" track plays the pre-rendered audio variants of the "
                                              "stimulus folder; give --stimuli DIR (with --test-pattern the video is "
                                              "the test clip, the audio the variants)",
-                                             analysis::to_string(adaptive->settings().variable)));
-            adaptive->set_stimuli_dir(settings.stimuli_dir);
-            adaptive->check_variants(plan);
-        } else if (!settings.stimuli_dir.empty()) {
+                                             analysis::to_string(m_adaptive->settings().variable)));
+            m_adaptive->set_stimuli_dir(m_settings.stimuli_dir);
+            m_adaptive->check_variants(m_plan);
+        } else if (!m_settings.stimuli_dir.empty()) {
             // Noise before vocoding reads each stimulus's unvocoded speech
             // (a test pattern without --stimuli: the pattern's own audio).
-            adaptive->set_stimuli_dir(settings.stimuli_dir);
-            adaptive->check_variants(plan);
+            m_adaptive->set_stimuli_dir(m_settings.stimuli_dir);
+            m_adaptive->check_variants(m_plan);
         }
     }
-    const std::vector<int> answered = store.answered_positions(settings.subject);
-    if (answered.size() >= plan.size()) {
-        // Every trial answered: a session left open was killed after its last
-        // commit. Close it as completed rather than opening an empty session.
-        for (const auto& open : store.open_sessions(settings.subject)) {
-            store.end_session(open.session, "completed");
-            store.add_event(open.session, settings.subject, "completed",
-                            fmt::format("session {} ended without closing after the last trial was answered; "
-                                        "closed as completed by the next run",
-                                        open.session));
+
+    // Every trial answered: a session left open was killed after its last
+    // commit. Close it as completed rather than opening an empty session.
+    void refuse_if_complete() {
+        m_answered = m_store.answered_positions(m_settings.subject);
+        if (m_answered.size() < m_plan.size()) return;
+        for (const auto& open : m_store.open_sessions(m_settings.subject)) {
+            m_store.end_session(open.session, "completed");
+            m_store.add_event(open.session, m_settings.subject, "completed",
+                              fmt::format("session {} ended without closing after the last trial was answered; "
+                                          "closed as completed by the next run",
+                                          open.session));
         }
-        throw InputError(settings.database, fmt::format("subject {} has answered all {} planned trials; nothing to "
-                                                        "run (give another --subject)",
-                                                        settings.subject, plan.size()));
+        throw InputError(m_settings.database, fmt::format("subject {} has answered all {} planned trials; nothing to "
+                                                          "run (give another --subject)",
+                                                          m_settings.subject, m_plan.size()));
     }
-    RunResult result;
-    result.answered_before = static_cast<int>(answered.size());
-    result.total = static_cast<int>(plan.size());
-    SessionMachine machine(plan, answered, protocol.session);
-    // Live scores of the answers not yet committed (trial index → keyword
-    // marks as they count, and as the live scorer gave them).
-    std::map<int, std::vector<bool>> live_marks, auto_marks;
-    if (adaptive) {
-        machine.set_confirm_scores(adaptive->settings().confirm_scores);
-        machine.set_repeat_rule([&](int index, const Response& response) {
-            const PlannedTrial& t = plan[static_cast<std::size_t>(index)];
-            const auto checked = live_marks.find(index);
-            std::vector<bool> marks = checked != live_marks.end() ? checked->second : adaptive->score(t, response.text);
-            const bool again = adaptive->repeats(t, marks);
-            live_marks[index] = std::move(marks);
+
+    void make_machine() {
+        m_result.answered_before = static_cast<int>(m_answered.size());
+        m_result.total = static_cast<int>(m_plan.size());
+        m_machine = std::make_unique<SessionMachine>(m_plan, m_answered, m_protocol.session);
+        if (!m_adaptive) return;
+        m_machine->set_confirm_scores(m_adaptive->settings().confirm_scores);
+        m_machine->set_repeat_rule([this](int index, const Response& response) {
+            const auto checked = m_live_marks.find(index);
+            std::vector<bool> marks =
+                checked != m_live_marks.end() ? checked->second : m_adaptive->score(planned(index), response.text);
+            const bool again = m_adaptive->repeats(planned(index), marks);
+            m_live_marks[index] = std::move(marks);
             return again;
         });
     }
-    auto script_line = [&](int index) {
-        const std::string& line = script[static_cast<std::size_t>(index)];
-        return adaptive ? scripted_answer(line, adaptive->next_attempt(plan[static_cast<std::size_t>(index)])) : line;
-    };
-    const int first_position = machine.trial() ? machine.trial()->position : 0;
 
-    std::unique_ptr<AudioOutput> audio;
-    if (settings.audio == "null")
-        audio = std::make_unique<NullAudioOutput>();
-    else if (settings.audio == "portaudio")
-        audio = make_portaudio_output(settings.audio_device);
-    else
-        throw UsageError(fmt::format("--audio: expected \"portaudio\" or \"null\", got \"{}\"", settings.audio));
-    result.audio_device = audio->name();
-
-    const bool fullscreen = settings.fullscreen.value_or(protocol.session.fullscreen);
-    const int monitor = settings.monitor.value_or(protocol.session.monitor);
-    Window window(settings, fullscreen, monitor, fmt::format("avsi — {} — subject {}", protocol.name, settings.subject));
-    const double refresh_hz = settings.audio == "null" ? settings.null_refresh_hz : window.refresh_hz();
-    const double period_s = 1.0 / refresh_hz;
-    // The simulated clock moves exactly one nominal period per swap; a real one is measured.
-    FlipPeriod flip_period(period_s);
-    const bool simulated = settings.audio == "null";
-
-    for (const auto& open : store.open_sessions(settings.subject)) {
-        store.mark_interrupted(open.session);
-        store.add_event(open.session, settings.subject, "interrupted",
-                        fmt::format("session {} ended without closing (crash, power loss or kill)", open.session));
+    void open_devices() {
+        if (m_settings.audio == "null")
+            m_audio = std::make_unique<NullAudioOutput>();
+        else if (m_settings.audio == "portaudio")
+            m_audio = make_portaudio_output(m_settings.audio_device);
+        else
+            throw UsageError(fmt::format("--audio: expected \"portaudio\" or \"null\", got \"{}\"", m_settings.audio));
+        m_result.audio_device = m_audio->name();
+        m_fullscreen = m_settings.fullscreen.value_or(m_protocol.session.fullscreen);
+        const int monitor = m_settings.monitor.value_or(m_protocol.session.monitor);
+        m_window = std::make_unique<Window>(m_settings, m_fullscreen, monitor,
+                                            fmt::format("avsi — {} — subject {}", m_protocol.name, m_settings.subject));
+        m_simulated = m_settings.audio == "null";
+        m_refresh_hz = m_simulated ? m_settings.null_refresh_hz : m_window->refresh_hz();
+        m_period_s = 1.0 / m_refresh_hz;
+        // The simulated clock moves exactly one nominal period per swap; a real one is measured.
+        m_flip_period = std::make_unique<FlipPeriod>(m_period_s);
+        m_last_flip_s = m_audio->now_s();
+        m_clock_start = m_last_flip_s;
+        m_wall_start = std::chrono::steady_clock::now();
     }
-    const int session = store.begin_session(
-        settings.subject, first_position,
-        fmt::format("audio={}; refresh_hz={:.3f}; scripted={}; fullscreen={}; response_mode={}", audio->name(),
-                    refresh_hz, scripted, fullscreen,
-                    protocol.session.response_mode == ResponseMode::Experimenter ? "experimenter" : "subject"));
-    result.session = session;
-    store.add_event(session, settings.subject, result.answered_before > 0 ? "resume" : "start",
-                    fmt::format("first trial {}, {} of {} answered before", first_position, result.answered_before,
-                                result.total));
-    store.add_event(session, settings.subject, "stimuli", stimuli_note);
-    if (adaptive) {
-        std::string levels;
-        for (const auto& c : protocol.conditions) {
-            const auto& track = adaptive->track(c.name);
-            levels += fmt::format("{}{}: next {} dB after {} presentations", levels.empty() ? "" : "; ", c.name,
-                                  track.level_db(), track.steps().size());
+
+    // Sessions left open are marked interrupted; this one begins, with its
+    // events (start or resume, the stimuli, the tracks' next levels).
+    void begin_session() {
+        for (const auto& open : m_store.open_sessions(m_settings.subject)) {
+            m_store.mark_interrupted(open.session);
+            m_store.add_event(open.session, m_settings.subject, "interrupted",
+                              fmt::format("session {} ended without closing (crash, power loss or kill)", open.session));
         }
-        store.add_event(session, settings.subject, "adaptive-tracks", levels);
-        log_info("adaptive tracks ({} scoring, {}): {}", analysis::to_string(adaptive->settings().track.procedure),
-                 analysis::to_string(adaptive->settings().order), levels);
+        const int first_position = m_machine->trial() ? m_machine->trial()->position : 0;
+        m_session = m_store.begin_session(
+            m_settings.subject, first_position,
+            fmt::format("audio={}; refresh_hz={:.3f}; scripted={}; fullscreen={}; response_mode={}", m_audio->name(),
+                        m_refresh_hz, m_scripted, m_fullscreen,
+                        m_protocol.session.response_mode == ResponseMode::Experimenter ? "experimenter" : "subject"));
+        m_result.session = m_session;
+        m_store.add_event(m_session, m_settings.subject, m_result.answered_before > 0 ? "resume" : "start",
+                          fmt::format("first trial {}, {} of {} answered before", first_position,
+                                      m_result.answered_before, m_result.total));
+        m_store.add_event(m_session, m_settings.subject, "stimuli", m_stimuli_note);
+        if (m_adaptive) {
+            std::string levels;
+            for (const auto& c : m_protocol.conditions) {
+                const auto& track = m_adaptive->track(c.name);
+                levels += fmt::format("{}{}: next {} dB after {} presentations", levels.empty() ? "" : "; ", c.name,
+                                      track.level_db(), track.steps().size());
+            }
+            m_store.add_event(m_session, m_settings.subject, "adaptive-tracks", levels);
+            log_info("adaptive tracks ({} scoring, {}): {}", analysis::to_string(m_adaptive->settings().track.procedure),
+                     analysis::to_string(m_adaptive->settings().order), levels);
+        }
+        log_info("subject {}: session {} {} at trial {} of {} ({} answered before), audio {}", m_settings.subject,
+                 m_session, m_result.answered_before > 0 ? "resumes" : "starts", first_position, m_result.total,
+                 m_result.answered_before, m_audio->name());
     }
-    log_info("subject {}: session {} {} at trial {} of {} ({} answered before), audio {}", settings.subject, session,
-             result.answered_before > 0 ? "resumes" : "starts", first_position, result.total,
-             result.answered_before, audio->name());
 
-    Playback playback;
-    std::string answer;
-    bool focus_answer = false;
-    std::string last_screen_key;
-    int screen_frames = 0;  // flips since the screen changed
-    int screenshot_seq = 0;
-    double last_flip_s = audio->now_s();
-    const auto wall_start = std::chrono::steady_clock::now();
-    const double clock_start = last_flip_s;
-    double sum_offset = 0.0;
-    int offset_count = 0;
-    bool running = true;
-    bool ended = false;
+    // The answer of a scripted line for the trial's next presentation.
+    std::string script_line(int index) const {
+        const std::string& line = m_script[static_cast<std::size_t>(index)];
+        return m_adaptive ? scripted_answer(line, m_adaptive->next_attempt(planned(index))) : line;
+    }
 
-    while (running) {
-        glfwPollEvents();
-        const double next_flip_s = last_flip_s + (simulated ? period_s : flip_period.seconds());
-        if (glfwWindowShouldClose(window.handle()) && !machine.finished()) {
-            if (machine.screen() != Screen::Paused) machine.escape(next_flip_s);
-            machine.quit();
-        }
+    // An answer waiting for the experimenter's check: scored live once.
+    void score_answer_to_check() {
+        if (m_machine->screen() != Screen::ScoreCheck || m_auto_marks.count(m_machine->trial_index())) return;
+        const int index = m_machine->trial_index();
+        m_auto_marks[index] = m_adaptive->score(planned(index), m_machine->pending_response().text);
+        m_live_marks[index] = m_auto_marks[index];
+    }
 
-        ImGui_ImplOpenGL3_NewFrame();
-        ImGui_ImplGlfw_NewFrame();
-        ImGui::NewFrame();
-
-        // Input: scripted, or keys.
-        const Screen screen = machine.screen();
-        // An answer waiting for the experimenter's check: scored live once.
-        if (screen == Screen::ScoreCheck && !auto_marks.count(machine.trial_index())) {
-            const int index = machine.trial_index();
-            auto_marks[index] = adaptive->score(plan[static_cast<std::size_t>(index)], machine.pending_response().text);
-            live_marks[index] = auto_marks[index];
-        }
+    // A scripted run answers each screen once it has been up for a flip.
+    void scripted_input(double next_flip_s) {
+        const Screen screen = m_machine->screen();
         const bool settled =
-            fmt::format("{}-{}", to_string(screen), machine.trial_index()) == last_screen_key && screen_frames >= 1;
-        if (scripted) {
-            if (settled) {
-                switch (screen) {
-                    case Screen::Instructions:
-                    case Screen::Break:
-                    case Screen::Feedback: machine.continue_pressed(next_flip_s); break;
-                    case Screen::Response:
-                        machine.submit(script_line(machine.trial_index()), next_flip_s);
-                        break;
-                    case Screen::ConfirmEmpty: machine.confirm_empty(true, next_flip_s); break;
-                    case Screen::ScoreCheck: {
-                        const int index = machine.trial_index();
-                        if (const auto marks = scripted_marks(script[static_cast<std::size_t>(index)],
-                                                              adaptive->next_attempt(plan[static_cast<std::size_t>(index)]),
-                                                              settings.script.string())) {
-                            if (marks->size() != live_marks[index].size())
-                                throw InputError(settings.script, 0, 0, "marks",
-                                                 fmt::format("trial {}: expected {} keyword marks, got {}",
-                                                             plan[static_cast<std::size_t>(index)].position,
-                                                             live_marks[index].size(), marks->size()));
-                            live_marks[index] = *marks;
-                        }
-                        machine.confirm_score(next_flip_s);
-                        break;
-                    }
-                    case Screen::End: running = false; break;
-                    default: break;
+            fmt::format("{}-{}", to_string(screen), m_machine->trial_index()) == m_last_screen_key && m_screen_frames >= 1;
+        if (!settled) return;
+        switch (screen) {
+            case Screen::Instructions:
+            case Screen::Break:
+            case Screen::Feedback: m_machine->continue_pressed(next_flip_s); break;
+            case Screen::Response: m_machine->submit(script_line(m_machine->trial_index()), next_flip_s); break;
+            case Screen::ConfirmEmpty: m_machine->confirm_empty(true, next_flip_s); break;
+            case Screen::ScoreCheck: {
+                const int index = m_machine->trial_index();
+                if (const auto marks = scripted_marks(m_script[static_cast<std::size_t>(index)],
+                                                      m_adaptive->next_attempt(planned(index)),
+                                                      m_settings.script.string())) {
+                    if (marks->size() != m_live_marks[index].size())
+                        throw InputError(m_settings.script, 0, 0, "marks",
+                                         fmt::format("trial {}: expected {} keyword marks, got {}",
+                                                     planned(index).position, m_live_marks[index].size(), marks->size()));
+                    m_live_marks[index] = *marks;
                 }
+                m_machine->confirm_score(next_flip_s);
+                break;
+            }
+            case Screen::End: m_running = false; break;
+            default: break;
+        }
+    }
+
+    void key_input(double next_flip_s) {
+        const Screen screen = m_machine->screen();
+        if (named_key_pressed(ImGuiKey_Escape)) {
+            if (screen == Screen::End) m_running = false;
+            else m_machine->escape(next_flip_s);
+        } else if (screen == Screen::Paused && key_pressed(GLFW_KEY_Q)) {
+            m_machine->quit();
+        } else if (screen == Screen::Instructions || screen == Screen::Break || screen == Screen::Feedback) {
+            if (named_key_pressed(ImGuiKey_Space) || named_key_pressed(ImGuiKey_Enter))
+                m_machine->continue_pressed(next_flip_s);
+        } else if (screen == Screen::ScoreCheck) {
+            auto& marks = m_live_marks[m_machine->trial_index()];
+            for (std::size_t k = 0; k < marks.size() && k < 9; ++k)
+                if (key_pressed(GLFW_KEY_1 + static_cast<int>(k))) marks[k] = !marks[k];
+            if (named_key_pressed(ImGuiKey_Enter)) m_machine->confirm_score(next_flip_s);
+        } else if (screen == Screen::ConfirmEmpty) {
+            if (key_pressed(GLFW_KEY_Y) || named_key_pressed(ImGuiKey_Enter)) m_machine->confirm_empty(true, next_flip_s);
+            else if (key_pressed(GLFW_KEY_N)) m_machine->confirm_empty(false, next_flip_s);
+        } else if (screen == Screen::End && m_screen_frames > 30 &&
+                   (named_key_pressed(ImGuiKey_Enter) || named_key_pressed(ImGuiKey_Space))) {
+            m_running = false;
+        }
+    }
+
+    void perform(const SessionAction& action, double next_flip_s) {
+        const PlannedTrial* t = action.trial_index >= 0 && action.trial_index < static_cast<int>(m_plan.size())
+                                    ? &planned(action.trial_index)
+                                    : nullptr;
+        switch (action.kind) {
+            case SessionAction::Kind::StartStimulus: start_stimulus(*t, next_flip_s); break;
+            case SessionAction::Kind::StopStimulus:
+                m_audio->stop();
+                m_store.add_event(m_session, m_settings.subject, "stimulus-interrupted",
+                                  fmt::format("trial {} paused during the stimulus; shown again", t->position));
+                m_playback = Playback{};
+                break;
+            case SessionAction::Kind::CommitResponse: commit_response(action, *t); break;
+            case SessionAction::Kind::Finished:
+                if (!m_ended) {
+                    m_store.end_session(m_session, "completed");
+                    m_ended = true;
+                }
+                m_result.completed = true;
+                break;
+            case SessionAction::Kind::Quit:
+                m_audio->stop();
+                m_store.end_session(m_session, "quit");
+                m_store.add_event(m_session, m_settings.subject, "quit",
+                                  fmt::format("stopped at trial {}", t ? t->position : 0));
+                m_ended = true;
+                m_result.quit = true;
+                break;
+        }
+    }
+
+    // Opens the trial's clip, mixes its audio (adaptive tracks) and schedules
+    // it for the coming flip; with --audio-capture the samples sent are kept.
+    void start_stimulus(const PlannedTrial& t, double next_flip_s) {
+        m_playback = Playback{};
+        m_playback.source = m_opener->open(t.stimulus);
+        m_playback.pacer = std::make_unique<FramePacer>(m_playback.source->fps(), m_playback.source->frame_count(),
+                                                        m_simulated ? m_refresh_hz : 1.0 / m_flip_period->seconds());
+        if (m_adaptive)
+            m_playback.mixed = m_adaptive->mix(t, m_playback.source->audio(), m_playback.source->sample_rate());
+        const std::vector<float>& samples = m_playback.mixed ? m_playback.mixed->samples : m_playback.source->audio();
+        m_audio->play(samples, m_playback.source->sample_rate(), next_flip_s + m_audio->lead_s());
+        if (m_settings.audio_capture.empty()) return;
+        Audio sent;
+        sent.sample_rate_hz = m_playback.source->sample_rate();
+        sent.samples = samples;
+        fs::create_directories(m_settings.audio_capture);
+        const int attempt = m_playback.mixed ? m_playback.mixed->attempt : 1;
+        write_audio(m_settings.audio_capture / (attempt == 1 ? fmt::format("trial{:03}.wav", t.position)
+                                                             : fmt::format("trial{:03}_{}.wav", t.position, attempt)),
+                    sent, SampleFormat::Float32);
+    }
+
+    void commit_response(const SessionAction& action, const PlannedTrial& t) {
+        const Presentation p = m_playback.pacer ? m_playback.pacer->summary() : Presentation{};
+        if (m_adaptive) {
+            const bool repeat = commit_adaptive(action, t, p);
+            if (repeat) {
+                m_playback = Playback{};
+                return;
             }
         } else {
-            if (named_key_pressed(ImGuiKey_Escape)) {
-                if (machine.screen() == Screen::End) running = false;
-                else machine.escape(next_flip_s);
-            } else if (screen == Screen::Paused && key_pressed(GLFW_KEY_Q)) {
-                machine.quit();
-            } else if (screen == Screen::Instructions || screen == Screen::Break || screen == Screen::Feedback) {
-                if (named_key_pressed(ImGuiKey_Space) || named_key_pressed(ImGuiKey_Enter)) machine.continue_pressed(next_flip_s);
-            } else if (screen == Screen::ScoreCheck) {
-                auto& marks = live_marks[machine.trial_index()];
-                for (std::size_t k = 0; k < marks.size() && k < 9; ++k)
-                    if (key_pressed(GLFW_KEY_1 + static_cast<int>(k))) marks[k] = !marks[k];
-                if (named_key_pressed(ImGuiKey_Enter)) machine.confirm_score(next_flip_s);
-            } else if (screen == Screen::ConfirmEmpty) {
-                if (key_pressed(GLFW_KEY_Y) || named_key_pressed(ImGuiKey_Enter)) machine.confirm_empty(true, next_flip_s);
-                else if (key_pressed(GLFW_KEY_N)) machine.confirm_empty(false, next_flip_s);
-            } else if (screen == Screen::End && screen_frames > 30 &&
-                       (named_key_pressed(ImGuiKey_Enter) || named_key_pressed(ImGuiKey_Space))) {
-                running = false;
+            m_store.commit_trial(m_session, t, p, action.response);
+        }
+        ++m_result.answered;
+        ++m_result.presentations;
+        m_result.dropped_frames += p.dropped_frames;
+        m_result.repeated_frames += p.repeated_frames;
+        m_result.max_abs_av_offset_ms = std::max(m_result.max_abs_av_offset_ms, p.max_abs_offset_ms);
+        if (!m_simulated)
+            log_info("trial {}: {} of {} frames shown, {} dropped, {} repeated; A/V offset mean {:.3f} ms, "
+                     "max |offset| {:.3f} ms (flip period {:.3f} ms)",
+                     t.position, p.frames_shown, p.frames_total, p.dropped_frames, p.repeated_frames, p.mean_offset_ms,
+                     p.max_abs_offset_ms, m_flip_period->seconds() * 1000.0);
+        for (const auto& f : p.flips) {
+            m_sum_offset += f.offset_ms;
+            ++m_offset_count;
+        }
+        m_playback = Playback{};
+    }
+
+    // An adaptive answer: scored (live, or as the experimenter corrected it),
+    // stepped on its track and committed with the presentation's record.
+    // Returns whether the trial is presented again (a repeat).
+    bool commit_adaptive(const SessionAction& action, const PlannedTrial& t, const Presentation& p) {
+        if (!m_playback.mixed) throw std::logic_error("adaptive: an answer without a mixed presentation");
+        const auto cached = m_live_marks.find(action.trial_index);
+        const std::vector<bool> marks =
+            cached != m_live_marks.end() ? cached->second : m_adaptive->score(t, action.response.text);
+        const auto live = m_auto_marks.find(action.trial_index);
+        const std::vector<bool> scored = live != m_auto_marks.end() ? live->second : marks;
+        m_live_marks.erase(action.trial_index);
+        m_auto_marks.erase(action.trial_index);
+        const AdaptiveRecord record = m_adaptive->record(t, *m_playback.mixed, action.response.text, scored, marks);
+        if (record.corrected)
+            m_store.add_event(m_session, m_settings.subject, "score-corrected",
+                              fmt::format("trial {} presentation {}: live score {} of {}, corrected to {} ({}) by the "
+                                          "experimenter",
+                                          t.position, record.attempt, record.auto_correct, record.keywords,
+                                          record.correct, record.marks));
+        if (action.repeat) m_store.commit_attempt(m_session, t, record);
+        else m_store.commit_trial(m_session, t, p, action.response, record);
+        const std::string unit = m_adaptive->settings().unit();
+        log_info("trial {}{}: {} {:.2f} {}, {} of {} keywords{}", t.position,
+                 record.attempt > 1 ? fmt::format(" (presentation {})", record.attempt) : "",
+                 m_adaptive->settings().list_variable() ? std::string("level") : std::string("SNR"), record.level_db,
+                 unit, record.correct, record.keywords,
+                 record.track.empty() ? std::string(" (no track)")
+                                      : fmt::format(", next {:.2f} {}{}", record.next_level_db, unit,
+                                                    record.repeat ? " (the same sentence again)" : ""));
+        return action.repeat;
+    }
+
+    // The stimulus frame for the coming flip, chosen on the audio clock; the
+    // pacer starts at the audio's onset plus the masker's lead.
+    FrameChoice choose_frame(double next_flip_s) {
+        FrameChoice choice;
+        if (m_machine->screen() != Screen::Stimulus || !m_playback.source) return choice;
+        Playback& pb = m_playback;
+        if (!pb.started) {
+            if (const auto onset = m_audio->onset_s()) {
+                pb.pacer->start(*onset + (pb.mixed ? pb.mixed->lead_s : 0.0));
+                pb.started = true;
+                if (const std::string detail = m_audio->onset_detail(); !detail.empty())
+                    log_info("trial {}: audio {}", m_machine->trial() ? m_machine->trial()->position : 0, detail);
             }
         }
-        machine.tick(next_flip_s);
-
-        // The machine's actions, in order; a commit finishes before anything else happens.
-        for (auto& action : machine.take_actions()) {
-            const PlannedTrial* t = action.trial_index >= 0 && action.trial_index < static_cast<int>(plan.size())
-                                        ? &plan[static_cast<std::size_t>(action.trial_index)]
-                                        : nullptr;
-            switch (action.kind) {
-                case SessionAction::Kind::StartStimulus: {
-                    playback = Playback{};
-                    playback.source = opener->open(t->stimulus);
-                    playback.pacer = std::make_unique<FramePacer>(playback.source->fps(), playback.source->frame_count(),
-                                                                  simulated ? refresh_hz : 1.0 / flip_period.seconds());
-                    if (adaptive)
-                        playback.mixed = adaptive->mix(*t, playback.source->audio(), playback.source->sample_rate());
-                    const std::vector<float>& samples = playback.mixed ? playback.mixed->samples : playback.source->audio();
-                    audio->play(samples, playback.source->sample_rate(), next_flip_s + audio->lead_s());
-                    if (!settings.audio_capture.empty()) {
-                        Audio sent;
-                        sent.sample_rate_hz = playback.source->sample_rate();
-                        sent.samples = samples;
-                        fs::create_directories(settings.audio_capture);
-                        const int attempt = playback.mixed ? playback.mixed->attempt : 1;
-                        write_audio(settings.audio_capture / (attempt == 1 ? fmt::format("trial{:03}.wav", t->position)
-                                                                           : fmt::format("trial{:03}_{}.wav", t->position, attempt)),
-                                    sent, SampleFormat::Float32);
-                    }
-                    break;
+        if (!pb.started) return choice;
+        const int k = pb.pacer->frame_for(next_flip_s);
+        if (k >= pb.pacer->frame_count()) {
+            if (!m_audio->playing()) m_machine->stimulus_finished(next_flip_s);
+        } else if (k < 0 && !pb.shown_any) {
+            // The masker's lead: the first frame (the face at rest), outside the pacer's count.
+            if (!pb.have_frame) pb.have_frame = pb.source->next_frame(pb.frame);
+            if (pb.have_frame && pb.uploaded != pb.frame.index) {
+                m_window->upload(pb.frame);
+                pb.uploaded = pb.frame.index;
+            }
+            choice.lead = pb.have_frame;
+        } else if (k >= 0) {
+            while ((!pb.have_frame || pb.frame.index < k) && pb.source->next_frame(pb.frame)) pb.have_frame = true;
+            if (pb.have_frame && pb.frame.index == k) {
+                // A frame held over several refreshes is uploaded once.
+                if (pb.uploaded != k) {
+                    m_window->upload(pb.frame);
+                    pb.uploaded = k;
                 }
-                case SessionAction::Kind::StopStimulus:
-                    audio->stop();
-                    store.add_event(session, settings.subject, "stimulus-interrupted",
-                                    fmt::format("trial {} paused during the stimulus; shown again", t->position));
-                    playback = Playback{};
-                    break;
-                case SessionAction::Kind::CommitResponse: {
-                    Presentation p = playback.pacer ? playback.pacer->summary() : Presentation{};
-                    if (adaptive) {
-                        if (!playback.mixed) throw std::logic_error("adaptive: an answer without a mixed presentation");
-                        auto cached = live_marks.find(action.trial_index);
-                        const std::vector<bool> marks =
-                            cached != live_marks.end() ? cached->second : adaptive->score(*t, action.response.text);
-                        const auto live = auto_marks.find(action.trial_index);
-                        const std::vector<bool> scored = live != auto_marks.end() ? live->second : marks;
-                        live_marks.erase(action.trial_index);
-                        auto_marks.erase(action.trial_index);
-                        const AdaptiveRecord record =
-                            adaptive->record(*t, *playback.mixed, action.response.text, scored, marks);
-                        if (record.corrected)
-                            store.add_event(session, settings.subject, "score-corrected",
-                                            fmt::format("trial {} presentation {}: live score {} of {}, corrected to {} "
-                                                        "({}) by the experimenter",
-                                                        t->position, record.attempt, record.auto_correct,
-                                                        record.keywords, record.correct, record.marks));
-                        if (action.repeat) {
-                            store.commit_attempt(session, *t, record);
-                        } else {
-                            store.commit_trial(session, *t, p, action.response, record);
-                        }
-                        log_info("trial {}{}: {} {:.2f} {}, {} of {} keywords{}", t->position,
-                                 record.attempt > 1 ? fmt::format(" (presentation {})", record.attempt) : "",
-                                 adaptive->settings().list_variable() ? std::string("level") : std::string("SNR"),
-                                 record.level_db, adaptive->settings().unit(), record.correct, record.keywords,
-                                 record.track.empty() ? std::string(" (no track)")
-                                                      : fmt::format(", next {:.2f} {}{}", record.next_level_db,
-                                                                    adaptive->settings().unit(),
-                                                                    record.repeat ? " (the same sentence again)" : ""));
-                        if (action.repeat) {
-                            playback = Playback{};
-                            break;
-                        }
-                    } else {
-                        store.commit_trial(session, *t, p, action.response);
-                    }
-                    ++result.answered;
-                    ++result.presentations;
-                    result.dropped_frames += p.dropped_frames;
-                    result.repeated_frames += p.repeated_frames;
-                    result.max_abs_av_offset_ms = std::max(result.max_abs_av_offset_ms, p.max_abs_offset_ms);
-                    if (!simulated)
-                        log_info("trial {}: {} of {} frames shown, {} dropped, {} repeated; A/V offset mean {:.3f} ms, "
-                                 "max |offset| {:.3f} ms (flip period {:.3f} ms)",
-                                 t->position, p.frames_shown, p.frames_total, p.dropped_frames, p.repeated_frames,
-                                 p.mean_offset_ms, p.max_abs_offset_ms, flip_period.seconds() * 1000.0);
-                    for (const auto& f : p.flips) {
-                        sum_offset += f.offset_ms;
-                        ++offset_count;
-                    }
-                    playback = Playback{};
-                    break;
-                }
-                case SessionAction::Kind::Finished:
-                    if (!ended) {
-                        store.end_session(session, "completed");
-                        ended = true;
-                    }
-                    result.completed = true;
-                    break;
-                case SessionAction::Kind::Quit:
-                    audio->stop();
-                    store.end_session(session, "quit");
-                    store.add_event(session, settings.subject, "quit",
-                                    fmt::format("stopped at trial {}", t ? t->position : 0));
-                    ended = true;
-                    result.quit = true;
-                    break;
+                choice.frame = k;
             }
         }
+        return choice;
+    }
 
-        // Stimulus frame for the coming flip, chosen on the audio clock.
-        int frame_to_show = -1;
-        bool lead_frame = false;  // the first frame shown during the masker's lead
-        if (machine.screen() == Screen::Stimulus && playback.source) {
-            if (!playback.started) {
-                if (const auto onset = audio->onset_s()) {
-                    // The masker's lead plays before the video starts.
-                    playback.pacer->start(*onset + (playback.mixed ? playback.mixed->lead_s : 0.0));
-                    playback.started = true;
-                    if (const std::string detail = audio->onset_detail(); !detail.empty())
-                        log_info("trial {}: audio {}", machine.trial() ? machine.trial()->position : 0, detail);
-                }
-            }
-            if (playback.started) {
-                const int k = playback.pacer->frame_for(next_flip_s);
-                if (k >= playback.pacer->frame_count()) {
-                    if (!audio->playing()) machine.stimulus_finished(next_flip_s);
-                } else if (k < 0 && !playback.shown_any) {
-                    // The masker's lead: the first frame (the face at rest), outside the pacer's count.
-                    if (!playback.have_frame) playback.have_frame = playback.source->next_frame(playback.frame);
-                    if (playback.have_frame && playback.uploaded != playback.frame.index) {
-                        window.upload(playback.frame);
-                        playback.uploaded = playback.frame.index;
-                    }
-                    lead_frame = playback.have_frame;
-                } else if (k >= 0) {
-                    while ((!playback.have_frame || playback.frame.index < k) && playback.source->next_frame(playback.frame)) {
-                        playback.have_frame = true;
-                    }
-                    if (playback.have_frame && playback.frame.index == k) {
-                        // A frame held over several refreshes is uploaded once.
-                        if (playback.uploaded != k) {
-                            window.upload(playback.frame);
-                            playback.uploaded = k;
-                        }
-                        frame_to_show = k;
-                    }
-                }
-            }
+    // The clip's texture, scaled to the display and drawn without blending
+    // (the video is opaque), then ImGui's state restored.
+    void draw_video(const ImVec2& display) {
+        Window& w = *m_window;
+        const float scale = std::min(display.x * 0.9f / w.texture_width(), display.y * 0.8f / w.texture_height());
+        const ImVec2 size(w.texture_width() * scale, w.texture_height() * scale);
+        ImDrawList* background = ImGui::GetBackgroundDrawList();
+        background->AddCallback([](const ImDrawList*, const ImDrawCmd*) { gl.Disable(GL_BLEND); }, nullptr);
+        background->AddImage(reinterpret_cast<ImTextureID>(static_cast<std::intptr_t>(w.texture())),
+                             ImVec2((display.x - size.x) * 0.5f, (display.y - size.y) * 0.5f),
+                             ImVec2((display.x + size.x) * 0.5f, (display.y + size.y) * 0.5f));
+        background->AddCallback(ImDrawCallback_ResetRenderState, nullptr);
+    }
+
+    void draw_response(const ImVec2& display, bool new_screen, double next_flip_s) {
+        centered_text("What did you hear? Type every word, then press Enter.", 0.35f);
+        ImGui::SetCursorPos(ImVec2(display.x * 0.15f, display.y * 0.5f));
+        ImGui::PushItemWidth(display.x * 0.7f);
+        if (m_scripted && m_machine->trial()) m_answer = script_line(m_machine->trial_index());
+        if (!m_scripted && (new_screen || m_focus_answer)) {
+            ImGui::SetKeyboardFocusHere();
+            m_focus_answer = false;
         }
+        if (new_screen && !m_scripted) m_answer.clear();
+        if (ImGui::InputText("##answer", &m_answer, ImGuiInputTextFlags_EnterReturnsTrue) && !m_scripted) {
+            m_machine->submit(m_answer, next_flip_s);
+            m_focus_answer = true;
+        }
+        ImGui::PopItemWidth();
+        hint_text("Enter: submit    Esc: pause");
+    }
 
-        // Draw the screen.
+    void draw_score_check() {
+        std::string text = fmt::format("Score check: \"{}\"\n\n", m_machine->pending_response().text);
+        if (const PlannedTrial* trial = m_machine->trial()) {
+            const Sentence& s = m_corpus.sentence(trial->sentence);
+            const auto& marks = m_live_marks[m_machine->trial_index()];
+            for (std::size_t k = 0; k < s.keywords.size() && k < marks.size(); ++k)
+                text += fmt::format("{}  [{}]  {}\n", k + 1, marks[k] ? "x" : " ", s.keywords[k].word);
+        }
+        centered_text(text);
+        hint_text("1-9: toggle a keyword    Enter: accept the score");
+    }
+
+    // Draws the machine's screen, renders it, and saves the screenshot of a
+    // new screen (the trial screen once its first frame is up).
+    void draw_screen(const FrameChoice& frame, double next_flip_s) {
         const ImVec2 display = ImGui::GetIO().DisplaySize;
         ImGui::SetNextWindowPos(ImVec2(0, 0));
         ImGui::SetNextWindowSize(display);
         ImGui::Begin("screen", nullptr,
                      ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoSavedSettings |
                          ImGuiWindowFlags_NoBringToFrontOnFocus | ImGuiWindowFlags_NoBackground);
-        const PlannedTrial* trial = machine.trial();
-        const Screen shown = machine.screen();
-        const std::string screen_key = fmt::format("{}-{}", to_string(shown), machine.trial_index());
-        const bool new_screen = screen_key != last_screen_key;
-        const std::string progress =
-            protocol.session.show_progress && trial
-                ? fmt::format("Sentence {} of {}", trial->position, machine.total_trials())
-                : std::string();
+        const PlannedTrial* trial = m_machine->trial();
+        const Screen shown = m_machine->screen();
+        const std::string screen_key = fmt::format("{}-{}", to_string(shown), m_machine->trial_index());
+        const bool new_screen = screen_key != m_last_screen_key;
         switch (shown) {
             case Screen::Instructions:
-                centered_text(machine.message());
+                centered_text(m_machine->message());
                 hint_text("Press Space to begin");
                 break;
             case Screen::Fixation: centered_text("+", 0.5f); break;
             case Screen::Stimulus:
-                if (frame_to_show >= 0 || playback.shown_any || lead_frame) {
-                    const float scale = std::min(display.x * 0.9f / window.texture_width(), display.y * 0.8f / window.texture_height());
-                    const ImVec2 size(window.texture_width() * scale, window.texture_height() * scale);
-                    // The video is opaque: drawn without blending (no read of
-                    // the framebuffer under it), then ImGui's state is restored.
-                    ImDrawList* background = ImGui::GetBackgroundDrawList();
-                    background->AddCallback([](const ImDrawList*, const ImDrawCmd*) { gl.Disable(GL_BLEND); }, nullptr);
-                    background->AddImage(
-                        reinterpret_cast<ImTextureID>(static_cast<std::intptr_t>(window.texture())),
-                        ImVec2((display.x - size.x) * 0.5f, (display.y - size.y) * 0.5f),
-                        ImVec2((display.x + size.x) * 0.5f, (display.y + size.y) * 0.5f));
-                    background->AddCallback(ImDrawCallback_ResetRenderState, nullptr);
-                } else {
-                    centered_text("+", 0.5f);
-                }
+                if (frame.frame >= 0 || m_playback.shown_any || frame.lead) draw_video(display);
+                else centered_text("+", 0.5f);
                 break;
             case Screen::Wait: break;
-            case Screen::Response: {
-                centered_text("What did you hear? Type every word, then press Enter.", 0.35f);
-                ImGui::SetCursorPos(ImVec2(display.x * 0.15f, display.y * 0.5f));
-                ImGui::PushItemWidth(display.x * 0.7f);
-                if (scripted && trial) answer = script_line(machine.trial_index());
-                if (!scripted && (new_screen || focus_answer)) {
-                    ImGui::SetKeyboardFocusHere();
-                    focus_answer = false;
-                }
-                if (new_screen && !scripted) answer.clear();
-                if (ImGui::InputText("##answer", &answer, ImGuiInputTextFlags_EnterReturnsTrue) && !scripted) {
-                    machine.submit(answer, next_flip_s);
-                    focus_answer = true;
-                }
-                ImGui::PopItemWidth();
-                hint_text("Enter: submit    Esc: pause");
-                break;
-            }
-            case Screen::ScoreCheck: {
-                std::string text = fmt::format("Score check: \"{}\"\n\n", machine.pending_response().text);
-                if (trial) {
-                    const Sentence& s = corpus.sentence(trial->sentence);
-                    const auto& marks = live_marks[machine.trial_index()];
-                    for (std::size_t k = 0; k < s.keywords.size() && k < marks.size(); ++k)
-                        text += fmt::format("{}  [{}]  {}\n", k + 1, marks[k] ? "x" : " ", s.keywords[k].word);
-                }
-                centered_text(text);
-                hint_text("1-9: toggle a keyword    Enter: accept the score");
-                break;
-            }
+            case Screen::Response: draw_response(display, new_screen, next_flip_s); break;
+            case Screen::ScoreCheck: draw_score_check(); break;
             case Screen::ConfirmEmpty:
                 centered_text("You did not type anything. Submit an empty answer?");
                 hint_text("Y or Enter: submit empty    N: go back and type");
                 break;
-            case Screen::Feedback: {
-                std::string text;
-                if (trial) text = "The sentence was:\n\n" + corpus.sentence(trial->sentence).text;
-                centered_text(text);
+            case Screen::Feedback:
+                centered_text(trial ? "The sentence was:\n\n" + m_corpus.sentence(trial->sentence).text : std::string());
                 hint_text("Press Space to continue");
                 break;
-            }
             case Screen::Break:
-                centered_text(machine.message());
+                centered_text(m_machine->message());
                 // The default break text already names the key.
-                if (machine.message().find("Space") == std::string::npos) hint_text("Press Space to continue");
+                if (m_machine->message().find("Space") == std::string::npos) hint_text("Press Space to continue");
                 break;
             case Screen::Paused:
                 centered_text("Paused.");
                 hint_text("Esc: continue    Q: stop the session (it can be resumed later)");
                 break;
-            case Screen::End: centered_text(machine.message()); break;
+            case Screen::End: centered_text(m_machine->message()); break;
         }
-        if (!progress.empty() && shown != Screen::Stimulus && shown != Screen::End && shown != Screen::Paused) {
+        if (m_protocol.session.show_progress && trial && shown != Screen::Stimulus && shown != Screen::End &&
+            shown != Screen::Paused) {
+            const std::string progress = fmt::format("Sentence {} of {}", trial->position, m_machine->total_trials());
             ImGui::SetCursorPos(ImVec2(display.x * 0.02f, display.y * 0.95f));
             ImGui::TextColored(ImVec4(0.75f, 0.75f, 0.75f, 1.0f), "%s", progress.c_str());
         }
         ImGui::End();
         ImGui::Render();
         int fb_w = 0, fb_h = 0;
-        glfwGetFramebufferSize(window.handle(), &fb_w, &fb_h);
+        glfwGetFramebufferSize(m_window->handle(), &fb_w, &fb_h);
         gl.Viewport(0, 0, fb_w, fb_h);
         gl.ClearColor(0.25f, 0.25f, 0.25f, 1.0f);
         gl.Clear(GL_COLOR_BUFFER_BIT);
         ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-
-        // One PNG per new screen (the trial screen once its first frame is up).
-        if (!settings.screenshots.empty() && new_screen && (shown != Screen::Stimulus || frame_to_show >= 0)) {
-            window.screenshot(settings.screenshots /
-                              fmt::format("{:04}_{}_trial{:03}.png", ++screenshot_seq, to_string(shown),
-                                          trial ? trial->position : 0));
-            ++result.screenshots;
+        if (!m_settings.screenshots.empty() && new_screen && (shown != Screen::Stimulus || frame.frame >= 0)) {
+            m_window->screenshot(m_settings.screenshots / fmt::format("{:04}_{}_trial{:03}.png", ++m_screenshot_seq,
+                                                                      to_string(shown), trial ? trial->position : 0));
+            ++m_result.screenshots;
         }
-        if (shown != Screen::Stimulus || frame_to_show >= 0 || !new_screen) {
-            screen_frames = new_screen ? 0 : screen_frames + 1;
-            last_screen_key = screen_key;
+        if (shown != Screen::Stimulus || frame.frame >= 0 || !new_screen) {
+            m_screen_frames = new_screen ? 0 : m_screen_frames + 1;
+            m_last_screen_key = screen_key;
         }
+    }
 
-        glfwSwapBuffers(window.handle());
-        if (settings.audio != "null") gl.Finish();
-        audio->after_flip(period_s);
-        const double flip_s = audio->now_s();
-        flip_period.flipped(flip_s - last_flip_s);
-        last_flip_s = flip_s;
-        if (frame_to_show >= 0) {
-            playback.pacer->flipped(frame_to_show, playback.frame.pts_s, flip_s);
-            playback.shown_any = true;
+    // Swaps, reads the flip time off the audio clock and tells the pacer
+    // which frame reached the screen.
+    void flip(const FrameChoice& frame) {
+        glfwSwapBuffers(m_window->handle());
+        if (m_settings.audio != "null") gl.Finish();
+        m_audio->after_flip(m_period_s);
+        const double flip_s = m_audio->now_s();
+        m_flip_period->flipped(flip_s - m_last_flip_s);
+        m_last_flip_s = flip_s;
+        if (frame.frame >= 0) {
+            m_playback.pacer->flipped(frame.frame, m_playback.frame.pts_s, flip_s);
+            m_playback.shown_any = true;
         }
         // The simulated clock never runs ahead of real time in an interactive dry run.
-        if (settings.audio == "null" && !scripted) {
-            const auto target = wall_start + std::chrono::duration<double>(flip_s - clock_start);
+        if (m_settings.audio == "null" && !m_scripted) {
+            const auto target = m_wall_start + std::chrono::duration<double>(flip_s - m_clock_start);
             std::this_thread::sleep_until(target);
         }
     }
-    if (!ended) {
-        store.end_session(session, "quit");
-        result.quit = true;
+
+    // Closes the session (quit unless it completed) and logs the timing summary.
+    RunResult finish() {
+        if (!m_ended) {
+            m_store.end_session(m_session, "quit");
+            m_result.quit = true;
+        }
+        m_result.mean_av_offset_ms = m_offset_count ? m_sum_offset / m_offset_count : 0.0;
+        m_result.completed = m_store.answered_positions(m_settings.subject).size() == m_plan.size();
+        const std::string summary = fmt::format(
+            "{} presentations, {} dropped frames, {} repeated frames, A/V offset mean {:.3f} ms, max |offset| {:.3f} ms",
+            m_result.presentations, m_result.dropped_frames, m_result.repeated_frames, m_result.mean_av_offset_ms,
+            m_result.max_abs_av_offset_ms);
+        m_store.add_event(m_session, m_settings.subject, "timing-summary",
+                          fmt::format("{} ({})", summary, m_audio->name()));
+        log_info("timing: {} (clock: {})", summary, m_audio->name());
+        return m_result;
     }
-    result.mean_av_offset_ms = offset_count ? sum_offset / offset_count : 0.0;
-    const auto answered_after = store.answered_positions(settings.subject);
-    result.completed = answered_after.size() == plan.size();
-    store.add_event(session, settings.subject, "timing-summary",
-                    fmt::format("{} presentations, {} dropped frames, {} repeated frames, A/V offset mean {:.3f} ms, "
-                                "max |offset| {:.3f} ms ({})",
-                                result.presentations, result.dropped_frames, result.repeated_frames,
-                                result.mean_av_offset_ms, result.max_abs_av_offset_ms, audio->name()));
-    log_info("timing: {} presentations, {} dropped frames, {} repeated frames, A/V offset mean {:.3f} ms, "
-             "max |offset| {:.3f} ms (clock: {})",
-             result.presentations, result.dropped_frames, result.repeated_frames, result.mean_av_offset_ms,
-             result.max_abs_av_offset_ms, audio->name());
-    return result;
-}
+
+    const RunSettings& m_settings;
+    const Protocol m_protocol;
+    const Corpus m_corpus;
+    const bool m_scripted;
+    std::vector<std::string> m_script;
+    std::unique_ptr<StimulusOpener> m_opener;
+    Store m_store;
+    std::vector<PlannedTrial> m_plan;
+    std::vector<int> m_answered;  // positions answered before this run
+    std::string m_stimuli_note = "test pattern";
+    std::unique_ptr<AdaptiveSession> m_adaptive;
+    std::unique_ptr<SessionMachine> m_machine;
+    // Live scores of the answers not yet committed (trial index → keyword
+    // marks as they count, and as the live scorer gave them).
+    std::map<int, std::vector<bool>> m_live_marks, m_auto_marks;
+    RunResult m_result;
+
+    std::unique_ptr<AudioOutput> m_audio;
+    std::unique_ptr<Window> m_window;
+    bool m_fullscreen = false;
+    bool m_simulated = false;
+    double m_refresh_hz = 60.0;
+    double m_period_s = 1.0 / 60.0;
+    std::unique_ptr<FlipPeriod> m_flip_period;
+    int m_session = 0;
+
+    Playback m_playback;
+    std::string m_answer;
+    bool m_focus_answer = false;
+    std::string m_last_screen_key;
+    int m_screen_frames = 0;  // flips since the screen changed
+    int m_screenshot_seq = 0;
+    double m_last_flip_s = 0.0;
+    std::chrono::steady_clock::time_point m_wall_start;
+    double m_clock_start = 0.0;
+    double m_sum_offset = 0.0;
+    int m_offset_count = 0;
+    bool m_running = true;
+    bool m_ended = false;
+};
+
+}  // namespace
+
+RunResult run_session(const RunSettings& settings) { return SessionRun(settings).run(); }
 
 }  // namespace avsi::experiment
