@@ -5,7 +5,9 @@
 // filtered back into the same band; the bands are level-matched and summed.
 // Every choice a methods section must report (Cychosz, Winn & Goupell 2024,
 // "How to vocode", JASA 155) is a field of VocoderSettings and is written out
-// by describe().
+// by describe(). vocode(), vocode_stream() and vocode_channel() are the fast
+// path; reference.h has the same vocoder written as its equations (the same
+// output bit for bit).
 //
 // Usage:
 //   avsi::vocoder::VocoderSettings settings;       // the study: 3 bands, 100–5000 Hz
