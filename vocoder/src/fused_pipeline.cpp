@@ -1,7 +1,8 @@
 // The fused steps 1–4 and the vectorised noise carriers; see fused_pipeline.h.
 // The per-lane arithmetic is written as in filters.cpp's run_chunk (BandPass
-// and LowPass2 kernels) and vocoder.cpp's steps, in the same order (but for
-// one rewrite that gives the same value, see band_pass_section).
+// and LowPass2 kernels) and the steps of channel_pipeline.cpp's plain way
+// and reference.cpp, in the same order (but for one rewrite that gives the
+// same value, see band_pass_section).
 // Compiled without floating-point contraction (vocoder/CMakeLists.txt), so
 // every clone below rounds alike.
 #include "fused_pipeline.h"
@@ -119,12 +120,9 @@ inline std::size_t column(const FusedBlock& block, std::size_t chunk) {
 // (its state from one frame to the next: a multiply, a subtract and an
 // add) is then the longest chain through a step, and the sections of a
 // step are independent of each other, so the core runs them side by side
-// without looking ahead across frames. On 9 minutes, one thread and no
-// store (all three passes filtering), `perf record`: the front 66 -> 54 ms
-// a pass (20 -> 16 cycles a frame at 3.6 GHz, near the add ports' limit
-// for its 21 adds), the whole process 541 -> 480 ms. Every section still
-// sees its frames in order with the same inputs, so each value is the same
-// bit for bit. The first and last steps of a block run only the sections
+// without looking ahead across frames (docs/performance.md has the
+// measurement). Every section still sees its frames in order with the same
+// inputs, so each value is the same bit for bit. The first and last steps of a block run only the sections
 // whose frame is in the block (`Edge`), so the state is whole at the
 // block's end.
 

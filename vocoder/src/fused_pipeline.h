@@ -1,4 +1,5 @@
-// Steps 1–4 of the channel vocoder (vocoder.cpp) in one loop over the
+// Steps 1–4 of the channel vocoder (reference.cpp gives their equations;
+// channel_pipeline.cpp runs them bank by bank) in one loop over the
 // samples of a block, for the common settings: Butterworth band-pass bands
 // (SosBank::Kind::BandPass) of `order` 4, a Butterworth envelope low-pass of
 // order 4 (two LowPass2 sections), half- or full-wave rectification, causal

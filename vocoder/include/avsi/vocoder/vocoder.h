@@ -5,7 +5,9 @@
 // filtered back into the same band; the bands are level-matched and summed.
 // Every choice a methods section must report (Cychosz, Winn & Goupell 2024,
 // "How to vocode", JASA 155) is a field of VocoderSettings and is written out
-// by describe().
+// by describe(). vocode(), vocode_stream() and vocode_channel() are the fast
+// path; reference.h has the same vocoder written as its equations (the same
+// output bit for bit).
 //
 // Usage:
 //   avsi::vocoder::VocoderSettings settings;       // the study: 3 bands, 100–5000 Hz
@@ -121,10 +123,11 @@ struct VocoderReport {
 // for sample. Level matching and the anti-clipping scale need the whole
 // signal's levels before the first sample is written, so the input is read
 // in up to three passes (measure; level of the sum; write): the band outputs
-// of the first pass are kept up to a memory budget (64 MiB: 4.2 minutes of
-// 3-band mono at 22.05 kHz) and computed again past it. Memory is bounded by the block length, the band count and the budget,
-// whatever the length — except with zero_phase, Hilbert envelopes or
-// low-noise carriers, which need the whole signal at once (in memory).
+// of the first pass are kept up to a memory budget (96 MiB: 6.3 minutes of
+// 3-band mono at 22.05 kHz) and computed again past it. Memory is bounded by
+// the block length, the band count and the budget, whatever the length —
+// except with zero_phase, Hilbert envelopes or low-noise carriers, which
+// need the whole signal at once (in memory).
 VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const VocoderSettings& settings);
 
 // One channel's output and what was measured on the way.
