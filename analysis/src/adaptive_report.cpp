@@ -194,7 +194,7 @@ SrtAnalysis analyze_srt(const std::vector<AdaptiveTrialRow>& rows, const TrackSe
                 track.record(r.keywords, r.correct);
             }
             if (!ok) continue;
-            tr.steps = list ? list->in_units(track.steps()) : track.steps();
+            tr.steps = list ? in_units(*list, track.steps()) : track.steps();
             const std::vector<TrackStep> scaled = on_scale(tr.steps);
             tr.srt = estimate_srt(settings, scaled);
             tr.ml = estimate_srt(settings, scaled, SrtEstimator::MaximumLikelihood, ceiling_of(condition));

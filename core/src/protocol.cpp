@@ -443,7 +443,7 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
     else
         p.online = absent_section(file, "online");
 
-    // [adaptive] — adaptive SRT tracks, validated by the analysis module (adaptive.h).
+    // [adaptive] — adaptive SRT tracks, validated by adaptive_protocol() (adaptive_protocol.h).
     if (const ConfigSection* a = root.get_table("adaptive", problems))
         p.adaptive = *a;
     else

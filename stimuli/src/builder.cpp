@@ -16,7 +16,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "avsi/analysis/adaptive.h"
+#include "avsi/core/adaptive_protocol.h"
 #include "avsi/core/audio.h"
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
@@ -312,7 +312,7 @@ struct Plan {
     std::map<std::string, LayerSettings> layers;
     json settings_json;
     std::vector<Job> jobs;
-    analysis::AdaptiveProtocol adaptive;  // a list variable's levels are pre-rendered
+    AdaptiveProtocol adaptive;  // a list variable's levels are pre-rendered
     std::size_t not_needed = 0;  // pairs the design never shows
 
     explicit Plan(const BuildSettings& settings);
@@ -342,7 +342,7 @@ Plan::Plan(const BuildSettings& settings)
     render.background = parse_colour(pr.background, protocol);
     fps = pr.fps;
     vocoder_base = vocoder_settings(protocol);
-    adaptive = analysis::adaptive_protocol(protocol);
+    adaptive = adaptive_protocol(protocol);
     // The protocol's own head ([render] head_gltf, or head_mesh + head_rig) or the built-in one.
     if (!pr.head_gltf.empty())
         head = load_gltf_head(pr.head_gltf, pr.head_mapping.empty() ? default_blendshape_mapping() : pr.head_mapping);
@@ -480,7 +480,7 @@ Plan::Plan(const BuildSettings& settings)
             job.head_seed = derive_seed(protocol.seed, "head-motion/" + s.id + "/" + c.name);
             json variants_key = nullptr;
             if (adaptive.list_variable() && c.audio == ConditionAudio::Vocoded) {
-                const std::string variable = analysis::to_string(adaptive.variable);
+                const std::string variable = to_string(adaptive.variable);
                 for (const double level : adaptive.levels)
                     job.variants.push_back({level, variant_audio_path(job.video, variable, level)});
                 variants_key = {{"variable", variable}, {"levels", adaptive.levels}};
@@ -1016,7 +1016,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                     for (const auto& variant : job.variants) {
                         vocoder::VocoderSettings v = vocoder_base;
                         v.seed = job.vocoder_seed;
-                        if (plan.adaptive.variable == analysis::AdaptiveVariable::Bands)
+                        if (plan.adaptive.variable == AdaptiveVariable::Bands)
                             v.bands = static_cast<int>(variant.level);
                         else
                             v.envelope_cutoff_hz = variant.level;
@@ -1029,7 +1029,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                                                          "below {:.1f} dBFS; at {:.1f} dBFS sentence '{}' with {} = {} "
                                                          "peaks at {:.2f} dBFS",
                                                          max_peak_dbfs, protocol.corpus.level_dbfs, job.sentence->id,
-                                                         analysis::to_string(plan.adaptive.variable), variant.level,
+                                                         to_string(plan.adaptive.variable), variant.level,
                                                          vl.peak_dbfs));
                         write_audio(settings.out_dir / variant.wav, rendered);
                         variants.push_back({{"level", variant.level},
@@ -1093,7 +1093,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                 if (!layers_record.is_null()) job.entry["layers"] = layers_record;
                 if (!closure_change.is_null()) job.entry["closure_change"] = closure_change;
                 if (!variants.is_null())
-                    job.entry["variants"] = {{"variable", analysis::to_string(plan.adaptive.variable)},
+                    job.entry["variants"] = {{"variable", to_string(plan.adaptive.variable)},
                                              {"unit", plan.adaptive.unit()},
                                              {"files", variants}};
                 progress.advance();
