@@ -17,6 +17,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/core/protocol.h"
+#include "avsi/core/text.h"
 #include "report_html.h"
 
 namespace avsi::analysis {
@@ -507,7 +508,7 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
         "max-width:60rem;margin:2rem auto;padding:0 1rem}}table{{border-collapse:collapse}}td,th{{border:1px solid "
         "#ccc;padding:.2rem .5rem;text-align:right}}th{{background:#f3f3f3}}</style></head><body>\n<h1>{0}</h1>\n"
         "<p>Data: <code>{1}</code>. Procedure: {2}.</p>\n",
-        detail::html_escape(settings.title), detail::html_escape(settings.source.string()), detail::html_escape(procedure));
+        xml_escape(settings.title), xml_escape(settings.source.string()), xml_escape(procedure));
 
     // SRT means.
     md += fmt::format("## SRT by condition ({}; lower is better)\n\n", a.threshold_label);
@@ -520,12 +521,12 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
             md += fmt::format("| {} | {} | {:.2f} | {:.2f} | [{:.2f}, {:.2f}] |\n", d.condition, d.n, d.mean, d.sd,
                               d.ci_low, d.ci_high);
             html += fmt::format("<tr><td>{}</td><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>[{:.2f}, {:.2f}]</td></tr>\n",
-                                detail::html_escape(d.condition), d.n, d.mean, d.sd, d.ci_low, d.ci_high);
+                                xml_escape(d.condition), d.n, d.mean, d.sd, d.ci_low, d.ci_high);
         }
         html += "</table>\n";
         const std::string apa = apa_anova(a.anova->anova);
         md += fmt::format("\nRepeated-measures ANOVA on the SRTs: {} (n = {}).\n\n", apa, a.anova->anova.n);
-        html += fmt::format("<p>Repeated-measures ANOVA on the SRTs: {} (n = {}).</p>\n", detail::html_escape(apa),
+        html += fmt::format("<p>Repeated-measures ANOVA on the SRTs: {} (n = {}).</p>\n", xml_escape(apa),
                             a.anova->anova.n);
         md += sphericity_markdown(*a.anova) + "\n";
         html += sphericity_html(*a.anova);
@@ -536,7 +537,7 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     // Visual benefit.
     md += fmt::format("## Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)\n\n", a.reference);
     html += fmt::format("<h2>Visual benefit (SRT of {} minus SRT of the condition; positive: the face helps)</h2>\n",
-                        detail::html_escape(a.reference));
+                        xml_escape(a.reference));
     md += fmt::format("| condition | n | benefit ({}) | {:.0f} % CI | t | df | p | p (Holm) |\n| --- | ---: | ---: | --- | "
                       "---: | ---: | ---: | ---: |\n",
                       a.scale, 100 * settings.confidence);
@@ -550,7 +551,7 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
                           b.mean_db, b.ci_low_db, b.ci_high_db, opt_text(b.t, "{:.2f}"), b.df, p, p_holm);
         html += fmt::format("<tr><td>{}</td><td>{}</td><td>{:.2f}</td><td>[{:.2f}, {:.2f}]</td><td>{}</td><td>{:.0f}</td>"
                             "<td>{}</td><td>{}</td></tr>\n",
-                            detail::html_escape(b.condition), b.n, b.mean_db, b.ci_low_db, b.ci_high_db,
+                            xml_escape(b.condition), b.n, b.mean_db, b.ci_low_db, b.ci_high_db,
                             opt_text(b.t, "{:.2f}"), b.df, p, p_holm);
     }
     html += "</table>\n";
@@ -559,7 +560,7 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
                       a.benefits.size(), a.reference);
     html += fmt::format("<p>Uncorrected paired t-tests (df = n − 1) and Holm's adjustment over the {} benefit(s) "
                         "against {}.</p>\n",
-                        a.benefits.size(), detail::html_escape(a.reference));
+                        a.benefits.size(), xml_escape(a.reference));
     // Tracks left out of the statistics.
     {
         std::string text;
@@ -575,10 +576,10 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
                                                        "threshold in every condition is dropped from the ANOVA)",
                                fmt::join(a.excluded, "; "));
         md += "## Convergence\n\n" + text + "\n\n";
-        html += "<h2>Convergence</h2>\n<p>" + detail::html_escape(text) + "</p>\n";
+        html += "<h2>Convergence</h2>\n<p>" + xml_escape(text) + "</p>\n";
         for (const auto& w : a.warnings) {
             md += "Warning: " + w + ".\n\n";
-            html += "<p>Warning: " + detail::html_escape(w) + ".</p>\n";
+            html += "<p>Warning: " + xml_escape(w) + ".</p>\n";
         }
     }
     // Per-subject SRTs.
@@ -600,7 +601,7 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
                           a.log2_scale ? " | " + units : "", se, ml, mlse, t.steps.size(), reversals, converged);
         html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td>{}<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
                             "<td>{}</td></tr>\n",
-                            detail::html_escape(t.subject), detail::html_escape(t.condition), srt,
+                            xml_escape(t.subject), xml_escape(t.condition), srt,
                             a.log2_scale ? "<td>" + units + "</td>" : "", se, ml, mlse, t.steps.size(), reversals,
                             converged);
     }
@@ -620,7 +621,7 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
         const std::string at = f.fit.converged && target < f.fit.ceiling ? fixed2(f.fit.level_at(target)) : "NA";
         md += fmt::format("| {} | {} | {} | {} | {} |\n", f.condition, l50, slope, at, f.fit.trials);
         html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
-                            detail::html_escape(f.condition), l50, slope, at, f.fit.trials);
+                            xml_escape(f.condition), l50, slope, at, f.fit.trials);
     }
     html += "</table>\n";
     md += fmt::format("\nTarget {:.3f} per keyword ({}). Pooling subjects with different SRTs flattens the slope.\n\n",
@@ -630,21 +631,21 @@ void write_srt_report(const SrtAnalysis& a, const SrtReportSettings& settings) {
     for (const auto& [caption, file] : figures) {
         md += fmt::format("![{}]({})\n\n", caption, file.string());
         html += fmt::format("<figure><img alt=\"{0}\" src=\"data:image/png;base64,{1}\"><figcaption>{0}</figcaption></figure>\n",
-                            detail::html_escape(caption), detail::base64(read_text_file(settings.out_dir / file)));
+                            xml_escape(caption), detail::base64(read_text_file(settings.out_dir / file)));
     }
     md += "## Tracks\n\n";
     html += "<h2>Tracks</h2>\n";
     for (const auto& [caption, file] : track_figures) {
         md += fmt::format("![{}]({})\n\n", caption, file.string());
         html += fmt::format("<figure><img alt=\"{0}\" src=\"data:image/png;base64,{1}\"></figure>\n",
-                            detail::html_escape(caption), detail::base64(read_text_file(settings.out_dir / file)));
+                            xml_escape(caption), detail::base64(read_text_file(settings.out_dir / file)));
     }
     if (!a.notes.empty()) {
         md += "## Notes\n\n";
         html += "<h2>Notes</h2>\n<ul>\n";
         for (const auto& n : a.notes) {
             md += "- " + n + "\n";
-            html += "<li>" + detail::html_escape(n) + "</li>\n";
+            html += "<li>" + xml_escape(n) + "</li>\n";
         }
         html += "</ul>\n";
     }
