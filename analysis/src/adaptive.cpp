@@ -4,6 +4,7 @@
 #include "avsi/analysis/adaptive.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -171,6 +172,87 @@ double PsychometricFit::se_level_at(double target) const {
     return std::sqrt(std::max(0.0, var));
 }
 
+namespace {
+
+// The level that separates the responses perfectly (every trial below it
+// wrong, every trial above it right, any at it), if one does: the
+// likelihood then keeps rising as the slope grows.
+std::optional<double> separating_level(const std::vector<PsychometricPoint>& points) {
+    for (const auto& cut : points) {
+        bool separated = true;
+        for (const auto& pt : points) {
+            if (pt.trials == 0) continue;
+            if (pt.level_db < cut.level_db && pt.correct != 0) separated = false;
+            if (pt.level_db > cut.level_db && pt.correct != pt.trials) separated = false;
+        }
+        if (separated) return cut.level_db;
+    }
+    return std::nullopt;
+}
+
+// The log-likelihood of the points under p = c·σ(a + b·(L − center)).
+double psychometric_log_likelihood(const std::vector<PsychometricPoint>& points, double center, double ceiling,
+                                   double a, double b) {
+    const double log_c = std::log(ceiling);
+    double ll = 0.0;
+    for (const auto& pt : points) {
+        if (pt.trials == 0) continue;
+        const double eta = a + b * (pt.level_db - center);
+        // log σ = −log(1 + e^−η), log(1 − σ) = −log(1 + e^η), both stable;
+        // with a ceiling, log p = log c + log σ and 1 − p = (1 − σ) + (1 − c)·σ.
+        const double log_s = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, -eta);
+        const double log_q1 = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, eta);
+        const double log_q = ceiling == 1.0 ? log_q1 : std::log1p(-ceiling * std::exp(log_s));
+        ll += pt.correct * (log_c + log_s) + (pt.trials - pt.correct) * log_q;
+    }
+    return ll;
+}
+
+// Fisher scoring: per point the weight n·(dp/dη)²/(p(1 − p)) and the score
+// residual (y − n·p)·(dp/dη)/(p(1 − p)), dp/dη = c·σ(1 − σ); for c = 1
+// these are n·p(1 − p) and y − n·p (Newton–Raphson).
+void fisher_weight_residual(const PsychometricPoint& pt, double eta, double ceiling, double& w, double& r) {
+    const double sg = srt_logistic(eta);
+    const double p = ceiling * sg;
+    const double dp = ceiling * sg * (1 - sg);
+    const double v = p * (1 - p);
+    if (!(v > 0)) {
+        w = 0.0;
+        r = 0.0;
+        return;
+    }
+    w = pt.trials * dp * dp / v;
+    r = (pt.correct - pt.trials * p) * dp / v;
+}
+
+// The covariance {var a, var b, cov a b} of the centred (a, b) from the
+// Fisher information at the fit (var b = cov = 0 with a fixed slope).
+std::array<double, 3> fisher_covariance(const std::vector<PsychometricPoint>& points, double center, double ceiling,
+                                        double a, double b, bool fixed_slope) {
+    double haa = 0, hab = 0, hbb = 0;
+    for (const auto& pt : points) {
+        if (pt.trials == 0) continue;
+        const double x = pt.level_db - center;
+        double w = 0.0, r = 0.0;
+        fisher_weight_residual(pt, a + b * x, ceiling, w, r);
+        haa += w;
+        hab += w * x;
+        hbb += w * x * x;
+    }
+    double var_a = 0, var_b = 0, cov = 0;
+    if (fixed_slope) {
+        var_a = 1.0 / haa;
+    } else {
+        const double det = haa * hbb - hab * hab;
+        var_a = hbb / det;
+        var_b = haa / det;
+        cov = -hab / det;
+    }
+    return {var_a, var_b, cov};
+}
+
+}  // namespace
+
 PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points, std::optional<double> fixed_slope,
                                  double ceiling) {
     if (!(ceiling > 0.0 && ceiling <= 1.0))
@@ -201,54 +283,18 @@ PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points, s
     // (Quasi-)complete separation: every trial below some level wrong, every
     // trial above it right (any at that level): the likelihood keeps rising
     // as the slope grows, so there is no finite free-slope estimate.
-    if (!fixed_slope) {
-        for (const auto& cut : points) {
-            bool separated = true;
-            for (const auto& pt : points) {
-                if (pt.trials == 0) continue;
-                if (pt.level_db < cut.level_db && pt.correct != 0) separated = false;
-                if (pt.level_db > cut.level_db && pt.correct != pt.trials) separated = false;
-            }
-            if (separated) {
-                fit.note = fmt::format("the responses separate perfectly by level (all wrong below {} dB, all right "
-                                       "above): no finite slope",
-                                       cut.level_db);
-                return fit;
-            }
+    if (!fixed_slope)
+        if (const auto cut = separating_level(points)) {
+            fit.note = fmt::format("the responses separate perfectly by level (all wrong below {} dB, all right "
+                                   "above): no finite slope",
+                                   *cut);
+            return fit;
         }
-    }
     const double center = sum_level / total;  // centring keeps the Hessian well conditioned
 
-    const double log_c = std::log(ceiling);
-    auto loglik = [&](double a, double b) {
-        double ll = 0.0;
-        for (const auto& pt : points) {
-            if (pt.trials == 0) continue;
-            const double eta = a + b * (pt.level_db - center);
-            // log σ = −log(1 + e^−η), log(1 − σ) = −log(1 + e^η), both stable;
-            // with a ceiling, log p = log c + log σ and 1 − p = (1 − σ) + (1 − c)·σ.
-            const double log_s = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, -eta);
-            const double log_q1 = -std::log1p(std::exp(-std::fabs(eta))) - std::max(0.0, eta);
-            const double log_q = ceiling == 1.0 ? log_q1 : std::log1p(-ceiling * std::exp(log_s));
-            ll += pt.correct * (log_c + log_s) + (pt.trials - pt.correct) * log_q;
-        }
-        return ll;
-    };
-    // Fisher scoring: per point the weight n·(dp/dη)²/(p(1 − p)) and the score
-    // residual (y − n·p)·(dp/dη)/(p(1 − p)), dp/dη = c·σ(1 − σ); for c = 1
-    // these are n·p(1 − p) and y − n·p (Newton–Raphson).
+    auto loglik = [&](double a, double b) { return psychometric_log_likelihood(points, center, ceiling, a, b); };
     auto weight_residual = [&](const PsychometricPoint& pt, double eta, double& w, double& r) {
-        const double sg = srt_logistic(eta);
-        const double p = ceiling * sg;
-        const double dp = ceiling * sg * (1 - sg);
-        const double v = p * (1 - p);
-        if (!(v > 0)) {
-            w = 0.0;
-            r = 0.0;
-            return;
-        }
-        w = pt.trials * dp * dp / v;
-        r = (pt.correct - pt.trials * p) * dp / v;
+        fisher_weight_residual(pt, eta, ceiling, w, r);
     };
     // Start: the pooled logit at the centre (below the ceiling), a moderate slope.
     double a = srt_logit(std::min(0.95, static_cast<double>(correct) / total / ceiling));
@@ -305,26 +351,7 @@ PsychometricFit fit_psychometric(const std::vector<PsychometricPoint>& points, s
                                b / 4.0);
         return fit;
     }
-    // Covariance of (a, b) (centred) from the Fisher information.
-    double haa = 0, hab = 0, hbb = 0;
-    for (const auto& pt : points) {
-        if (pt.trials == 0) continue;
-        const double x = pt.level_db - center;
-        double w = 0.0, r = 0.0;
-        weight_residual(pt, a + b * x, w, r);
-        haa += w;
-        hab += w * x;
-        hbb += w * x * x;
-    }
-    double var_a = 0, var_b = 0, cov = 0;
-    if (fixed_slope) {
-        var_a = 1.0 / haa;
-    } else {
-        const double det = haa * hbb - hab * hab;
-        var_a = hbb / det;
-        var_b = haa / det;
-        cov = -hab / det;
-    }
+    const auto [var_a, var_b, cov] = fisher_covariance(points, center, ceiling, a, b, fixed_slope.has_value());
     fit.converged = true;
     fit.slope_per_db = b / 4.0;
     fit.l50_db = center - a / b;
