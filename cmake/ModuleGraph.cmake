@@ -1,8 +1,9 @@
-# The module graph (DESIGN.md "Layout") checked at configure time:
-# core ← synth ← learn. synth must not reach Ceres, libtorch or cairo, directly
-# or through another target, and no module library may link avsi_learn (only
-# the CLI's training commands and the benchmarks need it). A violation stops
-# the configuration with the path that links the forbidden library.
+# The module graph (DESIGN.md "Layout") checked at configure time: each module
+# library (avsi_<module>) may link only the modules of its row in
+# docs/module-graph.txt, directly or through a helper library, and synth must
+# not reach Ceres, libtorch or cairo, directly or through another target. A
+# violation stops the configuration with the path that links the forbidden
+# library.
 
 # Sets out_var to the transitive link items of `target` (targets and plain
 # library names or paths), each as "item<TAB>path from target".
@@ -75,12 +76,134 @@ function(avsi_forbid_links target)
   endforeach()
 endfunction()
 
-# The checks of DESIGN.md's module table.
+# The table of allowed module dependencies (docs/module-graph.txt), read at
+# configure time; -DAVSI_MODULE_GRAPH_TABLE=<file> names another (the probe tests).
+if(NOT AVSI_MODULE_GRAPH_TABLE)
+  set(AVSI_MODULE_GRAPH_TABLE "${CMAKE_CURRENT_LIST_DIR}/../docs/module-graph.txt")
+endif()
+
+# Reads the table into avsi_graph_modules (the modules, in file order) and
+# avsi_graph_allows_<module> (the modules it may link), in the caller's scope.
+# A malformed line stops the configuration with the file and line.
+macro(avsi_read_module_graph)
+  get_filename_component(table "${AVSI_MODULE_GRAPH_TABLE}" ABSOLUTE)
+  if(NOT EXISTS "${table}")
+    message(FATAL_ERROR "module graph: ${table}: no such file (the table of allowed module dependencies)")
+  endif()
+  set_property(DIRECTORY "${CMAKE_SOURCE_DIR}" APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS "${table}")
+  file(READ "${table}" table_text)
+  # One list item per line (a semicolon would split a line: kept as a comma,
+  # which no module name has).
+  string(REPLACE ";" "," table_text "${table_text}")
+  string(REPLACE "\n" ";" table_lines "${table_text}")
+  set(avsi_graph_modules "")
+  set(line_number 0)
+  foreach(line IN LISTS table_lines)
+    math(EXPR line_number "${line_number} + 1")
+    string(REGEX REPLACE "#.*$" "" line "${line}")
+    string(STRIP "${line}" line)
+    if(line STREQUAL "")
+      continue()
+    endif()
+    if(NOT line MATCHES "^([a-z][a-z0-9_]*):(.*)$")
+      message(FATAL_ERROR "${table}:${line_number}: error: expected `module: dep dep …`, got \"${line}\"")
+    endif()
+    set(module "${CMAKE_MATCH_1}")
+    string(STRIP "${CMAKE_MATCH_2}" deps)
+    if(module IN_LIST avsi_graph_modules)
+      message(FATAL_ERROR "${table}:${line_number}: error: module ${module} has a second row")
+    endif()
+    list(APPEND avsi_graph_modules "${module}")
+    string(REGEX REPLACE "[ \t]+" ";" avsi_graph_allows_${module} "${deps}")
+  endforeach()
+  foreach(module IN LISTS avsi_graph_modules)
+    foreach(dep IN LISTS avsi_graph_allows_${module})
+      if(NOT dep IN_LIST avsi_graph_modules)
+        message(FATAL_ERROR "module graph: ${table}: module ${module} lists ${dep}, which has no row "
+                            "(the modules: ${avsi_graph_modules})")
+      endif()
+    endforeach()
+  endforeach()
+endmacro()
+
+# Sets out_var to the avsi modules that `target` links, directly or through
+# libraries that are not modules (a helper, an interface library), each as
+# "module<TAB>path from target". The walk stops at a module: what that module
+# links is checked against its own row.
+function(avsi_module_edges target modules out_var)
+  set(result "")
+  set(seen "")
+  set(queue "${target}")
+  string(MAKE_C_IDENTIFIER "${target}" key)
+  set(path_${key} "${target}")
+  while(queue)
+    list(POP_FRONT queue current)
+    if(current IN_LIST seen)
+      continue()
+    endif()
+    list(APPEND seen "${current}")
+    string(MAKE_C_IDENTIFIER "${current}" ckey)
+    set(items "")
+    if(TARGET ${current})
+      get_target_property(type ${current} TYPE)
+      if(NOT type STREQUAL "INTERFACE_LIBRARY")
+        get_target_property(direct ${current} LINK_LIBRARIES)
+        if(direct)
+          list(APPEND items ${direct})
+        endif()
+      endif()
+      get_target_property(iface ${current} INTERFACE_LINK_LIBRARIES)
+      if(iface)
+        list(APPEND items ${iface})
+      endif()
+    endif()
+    foreach(item IN LISTS items)
+      string(REGEX REPLACE "^\\$<LINK_ONLY:(.*)>$" "\\1" item "${item}")
+      if(item MATCHES "^\\$<" OR item STREQUAL "" OR item STREQUAL target)
+        continue()
+      endif()
+      string(MAKE_C_IDENTIFIER "${item}" key)
+      if(NOT DEFINED path_${key})
+        set(path_${key} "${path_${ckey}} -> ${item}")
+      endif()
+      if(item MATCHES "^avsi_(.+)$" AND CMAKE_MATCH_1 IN_LIST modules)
+        list(APPEND result "${CMAKE_MATCH_1}\t${path_${key}}")
+      elseif(TARGET ${item})
+        list(APPEND queue "${item}")
+      endif()
+    endforeach()
+  endwhile()
+  list(REMOVE_DUPLICATES result)
+  set(${out_var} "${result}" PARENT_SCOPE)
+endfunction()
+
+# The checks of DESIGN.md's module table: every module library against its
+# row of docs/module-graph.txt, and synth's external libraries.
 function(avsi_check_module_graph)
-  foreach(module core synth vocoder stimuli experiment analysis)
-    avsi_forbid_links(avsi_${module}
-      FORBIDDEN "^avsi_learn$"
-      REASON "only the CLI's training commands and the benchmarks may link avsi_learn")
+  avsi_read_module_graph()
+  # Every module library avsi_add_module made has a row.
+  get_property(added GLOBAL PROPERTY AVSI_MODULES)
+  foreach(module IN LISTS added)
+    if(NOT module IN_LIST avsi_graph_modules)
+      message(FATAL_ERROR "module graph: avsi_${module} has no row in ${table}; add `${module}: <the modules it "
+                          "may link>` (the modules: ${avsi_graph_modules})")
+    endif()
+  endforeach()
+  foreach(module IN LISTS avsi_graph_modules)
+    if(NOT TARGET avsi_${module})
+      continue()
+    endif()
+    avsi_module_edges(avsi_${module} "${avsi_graph_modules}" edges)
+    foreach(entry IN LISTS edges)
+      string(REPLACE "\t" ";" parts "${entry}")
+      list(GET parts 0 dep)
+      list(GET parts 1 path)
+      if(NOT dep IN_LIST avsi_graph_allows_${module})
+        string(REPLACE ";" " " allowed "${avsi_graph_allows_${module}}")
+        message(FATAL_ERROR "module graph: avsi_${module} links avsi_${dep} (${path}); "
+                            "${table} allows `${module}: ${allowed}`")
+      endif()
+    endforeach()
   endforeach()
   avsi_forbid_links(avsi_synth
     FORBIDDEN "^Ceres::" "^ceres$" "libceres" "^torch" "libtorch" "^c10$" "libc10" "CAIRO" "^cairo$" "libcairo"

@@ -1,5 +1,5 @@
-// Helpers the HTML reports share (report.cpp, adaptive_report.cpp): escaping
-// and base64 for images inlined as data: URIs.
+// Helpers the HTML reports share (report.cpp, adaptive_report.cpp): base64
+// for images inlined as data: URIs. (Escaping is core's xml_escape, text.h.)
 #pragma once
 
 #include <string>
@@ -7,8 +7,6 @@
 
 namespace avsi::analysis::detail {
 
-// Escapes & < > " for HTML text and attribute values.
-std::string html_escape(std::string_view s);
 // Standard base64 (RFC 4648) with padding.
 std::string base64(std::string_view bytes);
 

@@ -68,6 +68,31 @@ Correction make_correction(std::optional<double> epsilon, const AnovaResult& a) 
     return c;
 }
 
+// Mauchly's test of sphericity from the eigenvalues of T SSD T' (all
+// positive), for n subjects and k conditions.
+void mauchly_test(const Eigen::VectorXd& lambda, std::size_t n, std::size_t k, Mauchly& m) {
+    const double pp = double(k - 1);
+    const double nn = double(n - 1);  // R: object$df
+    const double sum = lambda.sum();
+    // R: logW <- log(det(U)) - pp * log(Tr(U/pp)); rho, w2 and the
+    // two chi-square tails exactly as stats:::mauchly.test.SSD.
+    double log_det = 0.0;
+    for (Eigen::Index i = 0; i < lambda.size(); ++i) log_det += std::log(lambda(i));
+    const double log_w = log_det - pp * std::log(sum / pp);
+    const double rho = 1.0 - (2.0 * pp * pp + pp + 2.0) / (6.0 * pp * nn);
+    const double w2 = (pp + 2.0) * (pp - 1.0) * (pp - 2.0) *
+                      (2.0 * pp * pp * pp + 6.0 * pp * pp + 3.0 * double(k) + 2.0) /
+                      (288.0 * std::pow(nn * pp * rho, 2));
+    const double z = -nn * rho * log_w;
+    const double f = pp * (pp + 1.0) / 2.0 - 1.0;
+    const double pr1 = chisq_upper_p(z, f);
+    const double pr2 = chisq_upper_p(z, f + 4.0);
+    m.W = std::exp(log_w);
+    m.chisq = z;
+    m.df = f;
+    m.p_value = pr1 + w2 * (pr2 - pr1);  // unclamped, as R
+}
+
 }  // namespace
 
 AnovaResult rm_anova(const WithinData& data) {
@@ -163,24 +188,7 @@ AnovaResult rm_anova(const WithinData& data) {
                                            : "Mauchly's test is not computable: the covariance of the condition "
                                              "contrasts is singular (W = 0), e.g. tied conditions";
             } else {
-                // R: logW <- log(det(U)) - pp * log(Tr(U/pp)); rho, w2 and the
-                // two chi-square tails exactly as stats:::mauchly.test.SSD.
-                const double pp = double(p);
-                double log_det = 0.0;
-                for (Eigen::Index i = 0; i < lambda.size(); ++i) log_det += std::log(lambda(i));
-                const double log_w = log_det - pp * std::log(sum / pp);
-                const double rho = 1.0 - (2.0 * pp * pp + pp + 2.0) / (6.0 * pp * nn);
-                const double w2 = (pp + 2.0) * (pp - 1.0) * (pp - 2.0) *
-                                  (2.0 * pp * pp * pp + 6.0 * pp * pp + 3.0 * double(k) + 2.0) /
-                                  (288.0 * std::pow(nn * pp * rho, 2));
-                const double z = -nn * rho * log_w;
-                const double f = pp * (pp + 1.0) / 2.0 - 1.0;
-                const double pr1 = chisq_upper_p(z, f);
-                const double pr2 = chisq_upper_p(z, f + 4.0);
-                a.mauchly.W = std::exp(log_w);
-                a.mauchly.chisq = z;
-                a.mauchly.df = f;
-                a.mauchly.p_value = pr1 + w2 * (pr2 - pr1);  // unclamped, as R
+                mauchly_test(lambda, n, k, a.mauchly);
             }
         }
     }

@@ -4,6 +4,7 @@
 #include "avsi/core/phones.h"
 
 #include <cctype>
+#include <functional>
 #include <mutex>
 #include <set>
 
@@ -143,6 +144,62 @@ const PhoneInventory& PhoneInventory::builtin() {
     return inventory;
 }
 
+namespace {
+
+// A row of the phone table (symbol, class, IPA, example, then the
+// features from column `first_feature`); `known` tells a symbol already
+// read (a duplicate). Problems are added, the row read as far as it goes.
+PhoneInfo parse_phone_row(const TsvLine& row, std::size_t first_feature, const std::string& ppath,
+                          const std::function<bool(const std::string&)>& known, DiagnosticList& problems) {
+    PhoneInfo info;
+    info.symbol = row.fields[0];
+    const std::string& cls = row.fields[1];
+    if (cls == "vowel") info.phone_class = PhoneClass::Vowel;
+    else if (cls == "consonant") info.phone_class = PhoneClass::Consonant;
+    else if (cls == "silence") info.phone_class = PhoneClass::Silence;
+    else
+        problems.add(ppath, row.line, 0, "class",
+                     fmt::format("expected vowel, consonant or silence, got \"{}\"", cls));
+    info.ipa = row.fields[2];
+    info.example = row.fields[3];
+    if (info.symbol.empty() ||
+        (info.symbol != "sil" && info.symbol != upper(info.symbol)))
+        problems.add(ppath, row.line, 0, "symbol",
+                     fmt::format("expected an upper-case ARPAbet symbol or sil, got \"{}\"",
+                                 info.symbol));
+    if (known(info.symbol))
+        problems.add(ppath, row.line, 0, "symbol",
+                     fmt::format("duplicate phone \"{}\"", info.symbol));
+    for (std::size_t f = 0; f < feature_count; ++f) {
+        const std::string& text = row.fields[first_feature + f];
+        const bool three_valued = f >= static_cast<std::size_t>(Feature::Open) &&
+                                  f <= static_cast<std::size_t>(Feature::Protruded);
+        const auto value = parse_double(text);
+        const bool ok = value && (*value == 0.0 || *value == 1.0 ||
+                                  (three_valued && *value == 0.5));
+        if (!ok) {
+            problems.add(ppath, row.line, 0, std::string(k_feature_names[f]),
+                         fmt::format("expected {}, got \"{}\"",
+                                     three_valued ? "0, 0.5 or 1" : "0 or 1", text));
+            continue;
+        }
+        info.features[f] = static_cast<float>(*value);
+    }
+    const float stress = info.features[static_cast<std::size_t>(Feature::Stress)];
+    if (stress != 0.0f)
+        problems.add(ppath, row.line, 0, "stress",
+                     "expected 0 (stress is set per phone token, e.g. AA1 vs AA0), got 1");
+    const bool vowel_feature = info.features[static_cast<std::size_t>(Feature::Vowel)] == 1.0f;
+    if (vowel_feature != (info.phone_class == PhoneClass::Vowel))
+        problems.add(ppath, row.line, 0, "vowel",
+                     fmt::format("expected {} for class {}, got {}",
+                                 info.phone_class == PhoneClass::Vowel ? 1 : 0, cls,
+                                 vowel_feature ? 1 : 0));
+    return info;
+}
+
+}  // namespace
+
 PhoneInventory PhoneInventory::load(const std::filesystem::path& phones_tsv,
                                     const std::filesystem::path& map_tsv) {
     PhoneInventory inv;
@@ -170,50 +227,9 @@ PhoneInventory PhoneInventory::load(const std::filesystem::path& phones_tsv,
                                      expected_header.size(), row.fields.size()));
             continue;
         }
-        PhoneInfo info;
-        info.symbol = row.fields[0];
-        const std::string& cls = row.fields[1];
-        if (cls == "vowel") info.phone_class = PhoneClass::Vowel;
-        else if (cls == "consonant") info.phone_class = PhoneClass::Consonant;
-        else if (cls == "silence") info.phone_class = PhoneClass::Silence;
-        else
-            problems.add(ppath, row.line, 0, "class",
-                         fmt::format("expected vowel, consonant or silence, got \"{}\"", cls));
-        info.ipa = row.fields[2];
-        info.example = row.fields[3];
-        if (info.symbol.empty() ||
-            (info.symbol != "sil" && info.symbol != upper(info.symbol)))
-            problems.add(ppath, row.line, 0, "symbol",
-                         fmt::format("expected an upper-case ARPAbet symbol or sil, got \"{}\"",
-                                     info.symbol));
-        if (inv.m_index.count(info.symbol))
-            problems.add(ppath, row.line, 0, "symbol",
-                         fmt::format("duplicate phone \"{}\"", info.symbol));
-        for (std::size_t f = 0; f < feature_count; ++f) {
-            const std::string& text = row.fields[fixed.size() + f];
-            const bool three_valued = f >= static_cast<std::size_t>(Feature::Open) &&
-                                      f <= static_cast<std::size_t>(Feature::Protruded);
-            const auto value = parse_double(text);
-            const bool ok = value && (*value == 0.0 || *value == 1.0 ||
-                                      (three_valued && *value == 0.5));
-            if (!ok) {
-                problems.add(ppath, row.line, 0, std::string(k_feature_names[f]),
-                             fmt::format("expected {}, got \"{}\"",
-                                         three_valued ? "0, 0.5 or 1" : "0 or 1", text));
-                continue;
-            }
-            info.features[f] = static_cast<float>(*value);
-        }
-        const float stress = info.features[static_cast<std::size_t>(Feature::Stress)];
-        if (stress != 0.0f)
-            problems.add(ppath, row.line, 0, "stress",
-                         "expected 0 (stress is set per phone token, e.g. AA1 vs AA0), got 1");
-        const bool vowel_feature = info.features[static_cast<std::size_t>(Feature::Vowel)] == 1.0f;
-        if (vowel_feature != (info.phone_class == PhoneClass::Vowel))
-            problems.add(ppath, row.line, 0, "vowel",
-                         fmt::format("expected {} for class {}, got {}",
-                                     info.phone_class == PhoneClass::Vowel ? 1 : 0, cls,
-                                     vowel_feature ? 1 : 0));
+        PhoneInfo info = parse_phone_row(row, fixed.size(), ppath,
+                                         [&](const std::string& symbol) { return inv.m_index.count(symbol) > 0; },
+                                         problems);
         inv.m_index[info.symbol] = inv.m_phones.size();
         inv.m_phones.push_back(std::move(info));
     }

@@ -217,14 +217,10 @@ std::vector<std::string> Protocol::condition_names() const {
     return names;
 }
 
-Protocol parse_protocol(std::string_view text, const fs::path& path) {
-    const ConfigSection root = parse_config(text, path.string());
-    const std::string file = path.string();
-    DiagnosticList problems;
-    Protocol p;
-    p.path = path;
+namespace {
 
-    // [experiment]
+// [experiment]: the name and the seed.
+void read_experiment_section(const ConfigSection& root, Protocol& p, DiagnosticList& problems) {
     ConfigSection experiment_storage;
     const ConfigSection& experiment = section_or_empty(root, "experiment", experiment_storage, problems);
     if (experiment.present()) {
@@ -233,10 +229,13 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         p.seed = static_cast<std::uint64_t>(experiment.get_int("seed", 1, 0, max_seed, problems));
         experiment.check_unknown_keys(problems);
     } else {
-        problems.add(file, 0, 0, "experiment", "missing required table [experiment]");
+        problems.add(p.path.string(), 0, 0, "experiment", "missing required table [experiment]");
     }
+}
 
-    // [corpus]
+// [corpus]: the sentences, their audio (TTS or recordings) and the speech level.
+void read_corpus_section(const ConfigSection& root, Protocol& p, DiagnosticList& problems) {
+    const fs::path& path = p.path;
     ConfigSection corpus_storage;
     const ConfigSection& corpus = section_or_empty(root, "corpus", corpus_storage, problems);
     if (corpus.present()) {
@@ -263,73 +262,65 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
         }
         corpus.check_unknown_keys(problems);
     } else {
-        problems.add(file, 0, 0, "corpus", "missing required table [corpus]");
+        problems.add(p.path.string(), 0, 0, "corpus", "missing required table [corpus]");
     }
+}
 
-    // [[condition]]
-    const auto conditions = root.get_table_array("condition", problems);
-    if (conditions.empty() && !root.has("condition"))
-        problems.add(file, 0, 0, "condition", "missing required tables [[condition]] (at least one)");
-    std::set<std::string> names;
-    for (const ConfigSection* c : conditions) {
-        ProtocolCondition cond;
-        cond.line = c->line();
-        if (c->require("name", problems)) {
-            cond.name = c->get_string("name", "", problems);
-            if (c->find("name")->type == ConfigValue::Type::String) {
-                if (cond.name.empty() ||
-                    cond.name.find_first_of("/\\ ,\"") != std::string::npos || cond.name == "." ||
-                    cond.name == "..")
-                    c->report("name",
-                              fmt::format("expected a non-empty name without spaces, commas, quotes "
-                                          "or slashes (it names files), got \"{}\"",
-                                          cond.name),
-                              problems);
-                else if (!names.insert(cond.name).second)
-                    c->report("name", fmt::format("duplicate condition name \"{}\"", cond.name),
-                              problems);
-            }
+// One [[condition]]; `names` collects the names so far, to refuse a duplicate.
+ProtocolCondition read_condition(const ConfigSection& c, const fs::path& path, std::set<std::string>& names,
+                                 DiagnosticList& problems) {
+    ProtocolCondition cond;
+    cond.line = c.line();
+    if (c.require("name", problems)) {
+        cond.name = c.get_string("name", "", problems);
+        if (c.find("name")->type == ConfigValue::Type::String) {
+            if (cond.name.empty() ||
+                cond.name.find_first_of("/\\ ,\"") != std::string::npos || cond.name == "." ||
+                cond.name == "..")
+                c.report("name",
+                         fmt::format("expected a non-empty name without spaces, commas, quotes "
+                                     "or slashes (it names files), got \"{}\"",
+                                     cond.name),
+                         problems);
+            else if (!names.insert(cond.name).second)
+                c.report("name", fmt::format("duplicate condition name \"{}\"", cond.name),
+                         problems);
         }
-        const std::string model = c->get_string("model", "", problems);
-        if (!model.empty()) cond.model = resolve(path, model);
-        const std::string face =
-            c->get_choice("face", {"model", "still", "none"}, model.empty() ? "still" : "model", problems);
-        cond.face = face == "model" ? FaceMode::Model : face == "still" ? FaceMode::Still : FaceMode::None;
-        if (cond.face == FaceMode::Model && model.empty() && c->has("face"))
-            c->report("face", "face = \"model\" needs a control model: add model = \"<file>\"", problems);
-        if (cond.face != FaceMode::Model && !model.empty() && c->has("face"))
-            c->report("model",
-                      fmt::format("a model is only used with face = \"model\", but face = \"{}\"", face),
-                      problems);
-        cond.audio = c->get_choice("audio", {"vocoded", "clean"}, "vocoded", problems) == "clean"
-                         ? ConditionAudio::Clean
-                         : ConditionAudio::Vocoded;
-        cond.closure_hold = c->get_choice("closure", {"off", "hold"}, "off", problems) == "hold";
-        cond.closure_transition_s = c->get_number("closure_transition_s", 0.025, 0.001, 0.2, problems);
-        if (c->has("closure") && cond.face != FaceMode::Model)
-            c->report("closure", "the closure mechanism acts on a control model: it needs face = \"model\"", problems);
-        if (c->has("closure_transition_s") && !cond.closure_hold)
-            c->report("closure_transition_s", "only used with closure = \"hold\"", problems);
-        cond.variant_of = c->get_string("variant_of", "", problems);
-        if (const ConfigSection* layers = c->get_table("layers", problems)) {
-            cond.layers = *layers;
-            if (cond.face != FaceMode::Model)
-                c->report("layers", "animation layers animate a control model's face: they need face = \"model\"",
-                          problems);
-        }
-        c->check_unknown_keys(problems);
-        p.conditions.push_back(std::move(cond));
     }
+    const std::string model = c.get_string("model", "", problems);
+    if (!model.empty()) cond.model = resolve(path, model);
+    const std::string face =
+        c.get_choice("face", {"model", "still", "none"}, model.empty() ? "still" : "model", problems);
+    cond.face = face == "model" ? FaceMode::Model : face == "still" ? FaceMode::Still : FaceMode::None;
+    if (cond.face == FaceMode::Model && model.empty() && c.has("face"))
+        c.report("face", "face = \"model\" needs a control model: add model = \"<file>\"", problems);
+    if (cond.face != FaceMode::Model && !model.empty() && c.has("face"))
+        c.report("model",
+                 fmt::format("a model is only used with face = \"model\", but face = \"{}\"", face),
+                 problems);
+    cond.audio = c.get_choice("audio", {"vocoded", "clean"}, "vocoded", problems) == "clean"
+                     ? ConditionAudio::Clean
+                     : ConditionAudio::Vocoded;
+    cond.closure_hold = c.get_choice("closure", {"off", "hold"}, "off", problems) == "hold";
+    cond.closure_transition_s = c.get_number("closure_transition_s", 0.025, 0.001, 0.2, problems);
+    if (c.has("closure") && cond.face != FaceMode::Model)
+        c.report("closure", "the closure mechanism acts on a control model: it needs face = \"model\"", problems);
+    if (c.has("closure_transition_s") && !cond.closure_hold)
+        c.report("closure_transition_s", "only used with closure = \"hold\"", problems);
+    cond.variant_of = c.get_string("variant_of", "", problems);
+    if (const ConfigSection* layers = c.get_table("layers", problems)) {
+        cond.layers = *layers;
+        if (cond.face != FaceMode::Model)
+            c.report("layers", "animation layers animate a control model's face: they need face = \"model\"",
+                     problems);
+    }
+    c.check_unknown_keys(problems);
+    return cond;
+}
+
+// [design]: lists, sentences per list, warm-up and practice, counterbalancing.
+void read_design_section(const ConfigSection& root, Protocol& p, DiagnosticList& problems) {
     const std::vector<std::string> condition_names = p.condition_names();
-    check_condition_policies(p, conditions, problems);
-
-    // [vocoder] — validated by the vocoder module.
-    if (const ConfigSection* v = root.get_table("vocoder", problems))
-        p.vocoder = *v;
-    else
-        p.vocoder = absent_section(file, "vocoder");
-
-    // [design]
     ConfigSection design_storage;
     const ConfigSection& design = section_or_empty(root, "design", design_storage, problems);
     const int k = static_cast<int>(p.conditions.size());
@@ -364,8 +355,11 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
     p.design.seed = static_cast<std::uint64_t>(
         design.get_int("seed", static_cast<long long>(p.seed), 0, max_seed, problems));
     design.check_unknown_keys(problems);
+}
 
-    // [render]
+// [render]: frame rate, size, camera, background and the head's files.
+void read_render_section(const ConfigSection& root, Protocol& p, DiagnosticList& problems) {
+    const fs::path& path = p.path;
     ConfigSection render_storage;
     const ConfigSection& render = section_or_empty(root, "render", render_storage, problems);
     p.render.fps = static_cast<int>(render.get_int("fps", p.render.fps, 1, 240, problems));
@@ -398,8 +392,10 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
     p.render.check_articulation = render.get_bool("check_articulation", true, problems);
     render.check_unknown_keys(problems);
     p.render_section = render;
+}
 
-    // [session]
+// [session]: the runner's screen, response mode, timing and texts.
+void read_session_section(const ConfigSection& root, Protocol& p, DiagnosticList& problems) {
     ConfigSection session_storage;
     const ConfigSection& session = section_or_empty(root, "session", session_storage, problems);
     SessionSettings& s = p.session;
@@ -421,8 +417,11 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
     s.end_text = session.get_string("end_text", s.end_text, problems);
     session.check_unknown_keys(problems);
     p.session_section = session;
+}
 
-    // [scoring]
+// [scoring]: the rule set and the homophone table.
+void read_scoring_section(const ConfigSection& root, Protocol& p, DiagnosticList& problems) {
+    const fs::path& path = p.path;
     ConfigSection scoring_storage;
     const ConfigSection& scoring = section_or_empty(root, "scoring", scoring_storage, problems);
     p.scoring.rules = scoring.get_choice("rules", protocol_rule_sets(), p.scoring.rules, problems);
@@ -436,14 +435,41 @@ Protocol parse_protocol(std::string_view text, const fs::path& path) {
                            problems);
     }
     scoring.check_unknown_keys(problems);
+}
 
+}  // namespace
+
+Protocol parse_protocol(std::string_view text, const fs::path& path) {
+    const ConfigSection root = parse_config(text, path.string());
+    const std::string file = path.string();
+    DiagnosticList problems;
+    Protocol p;
+    p.path = path;
+    read_experiment_section(root, p, problems);
+    read_corpus_section(root, p, problems);
+    // [[condition]]
+    const auto conditions = root.get_table_array("condition", problems);
+    if (conditions.empty() && !root.has("condition"))
+        problems.add(file, 0, 0, "condition", "missing required tables [[condition]] (at least one)");
+    std::set<std::string> names;
+    for (const ConfigSection* c : conditions) p.conditions.push_back(read_condition(*c, path, names, problems));
+    check_condition_policies(p, conditions, problems);
+    // [vocoder] — validated by the vocoder module.
+    if (const ConfigSection* v = root.get_table("vocoder", problems))
+        p.vocoder = *v;
+    else
+        p.vocoder = absent_section(file, "vocoder");
+    read_design_section(root, p, problems);
+    read_render_section(root, p, problems);
+    read_session_section(root, p, problems);
+    read_scoring_section(root, p, problems);
     // [online] — validated by the experiment module (avsi export-web / import-web).
     if (const ConfigSection* o = root.get_table("online", problems))
         p.online = *o;
     else
         p.online = absent_section(file, "online");
 
-    // [adaptive] — adaptive SRT tracks, validated by the analysis module (adaptive.h).
+    // [adaptive] — adaptive SRT tracks, validated by adaptive_protocol() (adaptive_protocol.h).
     if (const ConfigSection* a = root.get_table("adaptive", problems))
         p.adaptive = *a;
     else

@@ -353,6 +353,142 @@ void write_log_header(std::ofstream& log) {
 
 double script_number(const ScriptEvent& e, std::size_t i) { return std::stod(e.args[i]); }
 
+// What the player's controls set, from the script, the keys or the window.
+struct PlayerControls {
+    double offset_ms = 0.0;
+    float speed_slider = 1.0f;
+    bool quit = false;
+    std::size_t next_event = 0;     // the next script event
+    long long wait_refreshes = 0;   // refreshes the script still waits
+    bool waiting_end = false;       // the script waits for the end of the media
+    std::vector<fs::path> screenshots;  // to save after this refresh
+};
+
+// Runs the script's events until one waits (refreshes, or the end of the media).
+void run_player_script(const std::vector<ScriptEvent>& script, Transport& transport, PlayerControls& c) {
+    while (!c.quit && c.next_event < script.size()) {
+        if (c.wait_refreshes > 0) {
+            --c.wait_refreshes;
+            break;
+        }
+        if (c.waiting_end) {
+            if (!transport.at_end()) break;
+            c.waiting_end = false;
+        }
+        const ScriptEvent& e = script[c.next_event++];
+        if (e.command == "play") transport.play();
+        else if (e.command == "pause") transport.pause();
+        else if (e.command == "toggle") transport.playing() ? transport.pause() : transport.play();
+        else if (e.command == "step") {
+            transport.pause();
+            transport.seek_frame(transport.frame(c.offset_ms, 0.0) + static_cast<int>(script_number(e, 0)), c.offset_ms);
+        } else if (e.command == "seek") {
+            transport.seek_frame(static_cast<int>(script_number(e, 0)), c.offset_ms);
+        } else if (e.command == "speed") {
+            transport.set_speed(script_number(e, 0));
+            c.speed_slider = static_cast<float>(script_number(e, 0));
+        } else if (e.command == "mute") transport.set_muted(e.args[0] == "on");
+        else if (e.command == "offset") c.offset_ms = script_number(e, 0);
+        else if (e.command == "wait") c.wait_refreshes = static_cast<long long>(script_number(e, 0));
+        else if (e.command == "wait-end") c.waiting_end = true;
+        else if (e.command == "screenshot") c.screenshots.emplace_back(e.args[0]);
+        else if (e.command == "quit") c.quit = true;
+    }
+}
+
+// The keys: space plays or pauses, arrows step frames or change the speed,
+// Home and End seek, M mutes, [ and ] shift the A/V offset, Q or Esc quit.
+void handle_player_keys(const PlayMedia& media, Transport& transport, PlayerControls& c) {
+    const ImGuiIO& io = ImGui::GetIO();
+    if (!io.WantTextInput) {
+        if (key(GLFW_KEY_SPACE)) transport.playing() ? transport.pause() : transport.play();
+        if (key(GLFW_KEY_RIGHT) || key(GLFW_KEY_LEFT)) {
+            transport.pause();
+            transport.seek_frame(transport.frame(c.offset_ms, 0.0) + (key(GLFW_KEY_RIGHT) ? 1 : -1), c.offset_ms);
+        }
+        if (key(GLFW_KEY_HOME)) transport.seek_frame(0, c.offset_ms);
+        if (key(GLFW_KEY_END)) transport.seek_frame(media.frame_count() - 1, c.offset_ms);
+        if (key(GLFW_KEY_UP) || key(GLFW_KEY_DOWN)) {
+            const double now = transport.speed();
+            double next = now;
+            if (key(GLFW_KEY_UP)) {
+                for (double v : speed_steps)
+                    if (v > now + 1e-9) { next = v; break; }
+            } else {
+                for (auto it = speed_steps.rbegin(); it != speed_steps.rend(); ++it)
+                    if (*it < now - 1e-9) { next = *it; break; }
+            }
+            transport.set_speed(next);
+            c.speed_slider = static_cast<float>(next);
+        }
+        if (key(GLFW_KEY_M)) transport.set_muted(!transport.muted());
+        if (key(GLFW_KEY_LEFT_BRACKET)) c.offset_ms = std::max(-500.0, c.offset_ms - 10.0);
+        if (key(GLFW_KEY_RIGHT_BRACKET)) c.offset_ms = std::min(500.0, c.offset_ms + 10.0);
+        if (key(GLFW_KEY_Q) || key(GLFW_KEY_ESCAPE)) c.quit = true;
+    }
+}
+
+// The screen: face, strip, controls, parameter bars.
+void draw_player_screen(PlayerWindow& window, const PlayMedia& media, Transport& transport, const Sink& sink, int frame,
+                        double media_s, bool playing, const stimuli::Pose& drawn, PlayerControls& c) {
+    const ImGuiIO& io = ImGui::GetIO();
+    ImGui::SetNextWindowPos(ImVec2(0, 0));
+    ImGui::SetNextWindowSize(io.DisplaySize);
+    ImGui::Begin("player", nullptr,
+                 ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoSavedSettings |
+                     ImGuiWindowFlags_NoBringToFrontOnFocus);
+    ImGui::BeginGroup();
+    ImGui::Image(window.face_texture(), ImVec2(static_cast<float>(window.face_width()),
+                                               static_cast<float>(window.face_height())),
+                 ImVec2(0, 1), ImVec2(1, 0));
+    draw_strip(media, media_s, static_cast<float>(window.face_width()));
+    ImGui::EndGroup();
+    ImGui::SameLine();
+    ImGui::BeginGroup();
+    ImGui::TextUnformatted(media.title.c_str());
+    ImGui::Text("frame %d / %d   t = %.3f s", frame, media.frame_count() - 1, media_s);
+    ImGui::Text("%s  %.2fx%s", playing ? "playing" : "paused", transport.speed(), transport.muted() ? "  muted" : "");
+    for (std::size_t i = 0; i < media.phones.size(); ++i)
+        if (media_s >= media.phones[i].start_s && media_s < media.phones[i].end_s)
+            ImGui::Text("phone %s, viseme %s", media.phones[i].symbol.c_str(),
+                        i < media.visemes.size() ? media.visemes[i].c_str() : "?");
+    if (ImGui::Button(playing ? "Pause" : "Play")) playing ? transport.pause() : transport.play();
+    ImGui::SameLine();
+    if (ImGui::Button("< frame")) {
+        transport.pause();
+        transport.seek_frame(frame - 1, c.offset_ms);
+    }
+    ImGui::SameLine();
+    if (ImGui::Button("frame >")) {
+        transport.pause();
+        transport.seek_frame(frame + 1, c.offset_ms);
+    }
+    ImGui::SetNextItemWidth(200);
+    ImGui::SliderFloat("speed", &c.speed_slider, 0.25f, 1.0f, "%.2fx");
+    if (ImGui::IsItemDeactivatedAfterEdit()) transport.set_speed(c.speed_slider);
+    bool muted = transport.muted();
+    if (ImGui::Checkbox("mute", &muted)) transport.set_muted(muted);
+    float offset = static_cast<float>(c.offset_ms);
+    ImGui::SetNextItemWidth(200);
+    if (ImGui::SliderFloat("A/V offset (ms)", &offset, -500.0f, 500.0f, "%.0f")) c.offset_ms = offset;
+    ImGui::Separator();
+    draw_parameter_bars(drawn.params);
+    ImGui::Separator();
+    ImGui::TextWrapped("%s", sink.name().c_str());
+    ImGui::EndGroup();
+    ImGui::End();
+}
+
+// One line of the refresh log.
+void log_refresh(std::ofstream& log, long long refresh, double wall_s, int frame, std::int64_t sent,
+                 std::int64_t played, double media_s, double speed, double offset_ms, bool playing,
+                 const stimuli::Pose& drawn) {
+    log << refresh << '\t' << fmt::format("{:.6f}", wall_s) << '\t' << frame << '\t' << sent << '\t' << played << '\t'
+        << fmt::format("{:.6f}", media_s) << '\t' << speed << '\t' << offset_ms << '\t' << (playing ? 1 : 0);
+    for (double v : drawn.params) log << '\t' << fmt::format("{:.9g}", v);
+    log << '\n';
+}
+
 PlayResult run_player(const PlaySettings& s) {
     PlayMedia media = load_play_media(s.source);
     if (!(s.speed >= 0.25 && s.speed <= 1.0))
@@ -386,87 +522,28 @@ PlayResult run_player(const PlaySettings& s) {
     std::optional<Recorder> recorder;
     if (!s.record.empty()) recorder.emplace(s.record, media.fps());
 
-    double offset_ms = s.offset_ms;
+    PlayerControls c;
+    c.offset_ms = s.offset_ms;
+    c.speed_slider = static_cast<float>(s.speed);
     if (s.start_playing && script.empty()) transport.play();
     PlayResult result;
-    std::size_t next_event = 0;
-    long long wait_refreshes = 0;
-    bool waiting_end = false;
-    bool quit = false;
     int shown = -1;
     stimuli::Pose drawn;  // the pose on screen (logged)
-    float speed_slider = static_cast<float>(s.speed);
     const auto start = std::chrono::steady_clock::now();
-    std::vector<fs::path> screenshots;
 
-    while (!quit) {
+    while (!c.quit) {
         glfwPollEvents();
         if (glfwWindowShouldClose(window.handle())) break;
-        screenshots.clear();
-        // Script events until one waits.
-        while (!quit && next_event < script.size()) {
-            if (wait_refreshes > 0) {
-                --wait_refreshes;
-                break;
-            }
-            if (waiting_end) {
-                if (!transport.at_end()) break;
-                waiting_end = false;
-            }
-            const ScriptEvent& e = script[next_event++];
-            if (e.command == "play") transport.play();
-            else if (e.command == "pause") transport.pause();
-            else if (e.command == "toggle") transport.playing() ? transport.pause() : transport.play();
-            else if (e.command == "step") {
-                transport.pause();
-                transport.seek_frame(transport.frame(offset_ms, 0.0) + static_cast<int>(script_number(e, 0)), offset_ms);
-            } else if (e.command == "seek") {
-                transport.seek_frame(static_cast<int>(script_number(e, 0)), offset_ms);
-            } else if (e.command == "speed") {
-                transport.set_speed(script_number(e, 0));
-                speed_slider = static_cast<float>(script_number(e, 0));
-            } else if (e.command == "mute") transport.set_muted(e.args[0] == "on");
-            else if (e.command == "offset") offset_ms = script_number(e, 0);
-            else if (e.command == "wait") wait_refreshes = static_cast<long long>(script_number(e, 0));
-            else if (e.command == "wait-end") waiting_end = true;
-            else if (e.command == "screenshot") screenshots.emplace_back(e.args[0]);
-            else if (e.command == "quit") quit = true;
-        }
+        c.screenshots.clear();
+        run_player_script(script, transport, c);
         // A quitting refresh is still drawn (its screenshots saved), then the loop ends.
         window.begin_frame();
-        const ImGuiIO& io = ImGui::GetIO();
-        if (!io.WantTextInput) {
-            if (key(GLFW_KEY_SPACE)) transport.playing() ? transport.pause() : transport.play();
-            if (key(GLFW_KEY_RIGHT) || key(GLFW_KEY_LEFT)) {
-                transport.pause();
-                transport.seek_frame(transport.frame(offset_ms, 0.0) + (key(GLFW_KEY_RIGHT) ? 1 : -1), offset_ms);
-            }
-            if (key(GLFW_KEY_HOME)) transport.seek_frame(0, offset_ms);
-            if (key(GLFW_KEY_END)) transport.seek_frame(media.frame_count() - 1, offset_ms);
-            if (key(GLFW_KEY_UP) || key(GLFW_KEY_DOWN)) {
-                const double now = transport.speed();
-                double next = now;
-                if (key(GLFW_KEY_UP)) {
-                    for (double v : speed_steps)
-                        if (v > now + 1e-9) { next = v; break; }
-                } else {
-                    for (auto it = speed_steps.rbegin(); it != speed_steps.rend(); ++it)
-                        if (*it < now - 1e-9) { next = *it; break; }
-                }
-                transport.set_speed(next);
-                speed_slider = static_cast<float>(next);
-            }
-            if (key(GLFW_KEY_M)) transport.set_muted(!transport.muted());
-            if (key(GLFW_KEY_LEFT_BRACKET)) offset_ms = std::max(-500.0, offset_ms - 10.0);
-            if (key(GLFW_KEY_RIGHT_BRACKET)) offset_ms = std::min(500.0, offset_ms + 10.0);
-            if (key(GLFW_KEY_Q) || key(GLFW_KEY_ESCAPE)) quit = true;
-        }
-
+        handle_player_keys(media, transport, c);
         // The frame for the audio clock, read once for this refresh.
         const std::int64_t sent = transport.samples_sent();
         const std::int64_t played = transport.samples_played();
         const double media_s = transport.media_time_s(sink.latency_s());
-        const int frame = transport.frame(offset_ms, sink.latency_s());
+        const int frame = transport.frame(c.offset_ms, sink.latency_s());
         const bool playing = transport.playing();
         if (frame != shown) {
             drawn = media.poses[static_cast<std::size_t>(frame)];
@@ -474,64 +551,13 @@ PlayResult run_player(const PlaySettings& s) {
             shown = frame;
             ++result.frames_shown;
         }
-
-        // The screen: face, strip, controls, parameter bars.
-        ImGui::SetNextWindowPos(ImVec2(0, 0));
-        ImGui::SetNextWindowSize(io.DisplaySize);
-        ImGui::Begin("player", nullptr,
-                     ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoSavedSettings |
-                         ImGuiWindowFlags_NoBringToFrontOnFocus);
-        ImGui::BeginGroup();
-        ImGui::Image(window.face_texture(), ImVec2(static_cast<float>(window.face_width()),
-                                                   static_cast<float>(window.face_height())),
-                     ImVec2(0, 1), ImVec2(1, 0));
-        draw_strip(media, media_s, static_cast<float>(window.face_width()));
-        ImGui::EndGroup();
-        ImGui::SameLine();
-        ImGui::BeginGroup();
-        ImGui::TextUnformatted(media.title.c_str());
-        ImGui::Text("frame %d / %d   t = %.3f s", frame, media.frame_count() - 1, media_s);
-        ImGui::Text("%s  %.2fx%s", playing ? "playing" : "paused", transport.speed(), transport.muted() ? "  muted" : "");
-        for (std::size_t i = 0; i < media.phones.size(); ++i)
-            if (media_s >= media.phones[i].start_s && media_s < media.phones[i].end_s)
-                ImGui::Text("phone %s, viseme %s", media.phones[i].symbol.c_str(),
-                            i < media.visemes.size() ? media.visemes[i].c_str() : "?");
-        if (ImGui::Button(playing ? "Pause" : "Play")) playing ? transport.pause() : transport.play();
-        ImGui::SameLine();
-        if (ImGui::Button("< frame")) {
-            transport.pause();
-            transport.seek_frame(frame - 1, offset_ms);
-        }
-        ImGui::SameLine();
-        if (ImGui::Button("frame >")) {
-            transport.pause();
-            transport.seek_frame(frame + 1, offset_ms);
-        }
-        ImGui::SetNextItemWidth(200);
-        ImGui::SliderFloat("speed", &speed_slider, 0.25f, 1.0f, "%.2fx");
-        if (ImGui::IsItemDeactivatedAfterEdit()) transport.set_speed(speed_slider);
-        bool muted = transport.muted();
-        if (ImGui::Checkbox("mute", &muted)) transport.set_muted(muted);
-        float offset = static_cast<float>(offset_ms);
-        ImGui::SetNextItemWidth(200);
-        if (ImGui::SliderFloat("A/V offset (ms)", &offset, -500.0f, 500.0f, "%.0f")) offset_ms = offset;
-        ImGui::Separator();
-        draw_parameter_bars(drawn.params);
-        ImGui::Separator();
-        ImGui::TextWrapped("%s", sink.name().c_str());
-        ImGui::EndGroup();
-        ImGui::End();
+        draw_player_screen(window, media, transport, sink, frame, media_s, playing, drawn, c);
         window.end_frame();
-
-        if (log.is_open()) {
-            const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            log << result.refreshes << '\t' << fmt::format("{:.6f}", wall) << '\t' << frame << '\t' << sent << '\t'
-                << played << '\t' << fmt::format("{:.6f}", media_s) << '\t' << transport.speed() << '\t' << offset_ms
-                << '\t' << (playing ? 1 : 0);
-            for (double v : drawn.params) log << '\t' << fmt::format("{:.9g}", v);
-            log << '\n';
-        }
-        for (const auto& path : screenshots) stimuli::write_png(path, window.read_window());
+        if (log.is_open())
+            log_refresh(log, result.refreshes,
+                        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), frame, sent,
+                        played, media_s, transport.speed(), c.offset_ms, playing, drawn);
+        for (const auto& path : c.screenshots) stimuli::write_png(path, window.read_window());
         if (recorder) recorder->capture(window, static_cast<double>(sent) / media.sample_rate_hz);
         window.swap();
         sink.after_flip();
@@ -553,6 +579,166 @@ PlayResult run_player(const PlaySettings& s) {
 
 // The editor: the selected viseme's targets on the face, its contour and α,
 // its FAP values, the phone mapping, undo, save and the diff with the file.
+
+// What the editor's controls set, from the script, the keys or the window.
+struct EditorControls {
+    bool quit = false;
+    std::size_t next_event = 0;     // the next script event
+    long long wait_refreshes = 0;   // refreshes the script still waits
+    std::vector<fs::path> screenshots;  // to save after this refresh
+    bool changed = false;           // the set changed this refresh (the diff is redone)
+    std::vector<std::string> diff;  // the set against the file on disk
+    std::string status;             // the last save's outcome
+    int phone_choice = 0;           // the phone the mapping combo shows
+    bool saved = false;
+};
+
+// Saving from the window: a failure (read-only file, full disk) is shown
+// and the edits stay in the editor, so nothing is lost.
+void save_from_ui(VisemeEditor& editor, EditorControls& c) {
+    try {
+        editor.save();
+        c.saved = true;
+        c.status = "saved " + editor.path().string();
+    } catch (const std::exception& e) {
+        c.status = std::string("NOT saved: ") + e.what();
+        log_warning("viseme editor: {}", c.status);
+    }
+    c.changed = true;
+}
+
+// Runs the script's events until one waits; a bad event is an InputError at its line.
+void run_editor_script(const PlaySettings& s, const std::vector<ScriptEvent>& script, VisemeEditor& editor,
+                       EditorControls& c) {
+    while (!c.quit && c.next_event < script.size()) {
+        if (c.wait_refreshes > 0) {
+            --c.wait_refreshes;
+            break;
+        }
+        const ScriptEvent& e = script[c.next_event++];
+        try {
+            if (e.command == "select") editor.select(e.args[0]);
+            else if (e.command == "set") {
+                editor.begin_edit();
+                editor.set_target(*synth::param_from_name(e.args[0]), script_number(e, 1));
+            } else if (e.command == "width") {
+                editor.begin_edit();
+                editor.set_width_mm(script_number(e, 0));
+            } else if (e.command == "height") {
+                editor.begin_edit();
+                editor.set_height_mm(script_number(e, 0));
+            } else if (e.command == "map") {
+                const std::size_t v = editor.index_of(e.args[1]);
+                editor.begin_edit();
+                editor.map_phone(e.args[0], v);
+            } else if (e.command == "undo") editor.undo();
+            else if (e.command == "save") {
+                editor.save(e.args.empty() ? fs::path() : fs::path(e.args[0]));
+                c.saved = true;
+            } else if (e.command == "wait") c.wait_refreshes = static_cast<long long>(script_number(e, 0));
+            else if (e.command == "screenshot") c.screenshots.emplace_back(e.args[0]);
+            else if (e.command == "quit") c.quit = true;
+        } catch (const UsageError& error) {
+            throw InputError(s.script.string(), e.line, 1, e.command, error.what());
+        }
+        c.changed = true;
+    }
+}
+
+// The selected viseme on the face with its α and phones, the phone mapping,
+// undo and save, and the differences from the file.
+void draw_viseme_panel(PlayerWindow& window, VisemeEditor& editor, const synth::Viseme& viseme,
+                       const std::vector<double>& alphas, const std::vector<std::string>& all_phones,
+                       EditorControls& c) {
+    ImGui::BeginGroup();
+    ImGui::Image(window.face_texture(), ImVec2(static_cast<float>(window.face_width()),
+                                               static_cast<float>(window.face_height())),
+                 ImVec2(0, 1), ImVec2(1, 0));
+    ImGui::Text("%s (id %d): alpha = %.3f from pi*w*h = %.0f mm^2", viseme.name.c_str(), viseme.id,
+                alphas[editor.selected()], viseme.area_mm2());
+    std::string phones;
+    for (const auto& p : viseme.phones) phones += p + " ";
+    ImGui::TextWrapped("phones: %s", phones.c_str());
+    ImGui::SetNextItemWidth(90);
+    if (ImGui::BeginCombo("##phone", all_phones[static_cast<std::size_t>(c.phone_choice)].c_str())) {
+        for (std::size_t i = 0; i < all_phones.size(); ++i)
+            if (ImGui::Selectable(all_phones[i].c_str(), static_cast<int>(i) == c.phone_choice))
+                c.phone_choice = static_cast<int>(i);
+        ImGui::EndCombo();
+    }
+    ImGui::SameLine();
+    if (ImGui::Button("map to this viseme")) {
+        editor.begin_edit();
+        editor.map_phone(all_phones[static_cast<std::size_t>(c.phone_choice)], editor.selected());
+        c.changed = true;
+    }
+    if (ImGui::Button("Undo")) c.changed |= editor.undo();
+    ImGui::SameLine();
+    if (ImGui::Button("Save")) save_from_ui(editor, c);
+    ImGui::SameLine();
+    ImGui::Text("%s  %s", editor.modified() ? "modified" : "unchanged", c.status.c_str());
+    ImGui::Text("differences from %s on disk: %zu", editor.path().filename().string().c_str(), c.diff.size());
+    ImGui::BeginChild("diff", ImVec2(static_cast<float>(window.face_width()), 0), true);
+    for (const auto& line : c.diff) ImGui::BulletText("%s", line.c_str());
+    ImGui::EndChild();
+    ImGui::EndGroup();
+}
+
+// Sliders for the selected viseme's targets, contour and FAP values; a
+// change of a FAP value is mapped back to the 10 parameters by the FAP
+// decoder's least squares. One undo step per slider drag.
+void draw_target_sliders(VisemeEditor& editor, const synth::Viseme& viseme, EditorControls& c) {
+    const auto& mapped = synth::mapped_faps();
+    ImGui::BeginGroup();
+    // One undo step per slider drag: the set as it was before this refresh's changes.
+    const synth::VisemeSet before = editor.set();
+    const auto after_slider = [&] {
+        if (ImGui::IsItemActivated()) editor.remember(before);
+        if (ImGui::IsItemDeactivatedAfterEdit()) c.changed = true;
+    };
+    ImGui::TextUnformatted("articulatory targets");
+    for (const auto& info : synth::params()) {
+        float v = static_cast<float>(viseme.targets[synth::index(info.param)]);
+        ImGui::SetNextItemWidth(160);
+        const std::string name(info.name);
+        if (ImGui::SliderFloat(name.c_str(), &v, static_cast<float>(info.min), static_cast<float>(info.max), "%.3f"))
+            editor.set_target(info.param, std::clamp<double>(v, info.min, info.max));
+        after_slider();
+    }
+    ImGui::TextUnformatted("outer-lip contour (mm)");
+    float w = static_cast<float>(viseme.width_mm), h = static_cast<float>(viseme.height_mm);
+    ImGui::SetNextItemWidth(160);
+    if (ImGui::SliderFloat("width_mm", &w, 1.0f, 120.0f, "%.1f")) editor.set_width_mm(w);
+    after_slider();
+    ImGui::SetNextItemWidth(160);
+    if (ImGui::SliderFloat("height_mm", &h, 1.0f, 80.0f, "%.1f")) editor.set_height_mm(h);
+    after_slider();
+    // The FAP values of the targets (MPEG-4, FAPU), editable: a change is
+    // mapped back to the 10 parameters by the FAP decoder's least squares.
+    ImGui::TextUnformatted("FAP values (FAPU)");
+    ImGui::BeginChild("faps", ImVec2(0, 0), true);
+    synth::Trajectory one;
+    one.fps = 25.0;
+    one.frames = {before.visemes[editor.selected()].targets};
+    const synth::FapStream faps = synth::trajectory_to_fap(one);
+    for (int fap : mapped) {
+        int value = static_cast<int>(std::lround(faps.frames.front().values[static_cast<std::size_t>(fap - 1)]));
+        ImGui::SetNextItemWidth(160);
+        const std::string label = fmt::format("{} {}", fap, synth::fap_name(fap));
+        if (ImGui::SliderInt(label.c_str(), &value, -1000, 1000)) {
+            synth::FapStream edited = faps;
+            edited.frames.front().values[static_cast<std::size_t>(fap - 1)] = value;
+            const synth::Trajectory back = synth::fap_to_trajectory(edited);
+            for (const auto& info : synth::params())
+                editor.set_target(info.param,
+                                  std::clamp(back.frames.front()[synth::index(info.param)], info.min, info.max));
+        }
+        after_slider();
+    }
+    ImGui::EndChild();
+    ImGui::EndGroup();
+}
+
 PlayResult run_editor(const PlaySettings& s) {
     VisemeEditor editor(s.edit_visemes);
     std::vector<ScriptEvent> script;
@@ -561,79 +747,27 @@ PlayResult run_editor(const PlaySettings& s) {
     PlayerWindow window(s.window_width, s.window_height, "avsi play — viseme editor: " + s.edit_visemes.string(), head,
                         s.face_width, s.face_height);
     PlayResult result;
-    std::size_t next_event = 0;
-    long long wait_refreshes = 0;
-    bool quit = false;
+    EditorControls c;
     std::optional<synth::Frame> shown;
-    std::vector<std::string> diff = editor.diff_with_disk();
-    std::string status;
-    std::vector<fs::path> screenshots;
-    int phone_choice = 0;
+    c.diff = editor.diff_with_disk();
     std::vector<std::string> all_phones;
     for (const auto& [phone, index] : editor.set().phone_to_viseme) all_phones.push_back(phone);
-    const auto& mapped = synth::mapped_faps();
-    bool changed = false;
-    // Saving from the window: a failure (read-only file, full disk) is shown
-    // and the edits stay in the editor, so nothing is lost.
-    const auto save_from_ui = [&] {
-        try {
-            editor.save();
-            result.saved = true;
-            status = "saved " + editor.path().string();
-        } catch (const std::exception& e) {
-            status = std::string("NOT saved: ") + e.what();
-            log_warning("viseme editor: {}", status);
-        }
-        changed = true;
-    };
 
-    while (!quit) {
+    while (!c.quit) {
         glfwPollEvents();
         if (glfwWindowShouldClose(window.handle())) break;
-        screenshots.clear();
-        changed = false;
-        while (!quit && next_event < script.size()) {
-            if (wait_refreshes > 0) {
-                --wait_refreshes;
-                break;
-            }
-            const ScriptEvent& e = script[next_event++];
-            try {
-                if (e.command == "select") editor.select(e.args[0]);
-                else if (e.command == "set") {
-                    editor.begin_edit();
-                    editor.set_target(*synth::param_from_name(e.args[0]), script_number(e, 1));
-                } else if (e.command == "width") {
-                    editor.begin_edit();
-                    editor.set_width_mm(script_number(e, 0));
-                } else if (e.command == "height") {
-                    editor.begin_edit();
-                    editor.set_height_mm(script_number(e, 0));
-                } else if (e.command == "map") {
-                    const std::size_t v = editor.index_of(e.args[1]);
-                    editor.begin_edit();
-                    editor.map_phone(e.args[0], v);
-                } else if (e.command == "undo") editor.undo();
-                else if (e.command == "save") {
-                    editor.save(e.args.empty() ? fs::path() : fs::path(e.args[0]));
-                    result.saved = true;
-                } else if (e.command == "wait") wait_refreshes = static_cast<long long>(script_number(e, 0));
-                else if (e.command == "screenshot") screenshots.emplace_back(e.args[0]);
-                else if (e.command == "quit") quit = true;
-            } catch (const UsageError& error) {
-                throw InputError(s.script.string(), e.line, 1, e.command, error.what());
-            }
-            changed = true;
-        }
+        c.screenshots.clear();
+        c.changed = false;
+        run_editor_script(s, script, editor, c);
         // A quitting refresh is still drawn (its screenshots saved), then the loop ends.
         window.begin_frame();
         const ImGuiIO& io = ImGui::GetIO();
         if (!io.WantTextInput) {
             if (key(GLFW_KEY_UP) && editor.selected() > 0) editor.select(editor.selected() - 1);
             if (key(GLFW_KEY_DOWN) && editor.selected() + 1 < editor.set().visemes.size()) editor.select(editor.selected() + 1);
-            if (io.KeyCtrl && key(GLFW_KEY_Z)) changed |= editor.undo();
-            if (io.KeyCtrl && key(GLFW_KEY_S)) save_from_ui();
-            if (key(GLFW_KEY_Q) || key(GLFW_KEY_ESCAPE)) quit = true;
+            if (io.KeyCtrl && key(GLFW_KEY_Z)) c.changed |= editor.undo();
+            if (io.KeyCtrl && key(GLFW_KEY_S)) save_from_ui(editor, c);
+            if (key(GLFW_KEY_Q) || key(GLFW_KEY_ESCAPE)) c.quit = true;
         }
         const synth::Viseme viseme = editor.selected_viseme();
         if (!shown || *shown != viseme.targets) {
@@ -657,94 +791,17 @@ PlayResult run_editor(const PlaySettings& s) {
         }
         ImGui::EndChild();
         ImGui::SameLine();
-        ImGui::BeginGroup();
-        ImGui::Image(window.face_texture(), ImVec2(static_cast<float>(window.face_width()),
-                                                   static_cast<float>(window.face_height())),
-                     ImVec2(0, 1), ImVec2(1, 0));
-        ImGui::Text("%s (id %d): alpha = %.3f from pi*w*h = %.0f mm^2", viseme.name.c_str(), viseme.id,
-                    alphas[editor.selected()], viseme.area_mm2());
-        std::string phones;
-        for (const auto& p : viseme.phones) phones += p + " ";
-        ImGui::TextWrapped("phones: %s", phones.c_str());
-        ImGui::SetNextItemWidth(90);
-        if (ImGui::BeginCombo("##phone", all_phones[static_cast<std::size_t>(phone_choice)].c_str())) {
-            for (std::size_t i = 0; i < all_phones.size(); ++i)
-                if (ImGui::Selectable(all_phones[i].c_str(), static_cast<int>(i) == phone_choice))
-                    phone_choice = static_cast<int>(i);
-            ImGui::EndCombo();
-        }
+        draw_viseme_panel(window, editor, viseme, alphas, all_phones, c);
         ImGui::SameLine();
-        if (ImGui::Button("map to this viseme")) {
-            editor.begin_edit();
-            editor.map_phone(all_phones[static_cast<std::size_t>(phone_choice)], editor.selected());
-            changed = true;
-        }
-        if (ImGui::Button("Undo")) changed |= editor.undo();
-        ImGui::SameLine();
-        if (ImGui::Button("Save")) save_from_ui();
-        ImGui::SameLine();
-        ImGui::Text("%s  %s", editor.modified() ? "modified" : "unchanged", status.c_str());
-        ImGui::Text("differences from %s on disk: %zu", editor.path().filename().string().c_str(), diff.size());
-        ImGui::BeginChild("diff", ImVec2(static_cast<float>(window.face_width()), 0), true);
-        for (const auto& line : diff) ImGui::BulletText("%s", line.c_str());
-        ImGui::EndChild();
-        ImGui::EndGroup();
-        ImGui::SameLine();
-        ImGui::BeginGroup();
-        // One undo step per slider drag: the set as it was before this refresh's changes.
-        const synth::VisemeSet before = editor.set();
-        const auto after_slider = [&] {
-            if (ImGui::IsItemActivated()) editor.remember(before);
-            if (ImGui::IsItemDeactivatedAfterEdit()) changed = true;
-        };
-        ImGui::TextUnformatted("articulatory targets");
-        for (const auto& info : synth::params()) {
-            float v = static_cast<float>(viseme.targets[synth::index(info.param)]);
-            ImGui::SetNextItemWidth(160);
-            const std::string name(info.name);
-            if (ImGui::SliderFloat(name.c_str(), &v, static_cast<float>(info.min), static_cast<float>(info.max), "%.3f"))
-                editor.set_target(info.param, std::clamp<double>(v, info.min, info.max));
-            after_slider();
-        }
-        ImGui::TextUnformatted("outer-lip contour (mm)");
-        float w = static_cast<float>(viseme.width_mm), h = static_cast<float>(viseme.height_mm);
-        ImGui::SetNextItemWidth(160);
-        if (ImGui::SliderFloat("width_mm", &w, 1.0f, 120.0f, "%.1f")) editor.set_width_mm(w);
-        after_slider();
-        ImGui::SetNextItemWidth(160);
-        if (ImGui::SliderFloat("height_mm", &h, 1.0f, 80.0f, "%.1f")) editor.set_height_mm(h);
-        after_slider();
-        // The FAP values of the targets (MPEG-4, FAPU), editable: a change is
-        // mapped back to the 10 parameters by the FAP decoder's least squares.
-        ImGui::TextUnformatted("FAP values (FAPU)");
-        ImGui::BeginChild("faps", ImVec2(0, 0), true);
-        synth::Trajectory one;
-        one.fps = 25.0;
-        one.frames = {before.visemes[editor.selected()].targets};
-        const synth::FapStream faps = synth::trajectory_to_fap(one);
-        for (int fap : mapped) {
-            int value = static_cast<int>(std::lround(faps.frames.front().values[static_cast<std::size_t>(fap - 1)]));
-            ImGui::SetNextItemWidth(160);
-            const std::string label = fmt::format("{} {}", fap, synth::fap_name(fap));
-            if (ImGui::SliderInt(label.c_str(), &value, -1000, 1000)) {
-                synth::FapStream edited = faps;
-                edited.frames.front().values[static_cast<std::size_t>(fap - 1)] = value;
-                const synth::Trajectory back = synth::fap_to_trajectory(edited);
-                for (const auto& info : synth::params())
-                    editor.set_target(info.param,
-                                      std::clamp(back.frames.front()[synth::index(info.param)], info.min, info.max));
-            }
-            after_slider();
-        }
-        ImGui::EndChild();
-        ImGui::EndGroup();
-        if (changed) diff = editor.diff_with_disk();
+        draw_target_sliders(editor, viseme, c);
+        if (c.changed) c.diff = editor.diff_with_disk();
         ImGui::End();
         window.end_frame();
-        for (const auto& path : screenshots) stimuli::write_png(path, window.read_window());
+        for (const auto& path : c.screenshots) stimuli::write_png(path, window.read_window());
         window.swap();
         ++result.refreshes;
     }
+    result.saved = c.saved;
     if (editor.modified()) log_warning("viseme editor: {} has unsaved changes (not saved)", editor.path().string());
     return result;
 }

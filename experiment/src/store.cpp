@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <concepts>
 #include <map>
 #include <ctime>
 
@@ -57,7 +58,26 @@ namespace {
     throw InputError(path, message);
 }
 
-// One prepared statement; binds by 1-based index and steps.
+class Statement;
+
+// A row of a result read in the SELECT's column order: each call maps the
+// next column, so a row's mapping reads as the list of its fields, with no
+// column numbers to keep in step with the SELECT.
+class Columns {
+public:
+    explicit Columns(const Statement& s) : m_s(s) {}
+    int integer();
+    double real();
+    std::string text();
+    bool flag() { return integer() != 0; }  // a 0/1 column
+
+private:
+    const Statement& m_s;
+    int m_next = 0;
+};
+
+// One prepared statement; binds by 1-based index (or all of a row's values
+// in order, bind_row) and steps.
 class Statement {
 public:
     Statement(sqlite3* db, const std::string& sql) : m_db(db) {
@@ -72,6 +92,18 @@ public:
     Statement& bind(int i, double v) { return check(sqlite3_bind_double(m_stmt, i, v)); }
     Statement& bind(int i, const std::string& v) {
         return check(sqlite3_bind_text(m_stmt, i, v.c_str(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
+    }
+    // A bool as 0/1 (a bool only: a string literal must not become one).
+    template <std::same_as<bool> B>
+    Statement& bind(int i, B v) {
+        return bind(i, v ? 1 : 0);
+    }
+    // Binds the values to ?1, ?2, … in the order given (the column list's).
+    template <typename... Values>
+    Statement& bind_row(const Values&... values) {
+        int i = 0;
+        (bind(++i, values), ...);
+        return *this;
     }
     // True while a row is available.
     bool step() {
@@ -101,6 +133,10 @@ private:
     sqlite3* m_db;
     sqlite3_stmt* m_stmt = nullptr;
 };
+
+int Columns::integer() { return m_s.integer(m_next++); }
+double Columns::real() { return m_s.real(m_next++); }
+std::string Columns::text() { return m_s.text(m_next++); }
 
 // Runs a transaction; rolls back if not committed.
 class Transaction {
@@ -411,8 +447,8 @@ std::string Store::lock_subject(int subject) {
     }
     Statement(m_db, "INSERT OR REPLACE INTO runner_locks(subject, pid, host, boot_id, process_start, locked_utc) "
                     "VALUES(?, ?, ?, ?, ?, ?)")
-        .bind(1, subject).bind(2, static_cast<int>(self)).bind(3, host).bind(4, boot).bind(5, start)
-        .bind(6, utc_now()).run();
+        .bind_row(subject, static_cast<int>(self), host, boot, start, utc_now())
+        .run();
     tx.commit();
     if (std::find(m_locked_subjects.begin(), m_locked_subjects.end(), subject) == m_locked_subjects.end())
         m_locked_subjects.push_back(subject);
@@ -454,17 +490,19 @@ std::vector<PlannedTrial> Store::planned_trials(int subject) const {
     s.bind(1, subject);
     std::vector<PlannedTrial> out;
     while (s.step()) {
+        Columns c(s);
         PlannedTrial t;
         t.subject = subject;
-        t.position = s.integer(0);
-        if (!parse_phase(s.text(1), t.phase))
+        t.position = c.integer();
+        const std::string phase = c.text();
+        if (!parse_phase(phase, t.phase))
             throw InputError(m_path, fmt::format("planned trial {} of subject {} has an unknown phase \"{}\"",
-                                                 t.position, subject, s.text(1)));
-        t.block = s.integer(2);
-        t.list = s.text(3);
-        t.condition = s.text(4);
-        t.sentence = s.text(5);
-        t.stimulus = s.text(6);
+                                                 t.position, subject, phase));
+        t.block = c.integer();
+        t.list = c.text();
+        t.condition = c.text();
+        t.sentence = c.text();
+        t.stimulus = c.text();
         out.push_back(std::move(t));
     }
     return out;
@@ -478,8 +516,7 @@ void Store::add_subject(int subject, const std::vector<PlannedTrial>& trials) {
         Statement s(m_db,
                     "INSERT INTO planned_trials(subject, position, phase, block, list, condition, sentence, "
                     "stimulus) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
-        s.bind(1, subject).bind(2, t.position).bind(3, to_string(t.phase)).bind(4, t.block);
-        s.bind(5, t.list).bind(6, t.condition).bind(7, t.sentence).bind(8, t.stimulus);
+        s.bind_row(subject, t.position, to_string(t.phase), t.block, t.list, t.condition, t.sentence, t.stimulus);
         s.run();
     }
     tx.commit();
@@ -500,16 +537,17 @@ std::vector<SessionInfo> read_sessions(sqlite3* db, const std::string& where, in
     s.bind(1, subject);
     std::vector<SessionInfo> out;
     while (s.step()) {
+        Columns c(s);
         SessionInfo i;
-        i.session = s.integer(0);
-        i.subject = s.integer(1);
-        i.started_utc = s.text(2);
-        i.ended_utc = s.text(3);
-        i.end_reason = s.text(4);
-        i.first_position = s.integer(5);
-        i.mode = s.text(6);
-        i.external_id = s.text(7);
-        i.details = s.text(8);
+        i.session = c.integer();
+        i.subject = c.integer();
+        i.started_utc = c.text();
+        i.ended_utc = c.text();
+        i.end_reason = c.text();
+        i.first_position = c.integer();
+        i.mode = c.text();
+        i.external_id = c.text();
+        i.details = c.text();
         out.push_back(std::move(i));
     }
     return out;
@@ -524,7 +562,7 @@ std::vector<SessionInfo> Store::sessions(int subject) const { return read_sessio
 
 int Store::begin_session(int subject, int first_position, const std::string& details) {
     Statement(m_db, "INSERT INTO sessions(subject, started_utc, first_position, details) VALUES(?, ?, ?, ?)")
-        .bind(1, subject).bind(2, utc_now()).bind(3, first_position).bind(4, details).run();
+        .bind_row(subject, utc_now(), first_position, details).run();
     return static_cast<int>(sqlite3_last_insert_rowid(m_db));
 }
 
@@ -540,7 +578,7 @@ void Store::mark_interrupted(int session) {
 
 void Store::add_event(int session, int subject, const std::string& kind, const std::string& detail) {
     Statement(m_db, "INSERT INTO events(session, subject, time_utc, kind, detail) VALUES(?, ?, ?, ?, ?)")
-        .bind(1, session).bind(2, subject).bind(3, utc_now()).bind(4, kind).bind(5, detail).run();
+        .bind_row(session, subject, utc_now(), kind, detail).run();
 }
 
 namespace {
@@ -556,23 +594,21 @@ void insert_trial(sqlite3* db, int session, const PlannedTrial& trial, const Pre
                    "INSERT INTO presentations(subject, position, session, audio_onset_s, video_onset_s, "
                    "duration_s, refresh_hz, frames_total, frames_shown, dropped_frames, repeated_frames, "
                    "mean_offset_ms, max_abs_offset_ms) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
-    pres.bind(1, trial.subject).bind(2, trial.position).bind(3, session).bind(4, p.audio_onset_s);
-    pres.bind(5, p.video_onset_s).bind(6, p.duration_s).bind(7, p.refresh_hz).bind(8, p.frames_total);
-    pres.bind(9, p.frames_shown).bind(10, p.dropped_frames).bind(11, p.repeated_frames);
-    pres.bind(12, p.mean_offset_ms).bind(13, p.max_abs_offset_ms);
+    pres.bind_row(trial.subject, trial.position, session, p.audio_onset_s, p.video_onset_s, p.duration_s,
+                  p.refresh_hz, p.frames_total, p.frames_shown, p.dropped_frames, p.repeated_frames,
+                  p.mean_offset_ms, p.max_abs_offset_ms);
     pres.run();
     Statement frame(db, "INSERT INTO frames(subject, position, frame, pts_s, flip_s, offset_ms) VALUES(?, ?, ?, ?, ?, ?)");
     for (const auto& f : p.flips) {
         sqlite3_reset(frame.handle());
-        frame.bind(1, trial.subject).bind(2, trial.position).bind(3, f.frame).bind(4, f.pts_s).bind(5, f.flip_s);
-        frame.bind(6, f.offset_ms);
+        frame.bind_row(trial.subject, trial.position, f.frame, f.pts_s, f.flip_s, f.offset_ms);
         frame.run();
     }
     Statement resp(db,
                    "INSERT INTO responses(subject, position, session, response, response_time_ms, "
                    "confirmed_empty, answered_utc) VALUES(?, ?, ?, ?, ?, ?, ?)");
-    resp.bind(1, trial.subject).bind(2, trial.position).bind(3, session).bind(4, r.text);
-    resp.bind(5, r.response_time_ms).bind(6, r.confirmed_empty ? 1 : 0).bind(7, answered_utc);
+    resp.bind_row(trial.subject, trial.position, session, r.text, r.response_time_ms, r.confirmed_empty,
+                  answered_utc);
     resp.run();
 }
 
@@ -596,12 +632,10 @@ void insert_adaptive(sqlite3* db, int session, const PlannedTrial& trial, const 
                 "level_db, keywords, correct, auto_correct, marks, corrected, next_level_db, step_db, reversal, "
                 "reversals, repeat, at_bound, speech_gain_db, noise_gain_db, limit_gain_db, response, answered_utc) "
                 "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
-    s.bind(1, trial.subject).bind(2, trial.position).bind(3, a.attempt).bind(4, session).bind(5, a.track);
-    s.bind(6, a.presentation).bind(7, a.sentence_index).bind(8, a.level_db).bind(9, a.keywords).bind(10, a.correct);
-    s.bind(11, a.auto_correct).bind(12, a.marks).bind(13, a.corrected ? 1 : 0).bind(14, a.next_level_db);
-    s.bind(15, a.step_db).bind(16, a.reversal ? 1 : 0).bind(17, a.reversals).bind(18, a.repeat ? 1 : 0);
-    s.bind(19, a.at_bound ? 1 : 0).bind(20, a.speech_gain_db).bind(21, a.noise_gain_db).bind(22, a.limit_gain_db);
-    s.bind(23, a.response).bind(24, answered_utc);
+    s.bind_row(trial.subject, trial.position, a.attempt, session, a.track, a.presentation, a.sentence_index,
+               a.level_db, a.keywords, a.correct, a.auto_correct, a.marks, a.corrected, a.next_level_db, a.step_db,
+               a.reversal, a.reversals, a.repeat, a.at_bound, a.speech_gain_db, a.noise_gain_db, a.limit_gain_db,
+               a.response, answered_utc);
     s.run();
 }
 
@@ -640,32 +674,33 @@ std::vector<Store::AdaptiveRow> Store::adaptive_trials(int subject) const {
     s.bind(1, subject).bind(2, subject);
     std::vector<AdaptiveRow> out;
     while (s.step()) {
+        Columns c(s);
         AdaptiveRow row;
-        row.subject = s.integer(0);
-        row.position = s.integer(1);
-        row.session = s.integer(2);
+        row.subject = c.integer();
+        row.position = c.integer();
+        row.session = c.integer();
         AdaptiveRecord& a = row.record;
-        a.attempt = s.integer(3);
-        a.track = s.text(4);
-        a.presentation = s.integer(5);
-        a.sentence_index = s.integer(6);
-        a.level_db = s.real(7);
-        a.keywords = s.integer(8);
-        a.correct = s.integer(9);
-        a.auto_correct = s.integer(10);
-        a.marks = s.text(11);
-        a.corrected = s.integer(12) != 0;
-        a.next_level_db = s.real(13);
-        a.step_db = s.real(14);
-        a.reversal = s.integer(15) != 0;
-        a.reversals = s.integer(16);
-        a.repeat = s.integer(17) != 0;
-        a.at_bound = s.integer(18) != 0;
-        a.speech_gain_db = s.real(19);
-        a.noise_gain_db = s.real(20);
-        a.limit_gain_db = s.real(21);
-        a.response = s.text(22);
-        a.answered_utc = s.text(23);
+        a.attempt = c.integer();
+        a.track = c.text();
+        a.presentation = c.integer();
+        a.sentence_index = c.integer();
+        a.level_db = c.real();
+        a.keywords = c.integer();
+        a.correct = c.integer();
+        a.auto_correct = c.integer();
+        a.marks = c.text();
+        a.corrected = c.flag();
+        a.next_level_db = c.real();
+        a.step_db = c.real();
+        a.reversal = c.flag();
+        a.reversals = c.integer();
+        a.repeat = c.flag();
+        a.at_bound = c.flag();
+        a.speech_gain_db = c.real();
+        a.noise_gain_db = c.real();
+        a.limit_gain_db = c.real();
+        a.response = c.text();
+        a.answered_utc = c.text();
         out.push_back(std::move(row));
     }
     return out;
@@ -684,8 +719,7 @@ OnlineImportCounts Store::import_online(const std::vector<OnlineSubject>& subjec
                 Statement s(m_db,
                             "INSERT INTO planned_trials(subject, position, phase, block, list, condition, sentence, "
                             "stimulus) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
-                s.bind(1, id).bind(2, t.position).bind(3, to_string(t.phase)).bind(4, t.block);
-                s.bind(5, t.list).bind(6, t.condition).bind(7, t.sentence).bind(8, t.stimulus);
+                s.bind_row(id, t.position, to_string(t.phase), t.block, t.list, t.condition, t.sentence, t.stimulus);
                 s.run();
             }
             ++counts.subjects_added;
@@ -707,34 +741,36 @@ OnlineImportCounts Store::import_online(const std::vector<OnlineSubject>& subjec
                 Statement(m_db,
                           "INSERT INTO sessions(subject, started_utc, ended_utc, end_reason, first_position, details, "
                           "mode, external_id) VALUES(?, ?, ?, ?, ?, ?, 'online', ?)")
-                    .bind(1, id).bind(2, session.started_utc).bind(3, session.ended_utc).bind(4, session.end_reason)
-                    .bind(5, session.first_position).bind(6, session.details).bind(7, session.external_id).run();
+                    .bind_row(id, session.started_utc, session.ended_utc, session.end_reason, session.first_position,
+                              session.details, session.external_id)
+                    .run();
                 session_id = static_cast<int>(sqlite3_last_insert_rowid(m_db));
                 ++counts.sessions_added;
                 Statement(m_db, "INSERT INTO events(session, subject, time_utc, kind, detail) VALUES(?, ?, ?, ?, ?)")
-                    .bind(1, session_id).bind(2, id).bind(3, utc_now()).bind(4, std::string("import-web"))
-                    .bind(5, event_detail).run();
+                    .bind_row(session_id, id, utc_now(), std::string("import-web"), event_detail)
+                    .run();
                 for (const auto& [kind, detail] : session.events)
                     Statement(m_db, "INSERT INTO events(session, subject, time_utc, kind, detail) VALUES(?, ?, ?, ?, ?)")
-                        .bind(1, session_id).bind(2, id).bind(3, session.started_utc).bind(4, kind).bind(5, detail).run();
+                        .bind_row(session_id, id, session.started_utc, kind, detail)
+                        .run();
             } else {
                 // A later import may know more of the session (it went on after the first export).
                 Statement(m_db, "UPDATE sessions SET ended_utc = ?, end_reason = ?, details = ? WHERE session = ?")
-                    .bind(1, session.ended_utc).bind(2, session.end_reason).bind(3, session.details)
-                    .bind(4, session_id).run();
+                    .bind_row(session.ended_utc, session.end_reason, session.details, session_id)
+                    .run();
             }
             for (const ScreeningTrial& t : session.screening_trials)
                 Statement(m_db,
                           "INSERT OR REPLACE INTO screening_trials(subject, session, test, trial, answer, response, "
                           "correct, response_time_ms) VALUES(?, ?, ?, ?, ?, ?, ?, ?)")
-                    .bind(1, id).bind(2, session_id).bind(3, t.test).bind(4, t.trial).bind(5, t.answer)
-                    .bind(6, t.response).bind(7, t.correct ? 1 : 0).bind(8, t.response_time_ms).run();
+                    .bind_row(id, session_id, t.test, t.trial, t.answer, t.response, t.correct, t.response_time_ms)
+                    .run();
             for (const ScreeningResult& r : session.screening)
                 Statement(m_db,
                           "INSERT OR REPLACE INTO screening(subject, session, test, trials, correct, required, passed) "
                           "VALUES(?, ?, ?, ?, ?, ?, ?)")
-                    .bind(1, id).bind(2, session_id).bind(3, r.test).bind(4, r.trials).bind(5, r.correct)
-                    .bind(6, r.required).bind(7, r.passed ? 1 : 0).run();
+                    .bind_row(id, session_id, r.test, r.trials, r.correct, r.required, r.passed)
+                    .run();
             for (const auto& t : session.trials) {
                 Statement existing(m_db,
                                    "SELECT r.response, r.confirmed_empty, r.answered_utc, s.mode FROM responses r "
@@ -763,10 +799,10 @@ OnlineImportCounts Store::import_online(const std::vector<OnlineSubject>& subjec
                           "INSERT OR REPLACE INTO web_presentations(subject, position, frame_callbacks, presented_frames, "
                           "missed_callbacks, browser_dropped_frames, browser_total_frames, output_latency_ms, "
                           "base_latency_ms, audio_path_ms, audio_path_measured) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
-                    .bind(1, id).bind(2, t.trial.position).bind(3, w.frame_callbacks ? 1 : 0).bind(4, w.presented_frames)
-                    .bind(5, w.missed_callbacks).bind(6, w.browser_dropped_frames).bind(7, w.browser_total_frames)
-                    .bind(8, w.output_latency_ms).bind(9, w.base_latency_ms).bind(10, w.audio_path_ms)
-                    .bind(11, w.audio_path_measured ? 1 : 0).run();
+                    .bind_row(id, t.trial.position, w.frame_callbacks, w.presented_frames, w.missed_callbacks,
+                              w.browser_dropped_frames, w.browser_total_frames, w.output_latency_ms,
+                              w.base_latency_ms, w.audio_path_ms, w.audio_path_measured)
+                    .run();
                 ++counts.trials_added;
             }
         }
@@ -783,21 +819,22 @@ std::vector<ResponseRow> Store::responses() const {
                 "JOIN sessions s ON s.session = r.session ORDER BY p.subject, p.position");
     std::vector<ResponseRow> out;
     while (s.step()) {
+        Columns c(s);
         ResponseRow row;
-        row.trial.subject = s.integer(0);
-        row.trial.position = s.integer(1);
-        parse_phase(s.text(2), row.trial.phase);
-        row.trial.block = s.integer(3);
-        row.trial.list = s.text(4);
-        row.trial.condition = s.text(5);
-        row.trial.sentence = s.text(6);
-        row.trial.stimulus = s.text(7);
-        row.session = s.integer(8);
-        row.response.text = s.text(9);
-        row.response.response_time_ms = s.real(10);
-        row.response.confirmed_empty = s.integer(11) != 0;
-        row.answered_utc = s.text(12);
-        row.mode = s.text(13);
+        row.trial.subject = c.integer();
+        row.trial.position = c.integer();
+        parse_phase(c.text(), row.trial.phase);
+        row.trial.block = c.integer();
+        row.trial.list = c.text();
+        row.trial.condition = c.text();
+        row.trial.sentence = c.text();
+        row.trial.stimulus = c.text();
+        row.session = c.integer();
+        row.response.text = c.text();
+        row.response.response_time_ms = c.real();
+        row.response.confirmed_empty = c.flag();
+        row.answered_utc = c.text();
+        row.mode = c.text();
         out.push_back(std::move(row));
     }
     return out;
@@ -810,26 +847,30 @@ std::vector<Store::TimingRow> Store::timing(bool with_frames) const {
                 "FROM presentations ORDER BY subject, position");
     std::vector<TimingRow> out;
     while (s.step()) {
+        Columns c(s);
         TimingRow row;
-        row.subject = s.integer(0);
-        row.position = s.integer(1);
-        row.session = s.integer(2);
+        row.subject = c.integer();
+        row.position = c.integer();
+        row.session = c.integer();
         Presentation& p = row.presentation;
-        p.audio_onset_s = s.real(3);
-        p.video_onset_s = s.real(4);
-        p.duration_s = s.real(5);
-        p.refresh_hz = s.real(6);
-        p.frames_total = s.integer(7);
-        p.frames_shown = s.integer(8);
-        p.dropped_frames = s.integer(9);
-        p.repeated_frames = s.integer(10);
-        p.mean_offset_ms = s.real(11);
-        p.max_abs_offset_ms = s.real(12);
+        p.audio_onset_s = c.real();
+        p.video_onset_s = c.real();
+        p.duration_s = c.real();
+        p.refresh_hz = c.real();
+        p.frames_total = c.integer();
+        p.frames_shown = c.integer();
+        p.dropped_frames = c.integer();
+        p.repeated_frames = c.integer();
+        p.mean_offset_ms = c.real();
+        p.max_abs_offset_ms = c.real();
         if (with_frames) {
             Statement f(m_db, "SELECT frame, pts_s, flip_s, offset_ms FROM frames WHERE subject = ? AND "
                               "position = ? ORDER BY frame");
-            f.bind(1, row.subject).bind(2, row.position);
-            while (f.step()) p.flips.push_back({f.integer(0), f.real(1), f.real(2), f.real(3)});
+            f.bind_row(row.subject, row.position);
+            while (f.step()) {
+                Columns fc(f);
+                p.flips.push_back({fc.integer(), fc.real(), fc.real(), fc.real()});
+            }
         }
         out.push_back(std::move(row));
     }
@@ -843,18 +884,19 @@ std::vector<Store::WebTimingRow> Store::web_timing() const {
                 "ORDER BY subject, position");
     std::vector<WebTimingRow> out;
     while (s.step()) {
+        Columns c(s);
         WebTimingRow row;
-        row.subject = s.integer(0);
-        row.position = s.integer(1);
-        row.web.frame_callbacks = s.integer(2) != 0;
-        row.web.presented_frames = s.integer(3);
-        row.web.missed_callbacks = s.integer(4);
-        row.web.browser_dropped_frames = s.integer(5);
-        row.web.browser_total_frames = s.integer(6);
-        row.web.output_latency_ms = s.real(7);
-        row.web.base_latency_ms = s.real(8);
-        row.web.audio_path_ms = s.real(9);
-        row.web.audio_path_measured = s.integer(10) != 0;
+        row.subject = c.integer();
+        row.position = c.integer();
+        row.web.frame_callbacks = c.flag();
+        row.web.presented_frames = c.integer();
+        row.web.missed_callbacks = c.integer();
+        row.web.browser_dropped_frames = c.integer();
+        row.web.browser_total_frames = c.integer();
+        row.web.output_latency_ms = c.real();
+        row.web.base_latency_ms = c.real();
+        row.web.audio_path_ms = c.real();
+        row.web.audio_path_measured = c.flag();
         out.push_back(row);
     }
     return out;
@@ -864,8 +906,10 @@ std::vector<Store::ScreeningRow> Store::screening() const {
     Statement s(m_db, "SELECT subject, session, test, trials, correct, required, passed FROM screening "
                       "ORDER BY subject, session, test");
     std::vector<ScreeningRow> out;
-    while (s.step())
-        out.push_back({s.integer(0), s.integer(1), {s.text(2), s.integer(3), s.integer(4), s.integer(5), s.integer(6) != 0}});
+    while (s.step()) {
+        Columns c(s);
+        out.push_back({c.integer(), c.integer(), {c.text(), c.integer(), c.integer(), c.integer(), c.flag()}});
+    }
     return out;
 }
 
@@ -873,16 +917,20 @@ std::vector<Store::ScreeningTrialRow> Store::screening_trials() const {
     Statement s(m_db, "SELECT subject, session, test, trial, answer, response, correct, response_time_ms "
                       "FROM screening_trials ORDER BY subject, session, test, trial");
     std::vector<ScreeningTrialRow> out;
-    while (s.step())
-        out.push_back({s.integer(0), s.integer(1),
-                       {s.text(2), s.integer(3), s.integer(4), s.integer(5), s.integer(6) != 0, s.real(7)}});
+    while (s.step()) {
+        Columns c(s);
+        out.push_back({c.integer(), c.integer(), {c.text(), c.integer(), c.integer(), c.integer(), c.flag(), c.real()}});
+    }
     return out;
 }
 
 std::vector<Store::EventRow> Store::events() const {
     Statement s(m_db, "SELECT session, subject, time_utc, kind, detail FROM events ORDER BY id");
     std::vector<EventRow> out;
-    while (s.step()) out.push_back({s.integer(0), s.integer(1), s.text(2), s.text(3), s.text(4)});
+    while (s.step()) {
+        Columns c(s);
+        out.push_back({c.integer(), c.integer(), c.text(), c.text(), c.text()});
+    }
     return out;
 }
 
@@ -893,25 +941,29 @@ std::vector<int> Store::subjects() const {
     return out;
 }
 
-std::vector<std::filesystem::path> export_store(const Store& store, const std::filesystem::path& out_dir) {
-    std::vector<std::filesystem::path> written;
-    auto num = [](double v) { return fmt::format("{:.6f}", v); };
-    auto ms = [](double v) { return fmt::format("{:.3f}", v); };
+namespace {
 
-    // responses.csv: the analysis input columns first, then extras.
-    std::string responses = csv_line({"subject", "session", "trial", "phase", "condition", "list", "sentence",
-                                      "response", "response_time_ms", "block", "stimulus", "confirmed_empty",
-                                      "answered_utc", "mode"});
+std::string csv_number(double v) { return fmt::format("{:.6f}", v); }
+std::string csv_ms(double v) { return fmt::format("{:.3f}", v); }
+
+// responses.csv: the analysis input columns first, then extras.
+std::string responses_csv(const Store& store) {
+    std::string csv = csv_line({"subject", "session", "trial", "phase", "condition", "list", "sentence",
+                                "response", "response_time_ms", "block", "stimulus", "confirmed_empty",
+                                "answered_utc", "mode"});
     for (const auto& r : store.responses())
-        responses += csv_line({std::to_string(r.trial.subject), std::to_string(r.session),
-                               std::to_string(r.trial.position), to_string(r.trial.phase), r.trial.condition,
-                               r.trial.list, r.trial.sentence, r.response.text, ms(r.response.response_time_ms),
-                               std::to_string(r.trial.block), r.trial.stimulus,
-                               r.response.confirmed_empty ? "1" : "0", r.answered_utc, r.mode});
-    written.push_back(out_dir / "responses.csv");
-    write_text_file(written.back(), responses);
+        csv += csv_line({std::to_string(r.trial.subject), std::to_string(r.session),
+                         std::to_string(r.trial.position), to_string(r.trial.phase), r.trial.condition,
+                         r.trial.list, r.trial.sentence, r.response.text, csv_ms(r.response.response_time_ms),
+                         std::to_string(r.trial.block), r.trial.stimulus,
+                         r.response.confirmed_empty ? "1" : "0", r.answered_utc, r.mode});
+    return csv;
+}
 
-    const auto timing = store.timing(true);
+// timing.csv (one row per presentation) and frames.csv (one per frame).
+std::pair<std::string, std::string> timing_and_frames_csv(const std::vector<Store::TimingRow>& timing) {
+    const auto num = csv_number;
+    const auto ms = csv_ms;
     std::string timing_csv = csv_line({"subject", "session", "trial", "audio_onset_s", "video_onset_s", "duration_s",
                                        "refresh_hz", "frames_total", "frames_shown", "dropped_frames",
                                        "repeated_frames", "mean_av_offset_ms", "max_abs_av_offset_ms"});
@@ -927,7 +979,11 @@ std::vector<std::filesystem::path> export_store(const Store& store, const std::f
             frames_csv += csv_line({std::to_string(t.subject), std::to_string(t.position), std::to_string(f.frame),
                                     num(f.pts_s), num(f.flip_s), ms(f.offset_ms)});
     }
-    // One summary row per session: what a methods section reports.
+    return {timing_csv, frames_csv};
+}
+
+// timing_summary.csv: one row per session, what a methods section reports.
+std::string timing_summary_csv(const std::vector<Store::TimingRow>& timing) {
     struct Summary {
         int subject = 0, presentations = 0, frames = 0, dropped = 0, repeated = 0;
         double sum_offset_ms = 0.0, max_abs_offset_ms = 0.0;
@@ -952,95 +1008,124 @@ std::vector<std::filesystem::path> export_store(const Store& store, const std::f
     for (const auto& [session, s] : summaries)
         summary_csv += csv_line({std::to_string(s.subject), std::to_string(session), std::to_string(s.presentations),
                                  std::to_string(s.frames), std::to_string(s.dropped), std::to_string(s.repeated),
-                                 ms(s.offsets ? s.sum_offset_ms / s.offsets : 0.0), ms(s.max_abs_offset_ms)});
-    written.push_back(out_dir / "timing_summary.csv");
-    write_text_file(written.back(), summary_csv);
-    written.push_back(out_dir / "timing.csv");
-    write_text_file(written.back(), timing_csv);
-    written.push_back(out_dir / "frames.csv");
-    write_text_file(written.back(), frames_csv);
+                                 csv_ms(s.offsets ? s.sum_offset_ms / s.offsets : 0.0), csv_ms(s.max_abs_offset_ms)});
+    return summary_csv;
+}
 
-    std::string sessions_csv =
+// sessions.csv: every session of every subject.
+std::string sessions_csv(const Store& store) {
+    std::string csv =
         csv_line({"subject", "session", "started_utc", "ended_utc", "end_reason", "first_trial", "mode", "details"});
     for (int subject : store.subjects())
         for (const auto& s : store.sessions(subject))
-            sessions_csv += csv_line({std::to_string(s.subject), std::to_string(s.session), s.started_utc,
-                                      s.ended_utc, s.end_reason.empty() ? "open" : s.end_reason,
-                                      std::to_string(s.first_position), s.mode, s.details});
-    written.push_back(out_dir / "sessions.csv");
-    write_text_file(written.back(), sessions_csv);
+            csv += csv_line({std::to_string(s.subject), std::to_string(s.session), s.started_utc,
+                             s.ended_utc, s.end_reason.empty() ? "open" : s.end_reason,
+                             std::to_string(s.first_position), s.mode, s.details});
+    return csv;
+}
 
-    std::string events_csv = csv_line({"session", "subject", "time_utc", "kind", "detail"});
+// events.csv: the session log.
+std::string events_csv(const Store& store) {
+    std::string csv = csv_line({"session", "subject", "time_utc", "kind", "detail"});
     for (const auto& e : store.events())
-        events_csv += csv_line({std::to_string(e.session), std::to_string(e.subject), e.time_utc, e.kind, e.detail});
-    written.push_back(out_dir / "events.csv");
-    write_text_file(written.back(), events_csv);
+        csv += csv_line({std::to_string(e.session), std::to_string(e.subject), e.time_utc, e.kind, e.detail});
+    return csv;
+}
 
-    // Adaptive protocols: every presentation with its level and score.
-    if (const auto adaptive = store.adaptive_trials(); !adaptive.empty()) {
-        std::map<std::pair<int, int>, PlannedTrial> planned;
-        for (int subject : store.subjects())
-            for (auto& t : store.planned_trials(subject)) planned[{subject, t.position}] = t;
-        // Levels in full precision: the analysis replays the tracks and compares.
-        auto full = [](double v) { return fmt::format("{}", v); };
-        std::string csv = csv_line({"subject", "session", "trial", "attempt", "phase", "condition", "track",
-                                    "presentation", "sentence_index", "sentence", "level_db", "keywords", "correct",
-                                    "auto_correct", "marks", "corrected", "next_level_db", "step_db", "reversal",
-                                    "reversals", "repeat", "at_bound", "speech_gain_db", "noise_gain_db",
-                                    "limit_gain_db", "response", "answered_utc"});
-        for (const auto& row : adaptive) {
-            const auto it = planned.find({row.subject, row.position});
-            const PlannedTrial t = it == planned.end() ? PlannedTrial{} : it->second;
-            const AdaptiveRecord& a = row.record;
-            csv += csv_line({std::to_string(row.subject), std::to_string(row.session), std::to_string(row.position),
-                             std::to_string(a.attempt), to_string(t.phase), t.condition, a.track,
-                             std::to_string(a.presentation), std::to_string(a.sentence_index), t.sentence,
-                             full(a.level_db), std::to_string(a.keywords), std::to_string(a.correct),
-                             std::to_string(a.auto_correct), a.marks, a.corrected ? "1" : "0", full(a.next_level_db),
-                             full(a.step_db), a.reversal ? "1" : "0", std::to_string(a.reversals),
-                             a.repeat ? "1" : "0", a.at_bound ? "1" : "0", full(a.speech_gain_db),
-                             full(a.noise_gain_db), full(a.limit_gain_db), a.response, a.answered_utc});
-        }
-        written.push_back(out_dir / "adaptive_trials.csv");
-        write_text_file(written.back(), csv);
+// adaptive_trials.csv: every presentation of an adaptive track with its level and score.
+std::string adaptive_trials_csv(const Store& store, const std::vector<Store::AdaptiveRow>& adaptive) {
+    std::map<std::pair<int, int>, PlannedTrial> planned;
+    for (int subject : store.subjects())
+        for (auto& t : store.planned_trials(subject)) planned[{subject, t.position}] = t;
+    // Levels in full precision: the analysis replays the tracks and compares.
+    auto full = [](double v) { return fmt::format("{}", v); };
+    std::string csv = csv_line({"subject", "session", "trial", "attempt", "phase", "condition", "track",
+                                "presentation", "sentence_index", "sentence", "level_db", "keywords", "correct",
+                                "auto_correct", "marks", "corrected", "next_level_db", "step_db", "reversal",
+                                "reversals", "repeat", "at_bound", "speech_gain_db", "noise_gain_db",
+                                "limit_gain_db", "response", "answered_utc"});
+    for (const auto& row : adaptive) {
+        const auto it = planned.find({row.subject, row.position});
+        const PlannedTrial t = it == planned.end() ? PlannedTrial{} : it->second;
+        const AdaptiveRecord& a = row.record;
+        csv += csv_line({std::to_string(row.subject), std::to_string(row.session), std::to_string(row.position),
+                         std::to_string(a.attempt), to_string(t.phase), t.condition, a.track,
+                         std::to_string(a.presentation), std::to_string(a.sentence_index), t.sentence,
+                         full(a.level_db), std::to_string(a.keywords), std::to_string(a.correct),
+                         std::to_string(a.auto_correct), a.marks, a.corrected ? "1" : "0", full(a.next_level_db),
+                         full(a.step_db), a.reversal ? "1" : "0", std::to_string(a.reversals),
+                         a.repeat ? "1" : "0", a.at_bound ? "1" : "0", full(a.speech_gain_db),
+                         full(a.noise_gain_db), full(a.limit_gain_db), a.response, a.answered_utc});
     }
+    return csv;
+}
 
+// web_timing.csv: the browser's timing of each online presentation.
+std::string web_timing_csv(const std::vector<Store::WebTimingRow>& web) {
+    const auto ms = csv_ms;
+    std::string csv = csv_line({"subject", "trial", "frame_callbacks", "presented_frames", "missed_callbacks",
+                                "browser_dropped_frames", "browser_total_frames", "output_latency_ms",
+                                "base_latency_ms", "audio_path_ms", "audio_path_measured"});
+    for (const auto& w : web)
+        csv += csv_line({std::to_string(w.subject), std::to_string(w.position), w.web.frame_callbacks ? "1" : "0",
+                         std::to_string(w.web.presented_frames), std::to_string(w.web.missed_callbacks),
+                         std::to_string(w.web.browser_dropped_frames), std::to_string(w.web.browser_total_frames),
+                         ms(w.web.output_latency_ms), ms(w.web.base_latency_ms), ms(w.web.audio_path_ms),
+                         w.web.audio_path_measured ? "1" : "0"});
+    return csv;
+}
+
+// screening.csv: the outcome of each headphone check.
+std::string screening_csv(const std::vector<Store::ScreeningRow>& screening) {
+    std::string csv = csv_line({"subject", "session", "test", "trials", "correct", "required", "passed"});
+    for (const auto& r : screening)
+        csv += csv_line({std::to_string(r.subject), std::to_string(r.session), r.result.test,
+                         std::to_string(r.result.trials), std::to_string(r.result.correct),
+                         std::to_string(r.result.required), r.result.passed ? "1" : "0"});
+    return csv;
+}
+
+// screening_trials.csv: each trial of the headphone checks.
+std::string screening_trials_csv(const std::vector<Store::ScreeningTrialRow>& screening_trials) {
+    std::string csv = csv_line({"subject", "session", "test", "trial", "answer", "response", "correct",
+                                "response_time_ms"});
+    for (const auto& t : screening_trials)
+        csv += csv_line({std::to_string(t.subject), std::to_string(t.session), t.trial.test,
+                         std::to_string(t.trial.trial), std::to_string(t.trial.answer),
+                         std::to_string(t.trial.response), t.trial.correct ? "1" : "0",
+                         csv_ms(t.trial.response_time_ms)});
+    return csv;
+}
+
+}  // namespace
+
+std::vector<std::filesystem::path> export_store(const Store& store, const std::filesystem::path& out_dir) {
+    std::vector<std::filesystem::path> written;
+    auto write = [&](const char* name, const std::string& text) {
+        written.push_back(out_dir / name);
+        write_text_file(written.back(), text);
+    };
+    write("responses.csv", responses_csv(store));
+    const auto timing = store.timing(true);
+    const auto [timing_csv, frames_csv] = timing_and_frames_csv(timing);
+    write("timing_summary.csv", timing_summary_csv(timing));
+    write("timing.csv", timing_csv);
+    write("frames.csv", frames_csv);
+    write("sessions.csv", sessions_csv(store));
+    write("events.csv", events_csv(store));
+    if (const auto adaptive = store.adaptive_trials(); !adaptive.empty())
+        write("adaptive_trials.csv", adaptive_trials_csv(store, adaptive));
     // Online sessions: browser timing and headphone checks.
     const auto web = store.web_timing();
     const auto screening = store.screening();
     const auto screening_trials = store.screening_trials();
     if (!web.empty() || !screening.empty() || !screening_trials.empty()) {
-        std::string web_csv = csv_line({"subject", "trial", "frame_callbacks", "presented_frames", "missed_callbacks",
-                                        "browser_dropped_frames", "browser_total_frames", "output_latency_ms",
-                                        "base_latency_ms", "audio_path_ms", "audio_path_measured"});
-        for (const auto& w : web)
-            web_csv += csv_line({std::to_string(w.subject), std::to_string(w.position), w.web.frame_callbacks ? "1" : "0",
-                                 std::to_string(w.web.presented_frames), std::to_string(w.web.missed_callbacks),
-                                 std::to_string(w.web.browser_dropped_frames), std::to_string(w.web.browser_total_frames),
-                                 ms(w.web.output_latency_ms), ms(w.web.base_latency_ms), ms(w.web.audio_path_ms),
-                                 w.web.audio_path_measured ? "1" : "0"});
-        written.push_back(out_dir / "web_timing.csv");
-        write_text_file(written.back(), web_csv);
+        write("web_timing.csv", web_timing_csv(web));
         // Per participant: the timing certificate (timing_certificate.h) with the default tolerances.
         const TimingTolerance tolerance;
-        written.push_back(out_dir / "timing_certificate.csv");
-        write_text_file(written.back(), timing_certificate_csv(timing_certificates(store, tolerance), tolerance));
-        std::string screening_csv = csv_line({"subject", "session", "test", "trials", "correct", "required", "passed"});
-        for (const auto& r : screening)
-            screening_csv += csv_line({std::to_string(r.subject), std::to_string(r.session), r.result.test,
-                                       std::to_string(r.result.trials), std::to_string(r.result.correct),
-                                       std::to_string(r.result.required), r.result.passed ? "1" : "0"});
-        written.push_back(out_dir / "screening.csv");
-        write_text_file(written.back(), screening_csv);
-        std::string trials_csv = csv_line({"subject", "session", "test", "trial", "answer", "response", "correct",
-                                           "response_time_ms"});
-        for (const auto& t : screening_trials)
-            trials_csv += csv_line({std::to_string(t.subject), std::to_string(t.session), t.trial.test,
-                                    std::to_string(t.trial.trial), std::to_string(t.trial.answer),
-                                    std::to_string(t.trial.response), t.trial.correct ? "1" : "0",
-                                    ms(t.trial.response_time_ms)});
-        written.push_back(out_dir / "screening_trials.csv");
-        write_text_file(written.back(), trials_csv);
+        write("timing_certificate.csv", timing_certificate_csv(timing_certificates(store, tolerance), tolerance));
+        write("screening.csv", screening_csv(screening));
+        write("screening_trials.csv", screening_trials_csv(screening_trials));
     }
     return written;
 }

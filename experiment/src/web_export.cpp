@@ -177,48 +177,34 @@ std::vector<std::string> spread(const std::vector<std::string>& items, std::size
 
 }  // namespace
 
-ExportWebResult export_web(const ExportWebSettings& settings) {
-    const Protocol protocol = load_protocol(settings.protocol);
-    // Adaptive SRT tracks need live scoring and mixing between trials; the
-    // web study presents fixed stimuli only.
-    if (protocol.adaptive.present())
-        throw InputError(settings.protocol, protocol.adaptive.line(), protocol.adaptive.column(), "adaptive",
-                         "adaptive SRT tracks run in the lab runner (`avsi run`) only; the web study does not "
-                         "implement them (export a protocol without [adaptive])");
-    const OnlineSettings online = read_online_settings(protocol);
-    const Corpus corpus = read_corpus(protocol.corpus.sentences);
-    const auto subjects = check_lists(protocol, corpus, settings.lists);
+namespace {
 
-    // The web runtime and the vendored jsPsych.
-    const fs::path web = settings.web_dir.empty() ? fs::path(AVSI_WEB_DIR) : settings.web_dir;
-    {
-        DiagnosticList missing;
-        for (const auto& f : runtime_files)
-            if (!fs::is_regular_file(web / f.from))
-                missing.add((web / f.from).string(), 0, 0, "", "missing: the study runtime is part of avsi's web/ folder");
-        for (const auto& f : vendored_files)
-            if (!fs::is_regular_file(web / "node_modules" / f.package / f.file))
-                missing.add((web / "node_modules" / f.package / f.file).string(), 0, 0, "",
-                            "missing: jsPsych is not installed; run scripts/install-deps (it runs `npm ci` in web/)");
-        missing.throw_if_any();
-    }
+// The web runtime (avsi's web/ folder) and the vendored jsPsych are all there.
+void check_web_runtime(const fs::path& web) {
+    DiagnosticList missing;
+    for (const auto& f : runtime_files)
+        if (!fs::is_regular_file(web / f.from))
+            missing.add((web / f.from).string(), 0, 0, "", "missing: the study runtime is part of avsi's web/ folder");
+    for (const auto& f : vendored_files)
+        if (!fs::is_regular_file(web / "node_modules" / f.package / f.file))
+            missing.add((web / "node_modules" / f.package / f.file).string(), 0, 0, "",
+                        "missing: jsPsych is not installed; run scripts/install-deps (it runs `npm ci` in web/)");
+    missing.throw_if_any();
+}
 
-    // The stimuli the exported subjects use, checked against the manifest.
-    StimulusFolderOpener folder(settings.stimuli_dir);
-    if (!folder.manifest().experiment.empty() && folder.manifest().experiment != protocol.name)
-        throw InputError(settings.stimuli_dir / "manifest.json", 0, 0, "experiment",
-                         fmt::format("expected stimuli built for experiment \"{}\", got \"{}\"", protocol.name,
-                                     folder.manifest().experiment));
+// The stimuli the exported subjects use, sorted.
+std::vector<std::string> used_stimuli(const std::map<int, std::vector<PlannedTrial>>& subjects) {
     std::vector<std::string> used;
-    {
-        std::set<std::string> seen;
-        for (const auto& [subject, trials] : subjects)
-            for (const auto& t : trials)
-                if (seen.insert(t.stimulus).second) used.push_back(t.stimulus);
-        std::sort(used.begin(), used.end());
-    }
-    folder.verify(used);
+    std::set<std::string> seen;
+    for (const auto& [subject, trials] : subjects)
+        for (const auto& t : trials)
+            if (seen.insert(t.stimulus).second) used.push_back(t.stimulus);
+    std::sort(used.begin(), used.end());
+    return used;
+}
 
+// The study folder to write: new, or a study an earlier `avsi export-web` wrote.
+fs::path study_out_dir(const ExportWebSettings& settings) {
     if (settings.out_dir.empty()) throw UsageError("--out: give the study folder to write");
     const fs::path out = settings.out_dir.lexically_normal();
     if (fs::exists(out) && !fs::is_regular_file(out / "study.json"))
@@ -233,13 +219,14 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
         if (!previous.is_object() || json_string(previous, "format") != "avsi-web-study")
             throw InputError(out / "study.json", "not an avsi study export; choose another --out or remove the folder");
     }
-    StagingFolder staging(out);
-    const fs::path dir = staging.path();
-    ExportWebResult result;
+    return out;
+}
 
+// Copies the runtime and the vendored files, with each package's version
+// and licence recorded in lib/VENDORED.txt (the npm packages ship no
+// separate licence file); returns the packages' versions.
+ordered_json copy_runtime(const fs::path& web, const fs::path& dir, ExportWebResult& result) {
     for (const auto& f : runtime_files) copy_into(web / f.from, dir / f.to);
-    // The vendored files, with each package's version and licence recorded
-    // in lib/VENDORED.txt (the npm packages ship no separate licence file).
     ordered_json vendored = ordered_json::object();
     std::string vendored_txt = "Files in this folder come from the npm registry (installed by avsi's scripts/install-deps):\n\n";
     for (const auto& f : vendored_files) {
@@ -252,51 +239,63 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
                                     f.file, json_string(package, "license", "?"), json_string(package, "homepage"));
     }
     write_text_file(dir / "lib" / "VENDORED.txt", vendored_txt);
+    return vendored;
+}
 
-    // Stimuli: copied when browsers play them as they are, else transcoded
-    // (the builder's decoder and encoder: H.264 Constrained Baseline + AAC).
+// A stimulus browsers cannot play as it is, transcoded with the builder's
+// decoder and encoder (H.264 Constrained Baseline + AAC).
+void transcode_stimulus(const std::string& stimulus, const MediaProbe& probe, const fs::path& source,
+                        const fs::path& target) {
+    log_info("export-web: {} is {}; transcoding to H.264 Constrained Baseline + AAC", stimulus,
+             probe.describe());
+    const stimuli::DecodedVideo video = stimuli::decode_video(source, true);
+    if (video.width % 2 || video.height % 2)
+        throw InputError(source, fmt::format("the video is {}x{}; browsers' H.264 needs even sizes",
+                                             video.width, video.height));
+    stimuli::VideoSettings vs;
+    vs.fps = video.fps;
+    fs::create_directories(target.parent_path());
+    stimuli::VideoWriter writer(target, video.width, video.height, video.frames.size(),
+                                video.has_audio ? &video.audio : nullptr, vs);
+    for (const auto& frame : video.frames) writer.write(frame);
+    writer.finish();
+}
+
+// Stimuli: copied when browsers play them as they are, else transcoded;
+// returns study.json's record of each.
+ordered_json copy_stimuli(const ExportWebSettings& settings, const StimulusFolderOpener& folder,
+                          const std::vector<std::string>& used, const fs::path& dir, ExportWebResult& result) {
     ordered_json stimuli = ordered_json::object();
-    {
-        Progress progress("export-web: stimuli", used.size());
-        for (const auto& stimulus : used) {
-            const ManifestEntry& entry = folder.manifest().stimuli.at(stimulus);
-            const fs::path source = settings.stimuli_dir / stimulus;
-            const fs::path target = dir / "stimuli" / stimulus;
-            const MediaProbe probe = probe_media(source);
-            bool transcoded = false;
-            if (probe.browser_ready()) {
-                copy_into(source, target);
-            } else {
-                log_info("export-web: {} is {}; transcoding to H.264 Constrained Baseline + AAC", stimulus,
-                         probe.describe());
-                const stimuli::DecodedVideo video = stimuli::decode_video(source, true);
-                if (video.width % 2 || video.height % 2)
-                    throw InputError(source, fmt::format("the video is {}x{}; browsers' H.264 needs even sizes",
-                                                         video.width, video.height));
-                stimuli::VideoSettings vs;
-                vs.fps = video.fps;
-                fs::create_directories(target.parent_path());
-                stimuli::VideoWriter writer(target, video.width, video.height, video.frames.size(),
-                                            video.has_audio ? &video.audio : nullptr, vs);
-                for (const auto& frame : video.frames) writer.write(frame);
-                writer.finish();
-                transcoded = true;
-                ++result.transcoded;
-            }
-            ordered_json s;
-            s["file"] = "stimuli/" + stimulus;
-            s["sha256"] = entry.sha256;
-            s["file_sha256"] = transcoded ? sha256_file(target) : entry.sha256;
-            s["frames"] = entry.frames;
-            s["fps"] = entry.fps;
-            s["transcoded"] = transcoded;
-            stimuli[stimulus] = s;
-            progress.advance();
+    Progress progress("export-web: stimuli", used.size());
+    for (const auto& stimulus : used) {
+        const ManifestEntry& entry = folder.manifest().stimuli.at(stimulus);
+        const fs::path source = settings.stimuli_dir / stimulus;
+        const fs::path target = dir / "stimuli" / stimulus;
+        const MediaProbe probe = probe_media(source);
+        bool transcoded = false;
+        if (probe.browser_ready()) {
+            copy_into(source, target);
+        } else {
+            transcode_stimulus(stimulus, probe, source, target);
+            transcoded = true;
+            ++result.transcoded;
         }
+        ordered_json s;
+        s["file"] = "stimuli/" + stimulus;
+        s["sha256"] = entry.sha256;
+        s["file_sha256"] = transcoded ? sha256_file(target) : entry.sha256;
+        s["frames"] = entry.frames;
+        s["fps"] = entry.fps;
+        s["transcoded"] = transcoded;
+        stimuli[stimulus] = s;
+        progress.advance();
     }
-    result.stimuli = static_cast<int>(used.size());
+    return stimuli;
+}
 
-    // Screening and calibration sounds.
+// Screening and calibration sounds; returns study.json's record of them.
+ordered_json write_sounds(const ExportWebSettings& settings, const Protocol& protocol, const OnlineSettings& online,
+                          const std::vector<std::string>& used, const fs::path& dir) {
     const double level = protocol.corpus.level_dbfs;
     ordered_json sounds = ordered_json::object();
     const std::uint64_t seed = derive_seed(protocol.seed, "online/sounds");
@@ -335,11 +334,13 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
             "calibration.wav", shaped_noise(speech, rate, level, online.calibration_s, derive_seed(seed, "calibration"),
                                             online.sample_rate_hz));
     }
+    return sounds;
+}
 
-    // study.json: the plans (practice sentences with their text, for the
-    // feedback screen; no other sentence text reaches the browser).
-    const std::string protocol_sha = sha256_file(settings.protocol);
-    const std::string lists_sha = sha256_file(settings.lists);
+// Each subject's plan (practice sentences with their text, for the
+// feedback screen; no other sentence text reaches the browser).
+ordered_json study_plans(const std::map<int, std::vector<PlannedTrial>>& subjects, const Corpus& corpus,
+                         ExportWebResult& result) {
     ordered_json plans = ordered_json::object();
     for (const auto& [subject, trials] : subjects) {
         ordered_json list = ordered_json::array();
@@ -353,10 +354,14 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
         }
         plans[std::to_string(subject)] = list;
     }
-    result.subjects = static_cast<int>(subjects.size());
-    result.study_id = sha256_hex(protocol_sha + "\n" + lists_sha + "\n" + folder.manifest().sha256 + "\n" + stimuli.dump() +
-                                 "\n" + plans.dump())
-                          .substr(0, 16);
+    return plans;
+}
+
+// study.json: what the runtime reads.
+ordered_json study_json(const Protocol& protocol, const OnlineSettings& online, const ExportWebResult& result,
+                        const std::string& protocol_sha, const std::string& lists_sha, const std::string& manifest_sha,
+                        const ordered_json& vendored, const ordered_json& sounds, const ordered_json& stimuli,
+                        const ordered_json& plans) {
     const SessionSettings& session = protocol.session;
     ordered_json study;
     study["format"] = "avsi-web-study";
@@ -365,7 +370,7 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
     study["experiment"] = protocol.name;
     study["protocol_sha256"] = protocol_sha;
     study["lists_sha256"] = lists_sha;
-    study["manifest_sha256"] = folder.manifest().sha256;
+    study["manifest_sha256"] = manifest_sha;
     study["vendored"] = vendored;
     study["session"] = {{"fixation_ms", session.fixation_ms},
                         {"response_delay_ms", session.response_delay_ms},
@@ -394,12 +399,12 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
     study["sounds"] = sounds;
     study["stimuli"] = stimuli;
     study["subjects"] = plans;
-    write_text_file(dir / "study.json", study.dump(1) + "\n");
-    copy_into(settings.lists, dir / "lists.csv");
-    copy_into(settings.stimuli_dir / "manifest.json", dir / "manifest.json");
+    return study;
+}
 
-    // The JATOS archive: <dirName>.jas + <dirName>/ (the study assets).
-    const std::string dir_name = dir_name_for(protocol.name);
+// The JATOS study description (<dirName>.jas).
+ordered_json jatos_study(const ExportWebSettings& settings, const Protocol& protocol, const OnlineSettings& online,
+                         const ExportWebResult& result, const std::string& dir_name) {
     ordered_json jas;
     jas["version"] = "3";
     ordered_json data;
@@ -435,9 +440,13 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
           {"comments", nullptr},
           {"jsonData", nullptr}}});
     jas["data"] = data;
+    return jas;
+}
 
-    result.jzip = settings.jzip.empty() ? fs::path(out.string() + ".jzip") : settings.jzip;
-    detail::ZipWriter zip(result.jzip);
+// The JATOS archive: <dirName>.jas + <dirName>/ (the study assets, read
+// from the staged folder when the archive is written).
+void write_jzip(const fs::path& path, const fs::path& dir, const std::string& dir_name, const ordered_json& jas) {
+    detail::ZipWriter zip(path);
     zip.add_text(dir_name + ".jas", jas.dump(4) + "\n");
     zip.add_folder(dir_name + "/");
     std::vector<fs::path> files;
@@ -450,8 +459,56 @@ ExportWebResult export_web(const ExportWebSettings& settings) {
         else
             zip.add_file(name, f, f.extension() != ".mp4");
     }
-    // The archive reads the staged files when it is written, before the folder moves into place.
     zip.commit();
+}
+
+}  // namespace
+
+ExportWebResult export_web(const ExportWebSettings& settings) {
+    const Protocol protocol = load_protocol(settings.protocol);
+    // Adaptive SRT tracks need live scoring and mixing between trials; the
+    // web study presents fixed stimuli only.
+    if (protocol.adaptive.present())
+        throw InputError(settings.protocol, protocol.adaptive.line(), protocol.adaptive.column(), "adaptive",
+                         "adaptive SRT tracks run in the lab runner (`avsi run`) only; the web study does not "
+                         "implement them (export a protocol without [adaptive])");
+    const OnlineSettings online = read_online_settings(protocol);
+    const Corpus corpus = read_corpus(protocol.corpus.sentences);
+    const auto subjects = check_lists(protocol, corpus, settings.lists);
+    const fs::path web = settings.web_dir.empty() ? fs::path(AVSI_WEB_DIR) : settings.web_dir;
+    check_web_runtime(web);
+    // The stimuli the exported subjects use, checked against the manifest.
+    StimulusFolderOpener folder(settings.stimuli_dir);
+    if (!folder.manifest().experiment.empty() && folder.manifest().experiment != protocol.name)
+        throw InputError(settings.stimuli_dir / "manifest.json", 0, 0, "experiment",
+                         fmt::format("expected stimuli built for experiment \"{}\", got \"{}\"", protocol.name,
+                                     folder.manifest().experiment));
+    const std::vector<std::string> used = used_stimuli(subjects);
+    folder.verify(used);
+    const fs::path out = study_out_dir(settings);
+    StagingFolder staging(out);
+    const fs::path dir = staging.path();
+    ExportWebResult result;
+    const ordered_json vendored = copy_runtime(web, dir, result);
+    const ordered_json stimuli = copy_stimuli(settings, folder, used, dir, result);
+    result.stimuli = static_cast<int>(used.size());
+    const ordered_json sounds = write_sounds(settings, protocol, online, used, dir);
+    const std::string protocol_sha = sha256_file(settings.protocol);
+    const std::string lists_sha = sha256_file(settings.lists);
+    const ordered_json plans = study_plans(subjects, corpus, result);
+    result.subjects = static_cast<int>(subjects.size());
+    result.study_id = sha256_hex(protocol_sha + "\n" + lists_sha + "\n" + folder.manifest().sha256 + "\n" + stimuli.dump() +
+                                 "\n" + plans.dump())
+                          .substr(0, 16);
+    const ordered_json study = study_json(protocol, online, result, protocol_sha, lists_sha, folder.manifest().sha256,
+                                          vendored, sounds, stimuli, plans);
+    write_text_file(dir / "study.json", study.dump(1) + "\n");
+    copy_into(settings.lists, dir / "lists.csv");
+    copy_into(settings.stimuli_dir / "manifest.json", dir / "manifest.json");
+    const std::string dir_name = dir_name_for(protocol.name);
+    result.jzip = settings.jzip.empty() ? fs::path(out.string() + ".jzip") : settings.jzip;
+    write_jzip(result.jzip, dir, dir_name, jatos_study(settings, protocol, online, result, dir_name));
+    // The archive was written from the staged files, before the folder moves into place.
     staging.commit();
     return result;
 }

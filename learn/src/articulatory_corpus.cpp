@@ -232,6 +232,26 @@ void read_mapping(const json& j, SensorMappingSettings& s, DiagnosticList& probl
                      fmt::format("expected a number in [0, 100], got {}", s.rest_percentile));
 }
 
+// The manifest's "split" section: the seed and the test fraction.
+void read_split_section(const json& s, ArticulatoryCorpus& corpus, DiagnosticList& problems, const std::string& mpath) {
+    if (s.contains("seed") && s["seed"].is_number_unsigned()) corpus.split_seed = s["seed"].get<std::uint64_t>();
+    else if (s.contains("seed")) problems.add(mpath, 0, 0, "split.seed", fmt::format("expected an integer ≥ 0, got {}", s["seed"].dump()));
+    if (s.contains("test_fraction") && s["test_fraction"].is_number()) corpus.test_fraction = s["test_fraction"].get<double>();
+    else if (s.contains("test_fraction")) problems.add(mpath, 0, 0, "split.test_fraction", fmt::format("expected a number, got {}", s["test_fraction"].dump()));
+    if (!(corpus.test_fraction > 0.0 && corpus.test_fraction < 1.0))
+        problems.add(mpath, 0, 0, "split.test_fraction", fmt::format("expected a number in (0, 1), got {}", corpus.test_fraction));
+}
+
+// The corpus hash: the manifest, then each utterance's id and files.
+std::string corpus_hash(const std::string& manifest_text, const std::vector<CorpusEntry>& entries) {
+    std::string digest_input = sha256_hex(manifest_text);
+    for (const auto& e : entries) {
+        digest_input += "\n" + e.id + " " + sha256_file(e.track) + " " + sha256_file(e.labels);
+        if (!e.audio.empty()) digest_input += " " + sha256_file(e.audio);
+    }
+    return sha256_hex(digest_input);
+}
+
 }  // namespace
 
 ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
@@ -320,15 +340,7 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
             if (j["synthetic"].is_boolean()) corpus.synthetic = j["synthetic"].get<bool>();
             else problems.add(mpath, 0, 0, "synthetic", fmt::format("expected true or false, got {}", j["synthetic"].dump()));
         }
-        if (j.contains("split")) {
-            const json& s = j["split"];
-            if (s.contains("seed") && s["seed"].is_number_unsigned()) corpus.split_seed = s["seed"].get<std::uint64_t>();
-            else if (s.contains("seed")) problems.add(mpath, 0, 0, "split.seed", fmt::format("expected an integer ≥ 0, got {}", s["seed"].dump()));
-            if (s.contains("test_fraction") && s["test_fraction"].is_number()) corpus.test_fraction = s["test_fraction"].get<double>();
-            else if (s.contains("test_fraction")) problems.add(mpath, 0, 0, "split.test_fraction", fmt::format("expected a number, got {}", s["test_fraction"].dump()));
-            if (!(corpus.test_fraction > 0.0 && corpus.test_fraction < 1.0))
-                problems.add(mpath, 0, 0, "split.test_fraction", fmt::format("expected a number in (0, 1), got {}", corpus.test_fraction));
-        }
+        if (j.contains("split")) read_split_section(j["split"], corpus, problems, mpath);
         if (j.contains("sensor_mapping")) {
             read_mapping(j["sensor_mapping"], corpus.sensor_mapping, problems, mpath);
             corpus.sensor_mapping_given = true;
@@ -354,13 +366,7 @@ ArticulatoryCorpus load_articulatory_corpus(const fs::path& dir_or_manifest) {
     if (corpus.entries.empty()) problems.add(mpath, 0, 0, "utterances", "the corpus lists no utterances");
     problems.throw_if_any();
 
-    // Hash: the manifest, then each utterance's id and files.
-    std::string digest_input = sha256_hex(text);
-    for (const auto& e : corpus.entries) {
-        digest_input += "\n" + e.id + " " + sha256_file(e.track) + " " + sha256_file(e.labels);
-        if (!e.audio.empty()) digest_input += " " + sha256_file(e.audio);
-    }
-    corpus.hash = sha256_hex(digest_input);
+    corpus.hash = corpus_hash(text, corpus.entries);
     return corpus;
 }
 

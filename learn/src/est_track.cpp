@@ -58,6 +58,75 @@ constexpr double k_max_track_value = 1e6;
 // The most channels a track may declare (MOCHA has 14–22, mngu0 36).
 constexpr std::size_t k_max_channels = 10000;
 
+// The binary frames after the header at `pos`: float32 time, break flag
+// (with breaks) and channel values, byte-swapped when `swap`.
+void read_binary_frames(const std::string& bytes, std::size_t pos, const std::string& file, std::size_t frames,
+                        std::size_t nch, bool breaks, bool swap, EstTrack& track) {
+    const std::size_t stride = 1 + (breaks ? 1 : 0) + nch;
+    const std::size_t need = frames * stride * 4;
+    const std::size_t have = bytes.size() - pos;
+    if (have != need)
+        throw InputError(file, 0, 0, "data",
+                         fmt::format("expected {} bytes of float32 frames ({} frames × {} values), got {}",
+                                     need, frames, stride, have));
+    std::vector<float> row(stride);
+    for (std::size_t k = 0; k < frames; ++k) {
+        std::memcpy(row.data(), bytes.data() + pos + k * stride * 4, stride * 4);
+        if (swap)
+            for (auto& v : row) v = swap_float(v);
+        const bool present = breaks ? row[1] != 0.0f : true;
+        require_time_s(row[0], at(file, 0, 0, fmt::format("frame {} time", k + 1)));
+        for (std::size_t i = breaks ? 2 : 1; present && i < stride; ++i)
+            require_in_range(row[i], -k_max_track_value, k_max_track_value,
+                             at(file, 0, 0, fmt::format("frame {} {}", k + 1, track.channels[i - (breaks ? 2 : 1)])));
+        track.times_s.push_back(row[0]);
+        track.present.push_back(breaks ? row[1] != 0.0f : true);
+        track.values.emplace_back(row.begin() + (breaks ? 2 : 1), row.end());
+    }
+}
+
+// The ASCII frames after the header at `pos` (line `line_no`), one per line;
+// lines starting with `comment` are skipped.
+void read_ascii_frames(const std::string& bytes, std::size_t pos, int line_no, const std::string& file,
+                       const std::string& comment, std::size_t frames, std::size_t nch, bool breaks, EstTrack& track) {
+    while (pos < bytes.size() && track.times_s.size() <= frames) {
+        const std::size_t eol = bytes.find('\n', pos);
+        const std::string line = trim(
+            std::string_view(bytes).substr(pos, (eol == std::string::npos ? bytes.size() : eol) - pos));
+        pos = eol == std::string::npos ? bytes.size() : eol + 1;
+        ++line_no;
+        if (line.empty() || (!comment.empty() && line.rfind(comment, 0) == 0)) continue;
+        std::istringstream in(line);
+        std::vector<std::string> fields;
+        for (std::string f; in >> f;) fields.push_back(f);
+        const std::size_t want = 1 + (breaks ? 1 : 0) + nch;
+        if (fields.size() != want)
+            throw InputError(file, line_no, 1, "frame",
+                             fmt::format("expected {} values (time{}, {} channels), got {}", want,
+                                         breaks ? ", break flag" : "", nch, fields.size()));
+        std::vector<float> values;
+        for (std::size_t i = 0; i < fields.size(); ++i) {
+            const auto v = parse_double(fields[i]);
+            const Diagnostic where = at(file, line_no, 0, i == 0 ? "time" : fmt::format("value {}", i + 1));
+            if (!v)
+                throw InputError(file, line_no, 0, where.field,
+                                 fmt::format("expected a number, got \"{}\"", fields[i]));
+            if (i == 0) require_time_s(*v, where);
+            else require_in_range(*v, -k_max_track_value, k_max_track_value, where);
+            values.push_back(static_cast<float>(*v));
+        }
+        if (track.times_s.size() == frames)
+            throw InputError(file, line_no, 1, "NumFrames",
+                             fmt::format("more frames than the header's {}", frames));
+        track.times_s.push_back(values[0]);
+        track.present.push_back(breaks ? values[1] != 0.0f : true);
+        track.values.emplace_back(values.begin() + (breaks ? 2 : 1), values.end());
+    }
+    if (track.times_s.size() != frames)
+        throw InputError(file, line_no, 0, "NumFrames",
+                         fmt::format("expected {} frames, got {}", frames, track.times_s.size()));
+}
+
 }  // namespace
 
 EstTrack read_est_track(const std::filesystem::path& path) {
@@ -166,66 +235,11 @@ EstTrack read_est_track(const std::filesystem::path& path) {
         else
             throw InputError(file, order_line, 1, "ByteOrder",
                              fmt::format("expected 10 (big-endian) or 01 (little-endian), got \"{}\"", order));
-        const bool swap = big != (std::endian::native == std::endian::big);
-        const std::size_t stride = 1 + (breaks ? 1 : 0) + nch;
-        const std::size_t need = frames * stride * 4;
-        const std::size_t have = bytes.size() - pos;
-        if (have != need)
-            throw InputError(file, 0, 0, "data",
-                             fmt::format("expected {} bytes of float32 frames ({} frames × {} values), got {}",
-                                         need, frames, stride, have));
-        std::vector<float> row(stride);
-        for (std::size_t k = 0; k < frames; ++k) {
-            std::memcpy(row.data(), bytes.data() + pos + k * stride * 4, stride * 4);
-            if (swap)
-                for (auto& v : row) v = swap_float(v);
-            const bool present = breaks ? row[1] != 0.0f : true;
-            require_time_s(row[0], at(file, 0, 0, fmt::format("frame {} time", k + 1)));
-            for (std::size_t i = breaks ? 2 : 1; present && i < stride; ++i)
-                require_in_range(row[i], -k_max_track_value, k_max_track_value,
-                                 at(file, 0, 0, fmt::format("frame {} {}", k + 1, track.channels[i - (breaks ? 2 : 1)])));
-            track.times_s.push_back(row[0]);
-            track.present.push_back(breaks ? row[1] != 0.0f : true);
-            track.values.emplace_back(row.begin() + (breaks ? 2 : 1), row.end());
-        }
+        read_binary_frames(bytes, pos, file, frames, nch, breaks, big != (std::endian::native == std::endian::big),
+                           track);
     } else {
-        const std::string comment = header.count("commentchar") ? header["commentchar"].first : "";
-        while (pos < bytes.size() && track.times_s.size() <= frames) {
-            const std::size_t eol = bytes.find('\n', pos);
-            const std::string line = trim(
-                std::string_view(bytes).substr(pos, (eol == std::string::npos ? bytes.size() : eol) - pos));
-            pos = eol == std::string::npos ? bytes.size() : eol + 1;
-            ++line_no;
-            if (line.empty() || (!comment.empty() && line.rfind(comment, 0) == 0)) continue;
-            std::istringstream in(line);
-            std::vector<std::string> fields;
-            for (std::string f; in >> f;) fields.push_back(f);
-            const std::size_t want = 1 + (breaks ? 1 : 0) + nch;
-            if (fields.size() != want)
-                throw InputError(file, line_no, 1, "frame",
-                                 fmt::format("expected {} values (time{}, {} channels), got {}", want,
-                                             breaks ? ", break flag" : "", nch, fields.size()));
-            std::vector<float> values;
-            for (std::size_t i = 0; i < fields.size(); ++i) {
-                const auto v = parse_double(fields[i]);
-                const Diagnostic where = at(file, line_no, 0, i == 0 ? "time" : fmt::format("value {}", i + 1));
-                if (!v)
-                    throw InputError(file, line_no, 0, where.field,
-                                     fmt::format("expected a number, got \"{}\"", fields[i]));
-                if (i == 0) require_time_s(*v, where);
-                else require_in_range(*v, -k_max_track_value, k_max_track_value, where);
-                values.push_back(static_cast<float>(*v));
-            }
-            if (track.times_s.size() == frames)
-                throw InputError(file, line_no, 1, "NumFrames",
-                                 fmt::format("more frames than the header's {}", frames));
-            track.times_s.push_back(values[0]);
-            track.present.push_back(breaks ? values[1] != 0.0f : true);
-            track.values.emplace_back(values.begin() + (breaks ? 2 : 1), values.end());
-        }
-        if (track.times_s.size() != frames)
-            throw InputError(file, line_no, 0, "NumFrames",
-                             fmt::format("expected {} frames, got {}", frames, track.times_s.size()));
+        read_ascii_frames(bytes, pos, line_no, file, header.count("commentchar") ? header["commentchar"].first : "",
+                          frames, nch, breaks, track);
     }
     for (std::size_t k = 1; k < track.times_s.size(); ++k)
         if (!(track.times_s[k] > track.times_s[k - 1]))

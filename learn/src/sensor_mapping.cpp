@@ -187,6 +187,55 @@ void remove_head_motion(EstTrack& t, const SensorMappingSettings& s, const std::
     }
 }
 
+namespace {
+
+// Jaw thrust: the part of the forward incisor position (mm) a line in the
+// jaw gap does not explain (least squares over the frames with both).
+std::vector<double> jaw_thrust_residual(const std::vector<double>& gap, const std::vector<double>& li_fwd) {
+    const std::size_t n = gap.size();
+    double sg = 0, sx = 0, sgg = 0, sgx = 0, m = 0;
+    for (std::size_t k = 0; k < n; ++k)
+        if (std::isfinite(gap[k]) && std::isfinite(li_fwd[k])) {
+            sg += gap[k];
+            sx += li_fwd[k];
+            sgg += gap[k] * gap[k];
+            sgx += gap[k] * li_fwd[k];
+            m += 1;
+        }
+    const double var = m > 1 ? sgg - sg * sg / m : 0.0;
+    const double slope = var > 1e-12 ? (sgx - sg * sx / m) / var : 0.0;
+    std::vector<double> thrust(n);
+    for (std::size_t k = 0; k < n; ++k) thrust[k] = li_fwd[k] - slope * gap[k];
+    return thrust;
+}
+
+// The parameter frames at the sensor times resampled to the output rate
+// (s.fps) by linear interpolation between sensor frames.
+ParamTrack resample_to_fps(const std::vector<double>& times_s, const std::vector<Frame>& raw,
+                           const SensorMappingSettings& s) {
+    const std::size_t n = raw.size();
+    ParamTrack out;
+    out.fps = s.fps;
+    out.start_s = times_s.front();
+    out.present = drivable_parameters(s);
+    const double end_s = times_s.back();
+    std::size_t j = 0;
+    for (std::size_t k = 0;; ++k) {
+        const double time = out.start_s + static_cast<double>(k) / s.fps;
+        if (time > end_s + 1e-9) break;
+        while (j + 2 < n && times_s[j + 1] <= time) ++j;
+        const double t0 = times_s[j], t1 = times_s[j + 1];
+        const double w = std::clamp((time - t0) / (t1 - t0), 0.0, 1.0);
+        Frame f;
+        for (std::size_t p = 0; p < param_count; ++p)
+            f[p] = out.present[p] ? (1.0 - w) * raw[j][p] + w * raw[j + 1][p] : missing_value;
+        out.frames.push_back(f);
+    }
+    return out;
+}
+
+}  // namespace
+
 ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSettings& s,
                                  const std::string& source) {
     if (input.frame_count() < 2) throw InputError(source, 0, 0, "NumFrames", "expected at least 2 frames");
@@ -224,20 +273,7 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
         ul_fwd[k] = X(k, ul);
         ll_rel_fwd[k] = X(k, ll) - X(k, li);
     }
-    // Jaw thrust: the part of the forward incisor position a line in the gap does not explain.
-    double sg = 0, sx = 0, sgg = 0, sgx = 0, m = 0;
-    for (std::size_t k = 0; k < n; ++k)
-        if (std::isfinite(gap[k]) && std::isfinite(li_fwd[k])) {
-            sg += gap[k];
-            sx += li_fwd[k];
-            sgg += gap[k] * gap[k];
-            sgx += gap[k] * li_fwd[k];
-            m += 1;
-        }
-    const double var = m > 1 ? sgg - sg * sg / m : 0.0;
-    const double slope = var > 1e-12 ? (sgx - sg * sx / m) / var : 0.0;
-    std::vector<double> thrust(n);
-    for (std::size_t k = 0; k < n; ++k) thrust[k] = li_fwd[k] - slope * gap[k];
+    const std::vector<double> thrust = jaw_thrust_residual(gap, li_fwd);
 
     const double gap_rest = percentile(gap, s.rest_percentile);
     const double thrust_rest = percentile(thrust, 50.0);
@@ -286,24 +322,7 @@ ParamTrack map_sensors_to_params(const EstTrack& input, const SensorMappingSetti
         raw[k] = f;
     }
 
-    // Resample to the output rate by linear interpolation between sensor frames.
-    ParamTrack out;
-    out.fps = s.fps;
-    out.start_s = t.times_s.front();
-    out.present = drivable_parameters(s);
-    const double end_s = t.times_s.back();
-    std::size_t j = 0;
-    for (std::size_t k = 0;; ++k) {
-        const double time = out.start_s + static_cast<double>(k) / s.fps;
-        if (time > end_s + 1e-9) break;
-        while (j + 2 < n && t.times_s[j + 1] <= time) ++j;
-        const double t0 = t.times_s[j], t1 = t.times_s[j + 1];
-        const double w = std::clamp((time - t0) / (t1 - t0), 0.0, 1.0);
-        Frame f;
-        for (std::size_t p = 0; p < param_count; ++p)
-            f[p] = out.present[p] ? (1.0 - w) * raw[j][p] + w * raw[j + 1][p] : missing_value;
-        out.frames.push_back(f);
-    }
+    ParamTrack out = resample_to_fps(t.times_s, raw, s);
     // Coordinates in the wrong unit give parameters far outside their range.
     std::vector<double> jaw;
     for (const Frame& f : out.frames) jaw.push_back(std::abs(f[index(Param::JawRotation)]));

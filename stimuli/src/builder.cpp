@@ -16,7 +16,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "avsi/analysis/adaptive.h"
+#include "avsi/core/adaptive_protocol.h"
 #include "avsi/core/audio.h"
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
@@ -313,11 +313,17 @@ struct Plan {
     std::map<std::string, LayerSettings> layers;
     json settings_json;
     std::vector<Job> jobs;
-    analysis::AdaptiveProtocol adaptive;  // a list variable's levels are pre-rendered
+    AdaptiveProtocol adaptive;  // a list variable's levels are pre-rendered
     std::size_t not_needed = 0;  // pairs the design never shows
 
     explicit Plan(const BuildSettings& settings);
     Plan(const Plan&) = delete;
+    // The construction's steps, in order (each a function below the constructor).
+    void choose_head(const BuildSettings& settings);
+    std::map<std::string, std::string> load_models();
+    void load_layers();
+    void describe_settings(const BuildSettings& settings);
+    void plan_jobs(const BuildSettings& settings, const std::map<std::string, std::string>& model_hash);
     // The trajectory a condition shows: its model's, under the condition's
     // policy (the closure constraint for closure = "hold"; `stats` gets what
     // the constraint changed).
@@ -343,8 +349,18 @@ Plan::Plan(const BuildSettings& settings)
     render.background = parse_colour(pr.background, protocol);
     fps = pr.fps;
     vocoder_base = vocoder_settings(protocol);
-    adaptive = analysis::adaptive_protocol(protocol);
-    // The protocol's own head ([render] head_gltf, or head_mesh + head_rig) or the built-in one.
+    adaptive = adaptive_protocol(protocol);
+    choose_head(settings);
+    const std::map<std::string, std::string> model_hash = load_models();
+    load_layers();
+    describe_settings(settings);
+    plan_jobs(settings, model_hash);
+}
+
+// The protocol's own head ([render] head_gltf, or head_mesh + head_rig) or
+// the built-in one, its level of detail, and the articulation meter.
+void Plan::choose_head(const BuildSettings& settings) {
+    const auto& pr = protocol.render;
     if (!pr.head_gltf.empty())
         head = load_gltf_head(pr.head_gltf, pr.head_mapping.empty() ? default_blendshape_mapping() : pr.head_mapping);
     else head = pr.head_mesh.empty() ? load_default_head() : load_head(pr.head_mesh, pr.head_rig);
@@ -362,10 +378,12 @@ Plan::Plan(const BuildSettings& settings)
                                  protocol.path.string() + " to build without the articulation check");
         }
     }
+}
 
-    // Models, loaded once per condition (synthesis is const); the hash covers
-    // the model as loaded (a rule model's external target table included)
-    // and the condition's post-processing policy.
+// Models, loaded once per condition (synthesis is const), and each model
+// condition's hash: the model as loaded (a rule model's external target
+// table included) and the condition's post-processing policy.
+std::map<std::string, std::string> Plan::load_models() {
     std::map<std::string, std::string> model_hash;
     if (meter)
         lip_tasks = [this](const synth::Frame& frame) {
@@ -395,15 +413,21 @@ Plan::Plan(const BuildSettings& settings)
             models[c.name] = model;
             model_hash[c.name] = sha256_hex(key.dump());
         }
-    // Animation layers, validated all at once.
-    {
-        DiagnosticList problems;
-        for (const auto& c : protocol.conditions)
-            if (c.face == FaceMode::Model)
-                layers[c.name] = parse_layer_settings(c.layers, protocol.path.parent_path(), problems);
-        problems.throw_if_any();
-    }
+    return model_hash;
+}
 
+// Animation layers of the model conditions, validated all at once.
+void Plan::load_layers() {
+    DiagnosticList problems;
+    for (const auto& c : protocol.conditions)
+        if (c.face == FaceMode::Model)
+            layers[c.name] = parse_layer_settings(c.layers, protocol.path.parent_path(), problems);
+    problems.throw_if_any();
+}
+
+// The settings every stimulus depends on (hashed into each job's input hash).
+void Plan::describe_settings(const BuildSettings& settings) {
+    const auto& pr = protocol.render;
     settings_json = {
         {"builder", builder_version},
         {"render", {{"fps", fps}, {"width", pr.width}, {"height", pr.height}, {"camera", pr.camera},
@@ -440,8 +464,10 @@ Plan::Plan(const BuildSettings& settings)
         }
         settings_json["render"]["lod"] = j;
     }
+}
 
-    // Every stimulus and the hash of everything it depends on.
+// Every stimulus and the hash of everything it depends on.
+void Plan::plan_jobs(const BuildSettings& settings, const std::map<std::string, std::string>& model_hash) {
     const std::size_t n_sentences = settings.max_sentences ? std::min(settings.max_sentences, corpus.sentences.size())
                                                            : corpus.sentences.size();
     // What the design can show (see BuildSettings::all_sentences). Without
@@ -481,18 +507,18 @@ Plan::Plan(const BuildSettings& settings)
             job.head_seed = derive_seed(protocol.seed, "head-motion/" + s.id + "/" + c.name);
             json variants_key = nullptr;
             if (adaptive.list_variable() && c.audio == ConditionAudio::Vocoded) {
-                const std::string variable = analysis::to_string(adaptive.variable);
+                const std::string variable = to_string(adaptive.variable);
                 for (const double level : adaptive.levels)
                     job.variants.push_back({level, variant_audio_path(job.video, variable, level)});
                 variants_key = {{"variable", variable}, {"levels", adaptive.levels}};
             }
             if (adaptive.enabled && !adaptive.list_variable() &&
-                adaptive.noise_stage == analysis::MaskerStage::BeforeVocoding && c.audio == ConditionAudio::Vocoded)
+                adaptive.noise_stage == MaskerStage::BeforeVocoding && c.audio == ConditionAudio::Vocoded)
                 job.unvocoded = unvocoded_audio_path(job.video);
             json key = {{"settings", settings_json},
                               {"audio", audio_key},
                               {"condition", {{"face", to_string(c.face)}, {"audio", to_string(c.audio)},
-                                             {"model", model_hash.count(c.name) ? model_hash[c.name] : ""}}},
+                                             {"model", model_hash.count(c.name) ? model_hash.at(c.name) : ""}}},
                               {"seeds", {{"vocoder", job.vocoder_seed}, {"blinks", job.blink_seed}}}};
             if (!variants_key.is_null()) key["variants"] = variants_key;
             if (!job.unvocoded.empty()) key["unvocoded"] = true;
@@ -846,19 +872,50 @@ std::uint64_t sentence_vocoder_seed(const vocoder::VocoderSettings& base, const 
     return derive_seed(base.seed, "vocoder/" + sentence_id);
 }
 
-BuildReport build_stimuli(const BuildSettings& settings) {
-    const auto start = std::chrono::steady_clock::now();
-    Plan plan(settings);
-    const Protocol& protocol = plan.protocol;
-    const RenderSettings& render = plan.render;
-    const double fps = plan.fps;
-    const vocoder::VocoderSettings& vocoder_base = plan.vocoder_base;
-    const Head& head = plan.head;
-    const json& settings_json = plan.settings_json;
-    auto& jobs = plan.jobs;
-    const std::size_t not_needed = plan.not_needed;
+namespace {
 
-    // The previous manifest, for skipping unchanged stimuli.
+// Speech per sentence. The audio a condition presents — clean or vocoded
+// (the vocoder's seed is derived from the sentence id), at the speech level —
+// depends only on the sentence and that kind, so each is made once and shared.
+struct PresentedAudio {
+    Audio audio;
+    Level level;
+};
+struct SentenceSpeech {
+    Audio audio;
+    PhoneSequence phones;
+    std::once_flag once[2];
+    PresentedAudio presented[2];  // [0] clean, [1] vocoded
+    // The audio the conditions with `kind` present, at the protocol's speech level.
+    const PresentedAudio& as(ConditionAudio kind, const vocoder::VocoderSettings& base, std::uint64_t seed,
+                             double level_dbfs) {
+        const int k = kind == ConditionAudio::Vocoded ? 1 : 0;
+        std::call_once(once[k], [&] {
+            PresentedAudio& p = presented[k];
+            if (kind == ConditionAudio::Vocoded) {
+                vocoder::VocoderSettings v = base;
+                v.seed = seed;
+                p.audio = vocoder::vocode(audio, v).audio;
+            } else {
+                p.audio = audio;
+            }
+            p.level = set_speech_level(p.audio, level_dbfs);
+        });
+        return presented[k];
+    }
+};
+
+// The worker threads for `tasks` tasks: --jobs, or one per core, at most one per task.
+int worker_count(const BuildSettings& settings, std::size_t tasks) {
+    return std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
+                                                       : static_cast<int>(std::thread::hardware_concurrency()),
+                                     static_cast<int>(tasks)));
+}
+
+// The jobs whose video must be (re)built: those the previous manifest does
+// not list with the same input hash and an intact video. The others take
+// their previous entry and count as skipped.
+std::vector<std::size_t> jobs_to_build(Plan& plan, const BuildSettings& settings, BuildReport& report) {
     const auto manifest_path = settings.out_dir / "manifest.json";
     std::map<std::string, json> previous;
     if (!settings.force) {
@@ -866,18 +923,15 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         previous = manifest_entries(manifest_path, unreadable);
         if (unreadable) log_warning("{}: unreadable manifest, rebuilding everything", manifest_path.string());
     }
-
-    // Which need building.
-    BuildReport report;
-    report.total = jobs.size();
-    report.not_needed = not_needed;
-    if (not_needed)
+    report.total = plan.jobs.size();
+    report.not_needed = plan.not_needed;
+    if (plan.not_needed)
         log_info("{} sentence × condition pairs the design never shows are not built (spare sentences, warm-up and "
                  "practice sentences in other conditions); --all-sentences builds them",
-                 not_needed);
+                 plan.not_needed);
     std::vector<std::size_t> todo;
-    for (std::size_t i = 0; i < jobs.size(); ++i) {
-        auto& job = jobs[i];
+    for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
+        auto& job = plan.jobs[i];
         const auto it = previous.find(job.video.generic_string());
         const auto video = settings.out_dir / job.video;
         if (it != previous.end() && json_string(it->second, "input_sha256") == job.input_hash &&
@@ -888,96 +942,234 @@ BuildReport build_stimuli(const BuildSettings& settings) {
             todo.push_back(i);
         }
     }
+    return todo;
+}
 
-    // Speech per sentence. The audio a condition presents — clean or
-    // vocoded (the vocoder's seed is derived from the sentence id), at the
-    // speech level — depends only on the sentence and that kind, so each is
-    // made once and shared.
-    struct Presented {
-        Audio audio;
-        Level level;
-    };
-    struct Speech {
-        Audio audio;
-        PhoneSequence phones;
-        std::once_flag once[2];
-        Presented presented[2];  // [0] clean, [1] vocoded
-        // The audio the conditions with `kind` present, at the protocol's speech level.
-        const Presented& as(ConditionAudio kind, const vocoder::VocoderSettings& base, std::uint64_t seed,
-                            double level_dbfs) {
-            const int k = kind == ConditionAudio::Vocoded ? 1 : 0;
-            std::call_once(once[k], [&] {
-                Presented& p = presented[k];
-                if (kind == ConditionAudio::Vocoded) {
-                    vocoder::VocoderSettings v = base;
-                    v.seed = seed;
-                    p.audio = vocoder::vocode(audio, v).audio;
-                } else {
-                    p.audio = audio;
-                }
-                p.level = set_speech_level(p.audio, level_dbfs);
-            });
-            return presented[k];
-        }
-    };
-    std::map<std::string, Speech> speech;
-    std::vector<std::pair<const Sentence*, Speech*>> to_speak;
+// The speech of every sentence the jobs `todo` need, synthesised on several
+// threads (espeak-ng serialises its calls itself, Festival's run in parallel
+// processes); recordings are read the same way.
+void speak_sentences(const Plan& plan, const BuildSettings& settings, const std::vector<std::size_t>& todo,
+                     std::map<std::string, SentenceSpeech>& speech) {
+    const Protocol& protocol = plan.protocol;
+    std::vector<std::pair<const Sentence*, SentenceSpeech*>> to_speak;
     for (const auto i : todo) {
-        const Sentence& s = *jobs[i].sentence;
+        const Sentence& s = *plan.jobs[i].sentence;
         if (!speech.count(s.id)) to_speak.emplace_back(&s, &speech[s.id]);
     }
-    // Synthesised on several threads (espeak-ng serialises its calls itself,
-    // Festival's run in parallel processes); recordings are read the same way.
-    {
-        const auto speech_start = std::chrono::steady_clock::now();
-        const int threads = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
-                                                                        : static_cast<int>(std::thread::hardware_concurrency()),
-                                                      static_cast<int>(to_speak.size())));
-        const TtsSettings tts = tts_settings(protocol);
-        std::atomic<std::size_t> next_sentence{0};
-        std::mutex speak_error_mutex;
-        std::exception_ptr speak_error;
-        auto speak = [&] {
-            for (std::size_t k; (k = next_sentence.fetch_add(1)) < to_speak.size();) {
-                {
-                    std::lock_guard lock(speak_error_mutex);
-                    if (speak_error) return;
-                }
-                const auto [sentence, sp] = to_speak[k];
-                try {
-                    if (protocol.corpus.audio == CorpusAudio::Tts) {
-                        auto r = synthesize_speech(sentence->text, tts);
-                        sp->audio = std::move(r.audio);
-                        sp->phones = std::move(r.phones);
-                    } else {
-                        sp->audio = read_audio(sentence->audio);
-                        sp->phones = read_phones(sentence->labels);
-                    }
-                } catch (const InputError& e) {
-                    std::lock_guard lock(speak_error_mutex);
-                    if (!speak_error) speak_error = std::make_exception_ptr(at_tts_key(protocol, e));
-                    return;
-                } catch (...) {
-                    std::lock_guard lock(speak_error_mutex);
-                    if (!speak_error) speak_error = std::current_exception();
-                    return;
-                }
+    const auto speech_start = std::chrono::steady_clock::now();
+    const int threads = worker_count(settings, to_speak.size());
+    const TtsSettings tts = tts_settings(protocol);
+    std::atomic<std::size_t> next_sentence{0};
+    std::mutex speak_error_mutex;
+    std::exception_ptr speak_error;
+    auto speak = [&] {
+        for (std::size_t k; (k = next_sentence.fetch_add(1)) < to_speak.size();) {
+            {
+                std::lock_guard lock(speak_error_mutex);
+                if (speak_error) return;
             }
-        };
-        std::vector<std::thread> speakers;
-        for (int t = 1; t < threads; ++t) speakers.emplace_back(speak);
-        speak();
-        for (auto& t : speakers) t.join();
-        if (speak_error) std::rethrow_exception(speak_error);
-        if (!to_speak.empty())
-            log_info("build-stimuli: speech for {} sentences ({}) in {:.1f} s on {} thread(s)", to_speak.size(),
-                     protocol.corpus.audio == CorpusAudio::Tts ? tts_voice_spec(tts) : "recordings",
-                     std::chrono::duration<double>(std::chrono::steady_clock::now() - speech_start).count(), threads);
-    }
+            const auto [sentence, sp] = to_speak[k];
+            try {
+                if (protocol.corpus.audio == CorpusAudio::Tts) {
+                    auto r = synthesize_speech(sentence->text, tts);
+                    sp->audio = std::move(r.audio);
+                    sp->phones = std::move(r.phones);
+                } else {
+                    sp->audio = read_audio(sentence->audio);
+                    sp->phones = read_phones(sentence->labels);
+                }
+            } catch (const InputError& e) {
+                std::lock_guard lock(speak_error_mutex);
+                if (!speak_error) speak_error = std::make_exception_ptr(at_tts_key(protocol, e));
+                return;
+            } catch (...) {
+                std::lock_guard lock(speak_error_mutex);
+                if (!speak_error) speak_error = std::current_exception();
+                return;
+            }
+        }
+    };
+    std::vector<std::thread> speakers;
+    for (int t = 1; t < threads; ++t) speakers.emplace_back(speak);
+    speak();
+    for (auto& t : speakers) t.join();
+    if (speak_error) std::rethrow_exception(speak_error);
+    if (!to_speak.empty())
+        log_info("build-stimuli: speech for {} sentences ({}) in {:.1f} s on {} thread(s)", to_speak.size(),
+                 protocol.corpus.audio == CorpusAudio::Tts ? tts_voice_spec(tts) : "recordings",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - speech_start).count(), threads);
+}
 
-    const int workers = std::max(1, std::min<int>(settings.jobs > 0 ? settings.jobs
-                                                                     : static_cast<int>(std::thread::hardware_concurrency()),
-                                                  static_cast<int>(todo.size())));
+// The adaptive list variable's levels of a job: the same vocoder and seed
+// with that band count or cutoff, at the speech level; their manifest records
+// (null without levels).
+json render_variants(const Plan& plan, const BuildSettings& settings, const Job& job, const SentenceSpeech& sp) {
+    const Protocol& protocol = plan.protocol;
+    if (job.variants.empty()) return nullptr;
+    json variants = json::array();
+    for (const auto& variant : job.variants) {
+        vocoder::VocoderSettings v = plan.vocoder_base;
+        v.seed = job.vocoder_seed;
+        if (plan.adaptive.variable == AdaptiveVariable::Bands)
+            v.bands = static_cast<int>(variant.level);
+        else
+            v.envelope_cutoff_hz = variant.level;
+        Audio rendered = vocoder::vocode(sp.audio, v).audio;
+        const Level vl = set_speech_level(rendered, protocol.corpus.level_dbfs);
+        if (vl.peak_dbfs > max_peak_dbfs)
+            throw InputError(protocol.path.string(), protocol.corpus.level_line, protocol.corpus.level_column,
+                             "corpus.level_dbfs",
+                             fmt::format("expected a speech level at which every stimulus peaks at or "
+                                         "below {:.1f} dBFS; at {:.1f} dBFS sentence '{}' with {} = {} "
+                                         "peaks at {:.2f} dBFS",
+                                         max_peak_dbfs, protocol.corpus.level_dbfs, job.sentence->id,
+                                         to_string(plan.adaptive.variable), variant.level, vl.peak_dbfs));
+        write_audio(settings.out_dir / variant.wav, rendered);
+        variants.push_back({{"level", variant.level},
+                            {"wav", variant.wav.generic_string()},
+                            {"gain_db", vl.gain_db},
+                            {"peak_dbfs", vl.peak_dbfs},
+                            {"sha256", sha256_file(settings.out_dir / variant.wav)}});
+    }
+    return variants;
+}
+
+// Noise before vocoding: the runner vocodes speech + noise, so it needs the
+// speech as it was before the vocoder, at the speech level; its manifest
+// record (null when the job has none).
+json render_unvocoded(const Plan& plan, const BuildSettings& settings, const Job& job, SentenceSpeech& sp) {
+    if (job.unvocoded.empty()) return nullptr;
+    const PresentedAudio& clean =
+        sp.as(ConditionAudio::Clean, plan.vocoder_base, job.vocoder_seed, plan.protocol.corpus.level_dbfs);
+    write_audio(settings.out_dir / job.unvocoded, clean.audio);
+    return {{"wav", job.unvocoded.generic_string()},
+            {"gain_db", clean.level.gain_db},
+            {"peak_dbfs", clean.level.peak_dbfs},
+            {"sha256", sha256_file(settings.out_dir / job.unvocoded)}};
+}
+
+// The audio a job presents, at the protocol's speech level; throws
+// InputError naming corpus.level_dbfs when it would peak above the limit.
+const PresentedAudio& presented_audio(const Plan& plan, const Job& job, SentenceSpeech& sp) {
+    const Protocol& protocol = plan.protocol;
+    const auto& c = *job.condition;
+    const PresentedAudio& presented = sp.as(c.audio, plan.vocoder_base, job.vocoder_seed, protocol.corpus.level_dbfs);
+    const Level& level = presented.level;
+    if (level.peak_dbfs > max_peak_dbfs)
+        throw InputError(
+            protocol.path.string(), protocol.corpus.level_line, protocol.corpus.level_column, "corpus.level_dbfs",
+            fmt::format("expected a speech level at which every stimulus peaks at or below {:.1f} dBFS; "
+                        "at {:.1f} dBFS sentence '{}' ({} audio) peaks at {:.2f} dBFS: set level_dbfs "
+                        "to {:.1f} or lower",
+                        max_peak_dbfs, protocol.corpus.level_dbfs, job.sentence->id, to_string(c.audio),
+                        level.peak_dbfs,
+                        std::floor((protocol.corpus.level_dbfs - (level.peak_dbfs - max_peak_dbfs)) * 10.0) / 10.0));
+    return presented;
+}
+
+// A job's video: the model's animation (layered, or the trajectory with
+// blinks), or a still face or blank screen as one frame repeated. Returns
+// the layers' record for the manifest (null without layers).
+json render_stimulus_video(const Plan& plan, OffscreenRenderer& renderer, const Job& job, const SentenceSpeech& sp,
+                           const synth::Trajectory& trajectory, const Audio& audio,
+                           const std::filesystem::path& video_path, const BlinkSettings& blinks) {
+    const auto& c = *job.condition;
+    const RenderSettings& render = plan.render;
+    VideoSettings video;
+    video.fps = plan.fps;
+    if (c.face == FaceMode::Model && plan.layers.at(c.name).configured) {
+        const Animation animation = plan.animation(job, trajectory, sp.phones);
+        for (const auto& w : animation.warnings) log_warning("build-stimuli: {}: {}", c.name, w);
+        render_pose_video(renderer, animation.poses, plan.fps, &audio, video_path, video);
+        return json::parse(animation.record_json);
+    }
+    if (c.face == FaceMode::Model) {
+        render_video(renderer, trajectory, &audio, video_path, blinks, video, &sp.phones);
+        return nullptr;
+    }
+    // A still face (or a blank screen) is one frame repeated.
+    Image frame;
+    if (c.face == FaceMode::Still) {
+        renderer.render(Pose{}, frame);
+    } else {
+        frame.width = render.width;
+        frame.height = render.height;
+        frame.rgb.resize(static_cast<std::size_t>(frame.width) * static_cast<std::size_t>(frame.height) * 3);
+        for (std::size_t p = 0; p < frame.rgb.size(); ++p)
+            frame.rgb[p] = static_cast<std::uint8_t>(std::lround(render.background[p % 3] * 255.0f));
+    }
+    VideoWriter writer(video_path, render.width, render.height, trajectory.size(), &audio, video);
+    writer.write(frame);
+    for (std::size_t k = 1; k < trajectory.size(); ++k) writer.repeat_last();
+    writer.finish();
+    return nullptr;
+}
+
+// Builds one stimulus (its audio, adaptive variants and video) and sets the
+// job's manifest entry; returns the frames rendered.
+std::size_t build_stimulus(const Plan& plan, const BuildSettings& settings, OffscreenRenderer& renderer, Job& job,
+                           SentenceSpeech& sp) {
+    const auto& c = *job.condition;
+    const double fps = plan.fps;
+    const PresentedAudio& presented = presented_audio(plan, job, sp);
+    const Audio& audio = presented.audio;
+    const Level& level = presented.level;
+    synth::Trajectory trajectory;
+    json articulation = nullptr;
+    json closure_change = nullptr;
+    if (c.face == FaceMode::Model) {
+        synth::ClosureStats changed;
+        trajectory = plan.trajectory(c, sp.phones, &changed);
+        if (c.closure_hold) closure_change = closure_stats_json(changed);
+        if (plan.meter) articulation = articulation_json(plan.articulation(job, trajectory, sp.phones));
+    } else {
+        trajectory.fps = fps;
+        trajectory.frames.assign(synth::frame_count(audio.duration_s(), fps), synth::Frame{});
+    }
+    const auto video_path = settings.out_dir / job.video;
+    write_audio(settings.out_dir / job.wav, audio);
+    const json variants = render_variants(plan, settings, job, sp);
+    const json unvocoded = render_unvocoded(plan, settings, job, sp);
+    BlinkSettings blinks;
+    blinks.seed = job.blink_seed;
+    blinks.enabled = c.face == FaceMode::Model;
+    const json layers_record =
+        render_stimulus_video(plan, renderer, job, sp, trajectory, audio, video_path, blinks);
+    job.entry = {{"sentence", job.sentence->id},
+                 {"condition", c.name},
+                 {"path", job.video.generic_string()},
+                 {"wav", job.wav.generic_string()},
+                 {"duration_s", trajectory.duration_s()},
+                 {"audio_duration_s", audio.duration_s()},
+                 {"level", {{"gain_db", level.gain_db}, {"peak_dbfs", level.peak_dbfs}}},
+                 {"frames", trajectory.size()},
+                 {"fps", fps},
+                 {"face", to_string(c.face)},
+                 {"audio", to_string(c.audio)},
+                 {"model", c.model.empty() ? "" : c.model.filename().string()},
+                 {"closure", c.face != FaceMode::Model ? json() : json(c.closure_hold ? "hold" : "off")},
+                 {"policy", policy_json(c)},
+                 {"articulation", articulation},
+                 {"seeds", {{"vocoder", c.audio == ConditionAudio::Vocoded ? json(job.vocoder_seed) : json()},
+                            {"blinks", blinks.enabled ? json(job.blink_seed) : json()}}},
+                 {"input_sha256", job.input_hash},
+                 {"sha256", sha256_file(video_path)},
+                 {"wav_sha256", sha256_file(settings.out_dir / job.wav)}};
+    if (!layers_record.is_null()) job.entry["layers"] = layers_record;
+    if (!closure_change.is_null()) job.entry["closure_change"] = closure_change;
+    if (!variants.is_null())
+        job.entry["variants"] = {{"variable", to_string(plan.adaptive.variable)},
+                                 {"unit", plan.adaptive.unit()},
+                                 {"files", variants}};
+    if (!unvocoded.is_null()) job.entry["unvocoded"] = unvocoded;
+    return trajectory.size();
+}
+
+// Builds the jobs `todo` on worker threads, each with its own renderer; the
+// first error stops the others and is rethrown. Returns the frames rendered.
+std::size_t build_jobs(Plan& plan, const BuildSettings& settings, const BuildReport& report,
+                       const std::vector<std::size_t>& todo, std::map<std::string, SentenceSpeech>& speech) {
+    const int workers = worker_count(settings, todo.size());
     // llvmpipe starts its own rasteriser threads per context (one per core,
     // LP_NUM_THREADS). With one worker per core they would only compete with
     // the workers, so each worker rasterises on its own thread instead —
@@ -992,7 +1184,7 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     std::exception_ptr error;
     auto worker = [&] {
         try {
-            OffscreenRenderer renderer(plan.lod ? plan.lod->head : head, render);
+            OffscreenRenderer renderer(plan.lod ? plan.lod->head : plan.head, plan.render);
             while (true) {
                 const std::size_t t = next.fetch_add(1);
                 if (t >= todo.size()) break;
@@ -1000,138 +1192,8 @@ BuildReport build_stimuli(const BuildSettings& settings) {
                     std::lock_guard lock(error_mutex);
                     if (error) break;
                 }
-                Job& job = jobs[todo[t]];
-                const auto& c = *job.condition;
-                Speech& sp = speech.at(job.sentence->id);
-                const Presented& presented =
-                    sp.as(c.audio, vocoder_base, job.vocoder_seed, protocol.corpus.level_dbfs);
-                const Audio& audio = presented.audio;
-                const Level& level = presented.level;
-                if (level.peak_dbfs > max_peak_dbfs)
-                    throw InputError(
-                        protocol.path.string(), protocol.corpus.level_line, protocol.corpus.level_column,
-                        "corpus.level_dbfs",
-                        fmt::format("expected a speech level at which every stimulus peaks at or below {:.1f} dBFS; "
-                                    "at {:.1f} dBFS sentence '{}' ({} audio) peaks at {:.2f} dBFS: set level_dbfs "
-                                    "to {:.1f} or lower",
-                                    max_peak_dbfs, protocol.corpus.level_dbfs, job.sentence->id, to_string(c.audio),
-                                    level.peak_dbfs,
-                                    std::floor((protocol.corpus.level_dbfs - (level.peak_dbfs - max_peak_dbfs)) * 10.0) / 10.0));
-                synth::Trajectory trajectory;
-                json articulation = nullptr;
-                json closure_change = nullptr;
-                if (c.face == FaceMode::Model) {
-                    synth::ClosureStats changed;
-                    trajectory = plan.trajectory(c, sp.phones, &changed);
-                    if (c.closure_hold) closure_change = closure_stats_json(changed);
-                    if (plan.meter) articulation = articulation_json(plan.articulation(job, trajectory, sp.phones));
-                } else {
-                    trajectory.fps = fps;
-                    trajectory.frames.assign(synth::frame_count(audio.duration_s(), fps), synth::Frame{});
-                }
-                const auto video_path = settings.out_dir / job.video;
-                write_audio(settings.out_dir / job.wav, audio);
-                // Noise before vocoding: the runner vocodes speech + noise, so
-                // it needs the speech as it was before the vocoder.
-                json unvocoded = nullptr;
-                if (!job.unvocoded.empty()) {
-                    const Presented& clean =
-                        sp.as(ConditionAudio::Clean, vocoder_base, job.vocoder_seed, protocol.corpus.level_dbfs);
-                    write_audio(settings.out_dir / job.unvocoded, clean.audio);
-                    unvocoded = {{"wav", job.unvocoded.generic_string()},
-                                 {"gain_db", clean.level.gain_db},
-                                 {"peak_dbfs", clean.level.peak_dbfs},
-                                 {"sha256", sha256_file(settings.out_dir / job.unvocoded)}};
-                }
-                // The adaptive list variable's levels: the same vocoder and
-                // seed with that band count or cutoff, at the speech level.
-                json variants = nullptr;
-                if (!job.variants.empty()) {
-                    variants = json::array();
-                    for (const auto& variant : job.variants) {
-                        vocoder::VocoderSettings v = vocoder_base;
-                        v.seed = job.vocoder_seed;
-                        if (plan.adaptive.variable == analysis::AdaptiveVariable::Bands)
-                            v.bands = static_cast<int>(variant.level);
-                        else
-                            v.envelope_cutoff_hz = variant.level;
-                        Audio rendered = vocoder::vocode(sp.audio, v).audio;
-                        const Level vl = set_speech_level(rendered, protocol.corpus.level_dbfs);
-                        if (vl.peak_dbfs > max_peak_dbfs)
-                            throw InputError(protocol.path.string(), protocol.corpus.level_line,
-                                             protocol.corpus.level_column, "corpus.level_dbfs",
-                                             fmt::format("expected a speech level at which every stimulus peaks at or "
-                                                         "below {:.1f} dBFS; at {:.1f} dBFS sentence '{}' with {} = {} "
-                                                         "peaks at {:.2f} dBFS",
-                                                         max_peak_dbfs, protocol.corpus.level_dbfs, job.sentence->id,
-                                                         analysis::to_string(plan.adaptive.variable), variant.level,
-                                                         vl.peak_dbfs));
-                        write_audio(settings.out_dir / variant.wav, rendered);
-                        variants.push_back({{"level", variant.level},
-                                            {"wav", variant.wav.generic_string()},
-                                            {"gain_db", vl.gain_db},
-                                            {"peak_dbfs", vl.peak_dbfs},
-                                            {"sha256", sha256_file(settings.out_dir / variant.wav)}});
-                    }
-                }
-                BlinkSettings blinks;
-                blinks.seed = job.blink_seed;
-                blinks.enabled = c.face == FaceMode::Model;
-                VideoSettings video;
-                video.fps = fps;
-                json layers_record = nullptr;
-                if (c.face == FaceMode::Model && plan.layers.at(c.name).configured) {
-                    const Animation animation = plan.animation(job, trajectory, sp.phones);
-                    for (const auto& w : animation.warnings) log_warning("build-stimuli: {}: {}", c.name, w);
-                    render_pose_video(renderer, animation.poses, fps, &audio, video_path, video);
-                    layers_record = json::parse(animation.record_json);
-                } else if (c.face == FaceMode::Model) {
-                    render_video(renderer, trajectory, &audio, video_path, blinks, video, &sp.phones);
-                } else {
-                    // A still face (or a blank screen) is one frame repeated.
-                    Image frame;
-                    if (c.face == FaceMode::Still) {
-                        renderer.render(Pose{}, frame);
-                    } else {
-                        frame.width = render.width;
-                        frame.height = render.height;
-                        frame.rgb.resize(static_cast<std::size_t>(frame.width) * static_cast<std::size_t>(frame.height) * 3);
-                        for (std::size_t p = 0; p < frame.rgb.size(); ++p)
-                            frame.rgb[p] = static_cast<std::uint8_t>(std::lround(render.background[p % 3] * 255.0f));
-                    }
-                    VideoWriter writer(video_path, render.width, render.height, trajectory.size(), &audio, video);
-                    writer.write(frame);
-                    for (std::size_t k = 1; k < trajectory.size(); ++k) writer.repeat_last();
-                    writer.finish();
-                }
-                frames_total += trajectory.size();
-                job.entry = {{"sentence", job.sentence->id},
-                             {"condition", c.name},
-                             {"path", job.video.generic_string()},
-                             {"wav", job.wav.generic_string()},
-                             {"duration_s", trajectory.duration_s()},
-                             {"audio_duration_s", audio.duration_s()},
-                             {"level", {{"gain_db", level.gain_db}, {"peak_dbfs", level.peak_dbfs}}},
-                             {"frames", trajectory.size()},
-                             {"fps", fps},
-                             {"face", to_string(c.face)},
-                             {"audio", to_string(c.audio)},
-                             {"model", c.model.empty() ? "" : c.model.filename().string()},
-                             {"closure", c.face != FaceMode::Model ? json() : json(c.closure_hold ? "hold" : "off")},
-                             {"policy", policy_json(c)},
-                             {"articulation", articulation},
-                             {"seeds", {{"vocoder", c.audio == ConditionAudio::Vocoded ? json(job.vocoder_seed) : json()},
-                                        {"blinks", blinks.enabled ? json(job.blink_seed) : json()}}},
-                             {"input_sha256", job.input_hash},
-                             {"sha256", sha256_file(video_path)},
-                             {"wav_sha256", sha256_file(settings.out_dir / job.wav)}};
-                if (!layers_record.is_null()) job.entry["layers"] = layers_record;
-                if (!closure_change.is_null()) job.entry["closure_change"] = closure_change;
-                if (!variants.is_null())
-                    job.entry["variants"] = {{"variable", analysis::to_string(plan.adaptive.variable)},
-                                             {"unit", plan.adaptive.unit()},
-                                             {"files", variants}};
-                if (!unvocoded.is_null()) job.entry["unvocoded"] = unvocoded;
+                Job& job = plan.jobs[todo[t]];
+                frames_total += build_stimulus(plan, settings, renderer, job, speech.at(job.sentence->id));
                 progress.advance();
             }
         } catch (...) {
@@ -1144,17 +1206,23 @@ BuildReport build_stimuli(const BuildSettings& settings) {
     for (auto& t : threads) t.join();
     progress.finish();
     if (error) std::rethrow_exception(error);
+    return frames_total;
+}
 
+// manifest.json (every stimulus's entry and each condition: its policy and,
+// measured on the head, what its model puts on the lips over the set,
+// written with the QC page) and methods.md.
+void write_manifest(const Plan& plan, const BuildSettings& settings,
+                    const std::map<std::string, SentenceSpeech>& speech) {
+    const Protocol& protocol = plan.protocol;
     json manifest = {{"format", "avsi-stimuli-manifest"},
                      {"version", 1},
                      {"protocol", protocol.path.filename().string()},
                      {"experiment", protocol.name},
                      {"seed", protocol.seed},
-                     {"settings", settings_json},
+                     {"settings", plan.settings_json},
                      {"stimuli", json::array()}};
-    for (const auto& job : jobs) manifest["stimuli"].push_back(job.entry);
-    // Each condition: its policy and, measured on the head, what its model
-    // puts on the lips over the set (written with the QC page).
+    for (const auto& job : plan.jobs) manifest["stimuli"].push_back(job.entry);
     std::map<std::string, json> articulation_of;
     if (plan.meter) {
         std::map<std::string, PhoneSequence> phones;
@@ -1177,11 +1245,22 @@ BuildReport build_stimuli(const BuildSettings& settings) {
         }
         manifest["conditions"].push_back(j);
     }
-    write_text_file(manifest_path, manifest.dump(2) + "\n");
+    write_text_file(settings.out_dir / "manifest.json", manifest.dump(2) + "\n");
     write_text_file(settings.out_dir / "methods.md", methods_text(plan, manifest, settings.out_dir));
+}
 
+}  // namespace
+
+BuildReport build_stimuli(const BuildSettings& settings) {
+    const auto start = std::chrono::steady_clock::now();
+    Plan plan(settings);
+    BuildReport report;
+    const std::vector<std::size_t> todo = jobs_to_build(plan, settings, report);
+    std::map<std::string, SentenceSpeech> speech;
+    speak_sentences(plan, settings, todo, speech);
+    report.frames_rendered = build_jobs(plan, settings, report, todo, speech);
+    write_manifest(plan, settings, speech);
     report.rendered = todo.size();
-    report.frames_rendered = frames_total;
     report.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     log_info("build-stimuli: built {} stimuli ({} frames) in {:.1f} s, {} unchanged", report.rendered,
              report.frames_rendered, report.elapsed_s, report.skipped);

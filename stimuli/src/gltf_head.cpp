@@ -393,16 +393,8 @@ Head load_gltf_head(const std::filesystem::path& path, const std::filesystem::pa
 
 namespace {
 
-Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mapping, const std::filesystem::path& path) {
-    Head head;
-    head.obj_path = path;
-    head.rig_path = path;
-    const json avsi = extras_of(model.extras_json_string, model.extras, path).value("avsi", json::object());
-    if (!avsi.is_object())
-        throw InputError(path.string(), 0, 0, "extras.avsi",
-                         "expected an object of landmarks, articulation, lip_contact and materials, got " + avsi.dump().substr(0, 40));
-
-    // The mesh nodes of the default scene, in order, with their world matrices.
+// The mesh nodes of the default scene, in order, with their world matrices.
+std::vector<std::pair<int, glm::mat4>> scene_mesh_nodes(const tinygltf::Model& model, const std::filesystem::path& path) {
     std::vector<std::pair<int, glm::mat4>> mesh_nodes;
     // A node may appear once on a path from the root (the hierarchy is a tree).
     std::vector<bool> on_path(model.nodes.size(), false);
@@ -428,15 +420,119 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
     if (static_cast<std::size_t>(scene) < model.scenes.size())
         for (int n : model.scenes[static_cast<std::size_t>(scene)].nodes) visit(n, glm::mat4(1.0f));
     if (mesh_nodes.empty()) throw InputError(path, "the scene has no mesh");
+    return mesh_nodes;
+}
 
-    // Geometry, groups (material names), texture and morph targets.
-    auto& mesh = head.mesh;
+// What the primitives add besides the mesh: the morph targets, the one
+// texture image, the materials' blend flags.
+struct GltfGeometry {
     std::map<std::string, std::vector<std::pair<std::uint32_t, glm::vec3>>> targets;  // name → (vertex, offset mm)
     // Primitives of one node that share their vertex accessors share the vertices.
     std::map<std::tuple<std::size_t, int, int, int>, std::uint32_t> shared;
     std::set<std::string> target_names;
     int texture_image = -1;
     json materials = json::object();
+};
+
+// Adds primitive `pi` of mesh `mi` (node k, at `world`) to the mesh: its
+// vertices (unless an earlier primitive of the node shares them), its
+// triangles in its group (the material's name), its morph targets.
+void add_primitive(const tinygltf::Model& model, std::size_t k, int mi, std::size_t pi, const glm::mat4& world,
+                   const std::vector<std::string>& names, const std::filesystem::path& path, HeadMesh& mesh,
+                   GltfGeometry& g) {
+    const auto& gm = model.meshes.at(static_cast<std::size_t>(mi));
+    const glm::mat3 linear(world);
+    const auto& prim = gm.primitives[pi];
+    if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1)
+        throw InputError(path, "mesh '" + gm.name + "': only triangle primitives are supported");
+    const auto pos_it = prim.attributes.find("POSITION");
+    if (pos_it == prim.attributes.end()) throw InputError(path, "mesh '" + gm.name + "': a primitive has no POSITION");
+    const auto attribute = [&](const char* name) {
+        const auto it = prim.attributes.find(name);
+        return it == prim.attributes.end() ? -1 : it->second;
+    };
+    const auto key = std::make_tuple(k, pos_it->second, attribute("TEXCOORD_0"), attribute("COLOR_0"));
+    const auto seen = g.shared.find(key);
+    const bool fresh = seen == g.shared.end();
+    const auto base = fresh ? static_cast<std::uint32_t>(mesh.positions.size()) : seen->second;
+    if (fresh) g.shared[key] = base;
+    const std::size_t count = model.accessors.at(static_cast<std::size_t>(pos_it->second)).count;
+    const auto p = fresh ? read_floats(model, pos_it->second, 3, path) : std::vector<float>{};
+    for (std::size_t i = 0; i < p.size() / 3; ++i)
+        mesh.positions.push_back(glm::vec3(world * glm::vec4(p[3 * i], p[3 * i + 1], p[3 * i + 2], 1.0f)) * mm_per_metre);
+    std::vector<float> uv, color;
+    if (fresh && prim.attributes.count("TEXCOORD_0")) uv = read_floats(model, prim.attributes.at("TEXCOORD_0"), 2, path);
+    if (fresh && prim.attributes.count("COLOR_0")) color = read_floats(model, prim.attributes.at("COLOR_0"), 3, path);
+    glm::vec3 factor(1.0f);
+    // (Appended piece by piece: GCC 12 at -O3 warns -Wrestrict,
+    // wrongly, on "_" + std::to_string(…).)
+    std::string group = gm.name.empty() ? std::string("mesh").append(std::to_string(k)) : gm.name;
+    group.append("_").append(std::to_string(pi));
+    if (prim.material >= 0) {
+        const auto& mat = model.materials.at(static_cast<std::size_t>(prim.material));
+        if (!mat.name.empty()) group = mat.name;
+        const auto& f = mat.pbrMetallicRoughness.baseColorFactor;
+        if (f.size() >= 3) factor = glm::vec3(float(f[0]), float(f[1]), float(f[2]));
+        const int tex = mat.pbrMetallicRoughness.baseColorTexture.index;
+        if (tex >= 0) {
+            const int img = model.textures.at(static_cast<std::size_t>(tex)).source;
+            if (g.texture_image >= 0 && img != g.texture_image)
+                throw InputError(path, "material '" + mat.name + "': the head must use one texture image (an atlas); it uses several");
+            g.texture_image = img;
+        }
+        if (mat.alphaMode == "BLEND") g.materials[group]["blend"] = true;
+    }
+    if ((!uv.empty() && uv.size() != 2 * count) || (!color.empty() && color.size() != 3 * count))
+        throw InputError(path.string(), 0, 0, "meshes[" + std::to_string(mi) + "].primitives[" + std::to_string(pi) + "]",
+                         "expected TEXCOORD_0 and COLOR_0 with as many elements as POSITION (" + std::to_string(count) + ")");
+    for (std::size_t i = 0; fresh && i < count; ++i) {
+        mesh.colors.push_back(factor * (color.empty() ? glm::vec3(1.0f)
+                                                      : glm::vec3(color[3 * i], color[3 * i + 1], color[3 * i + 2])));
+        mesh.uvs.push_back(uv.empty() ? glm::vec2(0.0f) : glm::vec2(uv[2 * i], 1.0f - uv[2 * i + 1]));
+    }
+    int gi = mesh.group_index(group);
+    if (gi < 0) {
+        gi = static_cast<int>(mesh.group_names.size());
+        mesh.group_names.push_back(group);
+    }
+    std::vector<std::uint32_t> idx;
+    if (prim.indices >= 0) idx = read_indices(model, prim.indices, path);
+    else
+        for (std::uint32_t i = 0; i < count; ++i) idx.push_back(i);
+    if (idx.size() % 3 != 0) throw InputError(path, "mesh '" + gm.name + "': the index count is not a multiple of 3");
+    for (std::size_t i = 0; i < idx.size(); i += 3) {
+        for (int c = 0; c < 3; ++c) {
+            if (idx[i + std::size_t(c)] >= count) throw InputError(path, "mesh '" + gm.name + "': a vertex index is out of range");
+            mesh.indices.push_back(base + idx[i + std::size_t(c)]);
+        }
+        mesh.triangle_group.push_back(gi);
+    }
+    for (std::size_t t = 0; t < prim.targets.size(); ++t) {
+        if (!fresh) {
+            g.target_names.insert(t < names.size() && !names[t].empty() ? names[t] : "target_" + std::to_string(t));
+            continue;
+        }
+        const std::string name = t < names.size() && !names[t].empty() ? names[t] : "target_" + std::to_string(t);
+        g.target_names.insert(name);
+        const auto it = prim.targets[t].find("POSITION");
+        if (it == prim.targets[t].end()) continue;
+        const auto d = read_floats(model, it->second, 3, path);
+        if (d.size() != 3 * count)
+            throw InputError(path.string(), 0, 0, "morph target " + name,
+                             "expected as many offsets as the primitive's POSITION (" + std::to_string(count) + "), got " +
+                                 std::to_string(d.size() / 3));
+        auto& list = g.targets[name];
+        for (std::size_t i = 0; i < d.size() / 3; ++i) {
+            const glm::vec3 offset = linear * glm::vec3(d[3 * i], d[3 * i + 1], d[3 * i + 2]) * mm_per_metre;
+            if (offset != glm::vec3(0.0f)) list.emplace_back(base + static_cast<std::uint32_t>(i), offset);
+        }
+    }
+}
+
+// Geometry, groups (material names), texture and morph targets of the mesh nodes.
+GltfGeometry read_gltf_geometry(const tinygltf::Model& model, const std::vector<std::pair<int, glm::mat4>>& mesh_nodes,
+                                const std::filesystem::path& path, HeadMesh& mesh) {
+    GltfGeometry g;
     for (std::size_t k = 0; k < mesh_nodes.size(); ++k) {
         const auto& [mi, world] = mesh_nodes[k];
         const auto& gm = model.meshes.at(static_cast<std::size_t>(mi));
@@ -444,98 +540,15 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
         std::vector<std::string> names;
         if (mesh_extras.contains("targetNames") && mesh_extras["targetNames"].is_array())
             for (const auto& t : mesh_extras["targetNames"]) names.push_back(t.is_string() ? t.get<std::string>() : "");
-        const glm::mat3 linear(world);
-        for (std::size_t pi = 0; pi < gm.primitives.size(); ++pi) {
-            const auto& prim = gm.primitives[pi];
-            if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1)
-                throw InputError(path, "mesh '" + gm.name + "': only triangle primitives are supported");
-            const auto pos_it = prim.attributes.find("POSITION");
-            if (pos_it == prim.attributes.end()) throw InputError(path, "mesh '" + gm.name + "': a primitive has no POSITION");
-            const auto attribute = [&](const char* name) {
-                const auto it = prim.attributes.find(name);
-                return it == prim.attributes.end() ? -1 : it->second;
-            };
-            const auto key = std::make_tuple(k, pos_it->second, attribute("TEXCOORD_0"), attribute("COLOR_0"));
-            const auto seen = shared.find(key);
-            const bool fresh = seen == shared.end();
-            const auto base = fresh ? static_cast<std::uint32_t>(mesh.positions.size()) : seen->second;
-            if (fresh) shared[key] = base;
-            const std::size_t count = model.accessors.at(static_cast<std::size_t>(pos_it->second)).count;
-            const auto p = fresh ? read_floats(model, pos_it->second, 3, path) : std::vector<float>{};
-            for (std::size_t i = 0; i < p.size() / 3; ++i)
-                mesh.positions.push_back(glm::vec3(world * glm::vec4(p[3 * i], p[3 * i + 1], p[3 * i + 2], 1.0f)) * mm_per_metre);
-            std::vector<float> uv, color;
-            if (fresh && prim.attributes.count("TEXCOORD_0")) uv = read_floats(model, prim.attributes.at("TEXCOORD_0"), 2, path);
-            if (fresh && prim.attributes.count("COLOR_0")) color = read_floats(model, prim.attributes.at("COLOR_0"), 3, path);
-            glm::vec3 factor(1.0f);
-            // (Appended piece by piece: GCC 12 at -O3 warns -Wrestrict,
-            // wrongly, on "_" + std::to_string(…).)
-            std::string group = gm.name.empty() ? std::string("mesh").append(std::to_string(k)) : gm.name;
-            group.append("_").append(std::to_string(pi));
-            if (prim.material >= 0) {
-                const auto& mat = model.materials.at(static_cast<std::size_t>(prim.material));
-                if (!mat.name.empty()) group = mat.name;
-                const auto& f = mat.pbrMetallicRoughness.baseColorFactor;
-                if (f.size() >= 3) factor = glm::vec3(float(f[0]), float(f[1]), float(f[2]));
-                const int tex = mat.pbrMetallicRoughness.baseColorTexture.index;
-                if (tex >= 0) {
-                    const int img = model.textures.at(static_cast<std::size_t>(tex)).source;
-                    if (texture_image >= 0 && img != texture_image)
-                        throw InputError(path, "material '" + mat.name + "': the head must use one texture image (an atlas); it uses several");
-                    texture_image = img;
-                }
-                if (mat.alphaMode == "BLEND") materials[group]["blend"] = true;
-            }
-            if ((!uv.empty() && uv.size() != 2 * count) || (!color.empty() && color.size() != 3 * count))
-                throw InputError(path.string(), 0, 0, "meshes[" + std::to_string(mi) + "].primitives[" + std::to_string(pi) + "]",
-                                 "expected TEXCOORD_0 and COLOR_0 with as many elements as POSITION (" + std::to_string(count) + ")");
-            for (std::size_t i = 0; fresh && i < count; ++i) {
-                mesh.colors.push_back(factor * (color.empty() ? glm::vec3(1.0f)
-                                                              : glm::vec3(color[3 * i], color[3 * i + 1], color[3 * i + 2])));
-                mesh.uvs.push_back(uv.empty() ? glm::vec2(0.0f) : glm::vec2(uv[2 * i], 1.0f - uv[2 * i + 1]));
-            }
-            int g = mesh.group_index(group);
-            if (g < 0) {
-                g = static_cast<int>(mesh.group_names.size());
-                mesh.group_names.push_back(group);
-            }
-            std::vector<std::uint32_t> idx;
-            if (prim.indices >= 0) idx = read_indices(model, prim.indices, path);
-            else
-                for (std::uint32_t i = 0; i < count; ++i) idx.push_back(i);
-            if (idx.size() % 3 != 0) throw InputError(path, "mesh '" + gm.name + "': the index count is not a multiple of 3");
-            for (std::size_t i = 0; i < idx.size(); i += 3) {
-                for (int c = 0; c < 3; ++c) {
-                    if (idx[i + std::size_t(c)] >= count) throw InputError(path, "mesh '" + gm.name + "': a vertex index is out of range");
-                    mesh.indices.push_back(base + idx[i + std::size_t(c)]);
-                }
-                mesh.triangle_group.push_back(g);
-            }
-            for (std::size_t t = 0; t < prim.targets.size(); ++t) {
-                if (!fresh) {
-                    target_names.insert(t < names.size() && !names[t].empty() ? names[t] : "target_" + std::to_string(t));
-                    continue;
-                }
-                const std::string name = t < names.size() && !names[t].empty() ? names[t] : "target_" + std::to_string(t);
-                target_names.insert(name);
-                const auto it = prim.targets[t].find("POSITION");
-                if (it == prim.targets[t].end()) continue;
-                const auto d = read_floats(model, it->second, 3, path);
-                if (d.size() != 3 * count)
-                    throw InputError(path.string(), 0, 0, "morph target " + name,
-                                     "expected as many offsets as the primitive's POSITION (" + std::to_string(count) + "), got " +
-                                         std::to_string(d.size() / 3));
-                auto& list = targets[name];
-                for (std::size_t i = 0; i < d.size() / 3; ++i) {
-                    const glm::vec3 offset = linear * glm::vec3(d[3 * i], d[3 * i + 1], d[3 * i + 2]) * mm_per_metre;
-                    if (offset != glm::vec3(0.0f)) list.emplace_back(base + static_cast<std::uint32_t>(i), offset);
-                }
-            }
-        }
+        for (std::size_t pi = 0; pi < gm.primitives.size(); ++pi) add_primitive(model, k, mi, pi, world, names, path, mesh, g);
     }
     if (mesh.indices.empty()) throw InputError(path, "the mesh has no triangles");
+    return g;
+}
 
-    // Every target the mapping needs, or the list of what is missing.
+// Every target the mapping needs is in the file, or an InputError lists what is missing.
+void check_mapping_targets(const BlendshapeMapping& mapping, const std::set<std::string>& target_names,
+                           const std::filesystem::path& path) {
     std::vector<std::string> missing;
     for (const auto& t : mapping.targets())
         if (!target_names.count(t)) missing.push_back(t);
@@ -547,29 +560,31 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
                          "missing " + std::to_string(missing.size()) + " the mapping " + mapping.path.filename().string() +
                              " needs: " + list + " (the file has: " + (have.empty() ? "none" : have) + ")");
     }
+}
 
-    if (texture_image >= 0) {
-        const auto& img = model.images.at(static_cast<std::size_t>(texture_image));
-        if (img.image.empty() || img.width <= 0 || img.height <= 0 || (img.component != 3 && img.component != 4) ||
-            img.image.size() < std::size_t(img.width) * std::size_t(img.height) * std::size_t(img.component))
-            throw InputError(path, "the texture image could not be decoded");
-        ImageRgba tex;
-        tex.width = img.width;
-        tex.height = img.height;
-        tex.rgba.resize(std::size_t(img.width) * std::size_t(img.height) * 4);
-        const auto comp = static_cast<std::size_t>(img.component);
-        for (std::size_t i = 0; i < tex.rgba.size() / 4; ++i) {
-            for (std::size_t c = 0; c < 3; ++c) tex.rgba[4 * i + c] = img.image[i * comp + c];
-            tex.rgba[4 * i + 3] = comp == 4 ? img.image[i * comp + 3] : 255;
-        }
-        head.texture = std::move(tex);
-        head.texture_path = path;
-    } else {
-        mesh.uvs.clear();
+// The texture image `image_index` as the head's RGBA texture.
+void read_gltf_texture(const tinygltf::Model& model, int image_index, const std::filesystem::path& path, Head& head) {
+    const auto& img = model.images.at(static_cast<std::size_t>(image_index));
+    if (img.image.empty() || img.width <= 0 || img.height <= 0 || (img.component != 3 && img.component != 4) ||
+        img.image.size() < std::size_t(img.width) * std::size_t(img.height) * std::size_t(img.component))
+        throw InputError(path, "the texture image could not be decoded");
+    ImageRgba tex;
+    tex.width = img.width;
+    tex.height = img.height;
+    tex.rgba.resize(std::size_t(img.width) * std::size_t(img.height) * 4);
+    const auto comp = static_cast<std::size_t>(img.component);
+    for (std::size_t i = 0; i < tex.rgba.size() / 4; ++i) {
+        for (std::size_t c = 0; c < 3; ++c) tex.rgba[4 * i + c] = img.image[i * comp + c];
+        tex.rgba[4 * i + 3] = comp == 4 ? img.image[i * comp + 3] : 255;
     }
+    head.texture = std::move(tex);
+    head.texture_path = path;
+}
 
-    // The rig document: the extras' sections (metres → mm) and one blendshape
-    // transform per mapping row, side and target.
+// The rig document: the extras' sections (metres → mm) and one blendshape
+// transform per mapping row, side and target.
+json gltf_rig_document(const json& avsi, json materials, const BlendshapeMapping& mapping,
+                       std::map<std::string, std::vector<std::pair<std::uint32_t, glm::vec3>>>& targets) {
     json doc = json::object();
     if (avsi.contains("landmarks") && avsi["landmarks"].is_object()) {
         json lm = json::object();
@@ -604,19 +619,34 @@ Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mappi
         if (lo < 0) add(row.negative, 1.0 / lo, "negative");
     }
     doc["transforms"] = transforms;
-    detail::read_rig(head, doc, std::nullopt, false);
+    return doc;
+}
+
+Head read_gltf_head(const tinygltf::Model& model, const BlendshapeMapping& mapping, const std::filesystem::path& path) {
+    Head head;
+    head.obj_path = path;
+    head.rig_path = path;
+    const json avsi = extras_of(model.extras_json_string, model.extras, path).value("avsi", json::object());
+    if (!avsi.is_object())
+        throw InputError(path.string(), 0, 0, "extras.avsi",
+                         "expected an object of landmarks, articulation, lip_contact and materials, got " + avsi.dump().substr(0, 40));
+    GltfGeometry g = read_gltf_geometry(model, scene_mesh_nodes(model, path), path, head.mesh);
+    check_mapping_targets(mapping, g.target_names, path);
+    if (g.texture_image >= 0) read_gltf_texture(model, g.texture_image, path, head);
+    else head.mesh.uvs.clear();
+    detail::read_rig(head, gltf_rig_document(avsi, g.materials, mapping, g.targets), std::nullopt, false);
     return head;
 }
 
 }  // namespace
 
-void export_gltf_head(const Head& head, const std::filesystem::path& out_path, const std::filesystem::path& mapping_path) {
-    const BlendshapeMapping mapping = read_blendshape_mapping(mapping_path);
+namespace {
+
+// Each target's shape: the rig posed at its row's end, split at the midline
+// for an _L/_R pair; a target named by two rows is refused.
+std::map<std::string, std::vector<glm::vec3>> target_shapes(const Head& head, const BlendshapeMapping& mapping) {
     const auto& mesh = head.mesh;
     const std::size_t n = mesh.positions.size();
-
-    // Each target's shape: the rig posed at its row's end, split at the
-    // midline for an _L/_R pair; a target named by two rows is refused.
     std::map<std::string, std::vector<glm::vec3>> shapes;
     std::map<std::string, std::string> owner;
     // The shapes without the lip contact step: the loaded head applies it
@@ -673,14 +703,16 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
         if (lo < 0) side_shapes(row.negative, lo);
     }
 
-    // Buffers: positions, normals, texture coordinates, colours (shared by
-    // every primitive so vertex indices stay the head's), per group an
-    // index list, per target a displacement; then the texture PNG.
+    return shapes;
+}
+
+// A glTF model being written: one buffer, a view per appended block, and accessors on them.
+struct GltfWriter {
     tinygltf::Model model;
-    model.asset.version = "2.0";
-    model.asset.generator = "avsi export-head";
     tinygltf::Buffer buffer;
-    auto append = [&](const void* data, std::size_t bytes) {
+
+    // Appends bytes (4-byte aligned) as a new buffer view; returns its index.
+    int append(const void* data, std::size_t bytes) {
         while (buffer.data.size() % 4) buffer.data.push_back(0);
         const std::size_t offset = buffer.data.size();
         const auto* p = static_cast<const unsigned char*>(data);
@@ -691,9 +723,10 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
         view.byteLength = bytes;
         model.bufferViews.push_back(view);
         return static_cast<int>(model.bufferViews.size() - 1);
-    };
-    auto accessor = [&](int view, int component, int type, std::size_t count, std::vector<double> min = {},
-                        std::vector<double> max = {}) {
+    }
+    // An accessor on a view; returns its index.
+    int accessor(int view, int component, int type, std::size_t count, std::vector<double> min = {},
+                 std::vector<double> max = {}) {
         tinygltf::Accessor a;
         a.bufferView = view;
         a.componentType = component;
@@ -703,7 +736,20 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
         a.maxValues = std::move(max);
         model.accessors.push_back(a);
         return static_cast<int>(model.accessors.size() - 1);
-    };
+    }
+};
+
+// The accessors every primitive shares, so vertex indices stay the head's.
+struct VertexAccessors {
+    int position = -1, normal = -1, color = -1, uv = -1;  // uv -1: untextured
+    bool textured = false;
+};
+
+// Positions (metres, with their bounds), normals, colours and, for a
+// textured head, texture coordinates.
+VertexAccessors add_vertex_accessors(GltfWriter& w, const Head& head) {
+    const auto& mesh = head.mesh;
+    const std::size_t n = mesh.positions.size();
     std::vector<float> pos(3 * n), nrm(3 * n), uv(2 * n), col(3 * n);
     std::vector<glm::vec3> normals;
     compute_normals(mesh.positions, mesh.indices, normals);
@@ -716,12 +762,21 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
             nrm[3 * i + std::size_t(c)] = normals[i][c];
             col[3 * i + std::size_t(c)] = mesh.colors[i][c];
         }
-    const bool textured = head.texture.has_value() && mesh.uvs.size() == n;
-    for (std::size_t i = 0; i < n && textured; ++i) uv[2 * i] = mesh.uvs[i].x, uv[2 * i + 1] = 1.0f - mesh.uvs[i].y;
-    const int a_pos = accessor(append(pos.data(), pos.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n, lo, hi);
-    const int a_nrm = accessor(append(nrm.data(), nrm.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
-    const int a_col = accessor(append(col.data(), col.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
-    const int a_uv = textured ? accessor(append(uv.data(), uv.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, n) : -1;
+    VertexAccessors a;
+    a.textured = head.texture.has_value() && mesh.uvs.size() == n;
+    for (std::size_t i = 0; i < n && a.textured; ++i) uv[2 * i] = mesh.uvs[i].x, uv[2 * i + 1] = 1.0f - mesh.uvs[i].y;
+    a.position = w.accessor(w.append(pos.data(), pos.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n, lo, hi);
+    a.normal = w.accessor(w.append(nrm.data(), nrm.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+    a.color = w.accessor(w.append(col.data(), col.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+    if (a.textured)
+        a.uv = w.accessor(w.append(uv.data(), uv.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, n);
+    return a;
+}
+
+// One displacement accessor (metres, with its bounds) per target, by name.
+std::vector<std::pair<std::string, int>> add_target_accessors(GltfWriter& w,
+                                                              const std::map<std::string, std::vector<glm::vec3>>& shapes,
+                                                              std::size_t n) {
     std::vector<std::pair<std::string, int>> target_accessors;
     for (const auto& [name, d] : shapes) {
         std::vector<float> data(3 * n);
@@ -732,27 +787,37 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
                 tlo[std::size_t(c)] = std::min(tlo[std::size_t(c)], double(data[3 * i + std::size_t(c)]));
                 thi[std::size_t(c)] = std::max(thi[std::size_t(c)], double(data[3 * i + std::size_t(c)]));
             }
-        target_accessors.emplace_back(name, accessor(append(data.data(), data.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT,
-                                                     TINYGLTF_TYPE_VEC3, n, tlo, thi));
+        target_accessors.emplace_back(name, w.accessor(w.append(data.data(), data.size() * 4), TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                                       TINYGLTF_TYPE_VEC3, n, tlo, thi));
     }
-    if (textured) {
-        std::string png;
-        if (!head.texture_path.empty() && head.texture_path.extension() == ".png") png = read_text_file(head.texture_path);
-        if (png.empty()) throw InputError(out_path, "the head's texture is not a PNG file that can be embedded");
-        tinygltf::Image image;
-        image.bufferView = append(png.data(), png.size());
-        image.mimeType = "image/png";
-        image.name = "texture";
-        model.images.push_back(image);
-        tinygltf::Texture texture;
-        texture.source = 0;
-        tinygltf::Sampler sampler;
-        sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
-        sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
-        model.samplers.push_back(sampler);
-        texture.sampler = 0;
-        model.textures.push_back(texture);
-    }
+    return target_accessors;
+}
+
+// The head's texture PNG embedded as image 0, with its texture and sampler.
+void add_texture(GltfWriter& w, const Head& head, const std::filesystem::path& out_path) {
+    std::string png;
+    if (!head.texture_path.empty() && head.texture_path.extension() == ".png") png = read_text_file(head.texture_path);
+    if (png.empty()) throw InputError(out_path, "the head's texture is not a PNG file that can be embedded");
+    tinygltf::Image image;
+    image.bufferView = w.append(png.data(), png.size());
+    image.mimeType = "image/png";
+    image.name = "texture";
+    w.model.images.push_back(image);
+    tinygltf::Texture texture;
+    texture.source = 0;
+    tinygltf::Sampler sampler;
+    sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+    sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+    w.model.samplers.push_back(sampler);
+    texture.sampler = 0;
+    w.model.textures.push_back(texture);
+}
+
+// The mesh (one primitive and material per group, every target on each)
+// under the scene's one node.
+void add_head_mesh(GltfWriter& w, const Head& head, const VertexAccessors& va,
+                   const std::vector<std::pair<std::string, int>>& target_accessors) {
+    const auto& mesh = head.mesh;
     tinygltf::Mesh gm;
     gm.name = "head";
     tinygltf::Value::Array names;
@@ -769,33 +834,35 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
         mat.name = mesh.group_names[g];
         mat.pbrMetallicRoughness.metallicFactor = 0.0;
         mat.pbrMetallicRoughness.roughnessFactor = 0.6;
-        if (textured) mat.pbrMetallicRoughness.baseColorTexture.index = 0;
+        if (va.textured) mat.pbrMetallicRoughness.baseColorTexture.index = 0;
         if (head.materials.at(g).blend) mat.alphaMode = "BLEND", mat.doubleSided = true;
-        model.materials.push_back(mat);
+        w.model.materials.push_back(mat);
         tinygltf::Primitive prim;
         prim.mode = TINYGLTF_MODE_TRIANGLES;
-        prim.material = static_cast<int>(model.materials.size() - 1);
-        prim.indices = accessor(append(idx.data(), idx.size() * 4), TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, idx.size());
-        prim.attributes["POSITION"] = a_pos;
-        prim.attributes["NORMAL"] = a_nrm;
-        prim.attributes["COLOR_0"] = a_col;
-        if (a_uv >= 0) prim.attributes["TEXCOORD_0"] = a_uv;
+        prim.material = static_cast<int>(w.model.materials.size() - 1);
+        prim.indices = w.accessor(w.append(idx.data(), idx.size() * 4), TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
+                                  TINYGLTF_TYPE_SCALAR, idx.size());
+        prim.attributes["POSITION"] = va.position;
+        prim.attributes["NORMAL"] = va.normal;
+        prim.attributes["COLOR_0"] = va.color;
+        if (va.uv >= 0) prim.attributes["TEXCOORD_0"] = va.uv;
         for (const auto& [name, a] : target_accessors) prim.targets.push_back({{"POSITION", a}});
         gm.primitives.push_back(prim);
     }
     gm.weights.assign(target_accessors.size(), 0.0);
-    model.meshes.push_back(gm);
-    model.buffers.push_back(buffer);
+    w.model.meshes.push_back(gm);
     tinygltf::Node node;
     node.mesh = 0;
     node.name = "head";
-    model.nodes.push_back(node);
+    w.model.nodes.push_back(node);
     tinygltf::Scene scene;
     scene.nodes = {0};
-    model.scenes.push_back(scene);
-    model.defaultScene = 0;
+    w.model.scenes.push_back(scene);
+    w.model.defaultScene = 0;
+}
 
-    // The avsi extras: landmarks (metres), articulation, lip contact, materials.
+// The avsi extras: landmarks (metres), articulation, lip contact, materials.
+json avsi_extras(const Head& head) {
     const auto& L = head.landmarks;
     auto point = [](glm::vec3 p) { return json::array({p.x / mm_per_metre, p.y / mm_per_metre, p.z / mm_per_metre}); };
     json avsi;
@@ -824,13 +891,31 @@ void export_gltf_head(const Head& head, const std::filesystem::path& out_path, c
         for (const char* key : {"lip_contact", "materials"})
             if (rig.contains(key)) avsi[key] = rig[key];
     }
+    return avsi;
+}
+
+}  // namespace
+
+void export_gltf_head(const Head& head, const std::filesystem::path& out_path, const std::filesystem::path& mapping_path) {
+    const BlendshapeMapping mapping = read_blendshape_mapping(mapping_path);
+    const auto shapes = target_shapes(head, mapping);
+    // Buffers: positions, normals, texture coordinates, colours, per target
+    // a displacement, the texture PNG, then per group an index list.
+    GltfWriter w;
+    w.model.asset.version = "2.0";
+    w.model.asset.generator = "avsi export-head";
+    const VertexAccessors va = add_vertex_accessors(w, head);
+    const auto target_accessors = add_target_accessors(w, shapes, head.mesh.positions.size());
+    if (va.textured) add_texture(w, head, out_path);
+    add_head_mesh(w, head, va, target_accessors);
+    w.model.buffers.push_back(w.buffer);
     tinygltf::Value::Object asset_extras;
-    asset_extras["avsi"] = to_value(avsi);
-    model.extras = tinygltf::Value(asset_extras);
+    asset_extras["avsi"] = to_value(avsi_extras(head));
+    w.model.extras = tinygltf::Value(asset_extras);
 
     if (out_path.has_parent_path()) std::filesystem::create_directories(out_path.parent_path());
     tinygltf::TinyGLTF writer;
-    if (!writer.WriteGltfSceneToFile(&model, out_path.string(), false, true, false, out_path.extension() == ".glb"))
+    if (!writer.WriteGltfSceneToFile(&w.model, out_path.string(), false, true, false, out_path.extension() == ".glb"))
         throw InputError(out_path, "cannot write the glTF file");
 }
 

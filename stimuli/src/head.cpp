@@ -493,20 +493,12 @@ Head load_head(const std::filesystem::path& obj_path, const std::filesystem::pat
     return head;
 }
 
-namespace detail {
+namespace {
 
-void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> uv_conflict, bool check_format) {
-    const auto& rig_path = head.rig_path;
-    const auto& obj_path = head.obj_path;
-    struct {
-        std::optional<std::size_t> uv_conflict;
-    } obj{uv_conflict};
-    RigReader rig{rig_path, {}};
-    if (check_format && json_string(doc, "format") != "avsi-rig")
-        rig.problem("format", "expected \"avsi-rig\", got " + doc.value("format", json()).dump());
-
+// The landmarks (mm); a head without a neck pivot gets the built-in head's,
+// placed relative to its other landmarks.
+void read_landmarks(const json& doc, RigReader& rig, Landmarks& L) {
     const json lm = doc.value("landmarks", json::object());
-    auto& L = head.landmarks;
     L.left_eye = rig.vec3(lm.value("left_eye", json()), "landmarks.left_eye");
     L.right_eye = rig.vec3(lm.value("right_eye", json()), "landmarks.right_eye");
     L.nose_bottom = rig.vec3(lm.value("nose_bottom", json()), "landmarks.nose_bottom");
@@ -525,34 +517,31 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
         L.neck_pivot = glm::vec3(eyes.x, L.nose_bottom.y + 0.25f * (eyes.y - L.nose_bottom.y),
                                  eyes.z - 0.35f * L.head_height);
     }
+}
 
-    if (doc.contains("articulation")) {
-        if (!doc["articulation"].is_object()) rig.problem("articulation", "expected an object of landmark vertex indices");
-        else head.articulation = read_articulation(doc["articulation"], head.mesh, rig);
-    }
-
-    if (doc.contains("lip_contact")) {
-        if (!head.articulation) rig.problem("lip_contact", "needs the \"articulation\" section's lip contours");
-        else if (!doc["lip_contact"].is_object()) rig.problem("lip_contact", "expected an object");
-        else if (rig.problems.empty()) head.lip_contact = read_lip_contact(doc["lip_contact"], head, rig);
-    }
-
-    // The texture and the materials.
-    if (doc.contains("texture")) {
-        if (!doc["texture"].is_string()) rig.problem("texture", "expected a PNG file name, got " + doc["texture"].dump());
-        else if (head.mesh.uvs.empty()) rig.problem("texture", "the mesh " + obj_path.filename().string() + " has no texture coordinates (vt)");
-        else if (obj.uv_conflict)
-            rig.problem("texture", "vertex " + std::to_string(*obj.uv_conflict + 1) + " of " + obj_path.filename().string() +
-                                       " has two texture coordinates; a textured head needs one per vertex (split the vertex)");
+// The texture a rig names, beside the rig file; the mesh must have one
+// texture coordinate per vertex.
+void read_rig_texture(Head& head, const json& doc, RigReader& rig, std::optional<std::size_t> uv_conflict) {
+    if (!doc.contains("texture")) return;
+    const auto& rig_path = head.rig_path;
+    const auto& obj_path = head.obj_path;
+    if (!doc["texture"].is_string()) rig.problem("texture", "expected a PNG file name, got " + doc["texture"].dump());
+    else if (head.mesh.uvs.empty()) rig.problem("texture", "the mesh " + obj_path.filename().string() + " has no texture coordinates (vt)");
+    else if (uv_conflict)
+        rig.problem("texture", "vertex " + std::to_string(*uv_conflict + 1) + " of " + obj_path.filename().string() +
+                                   " has two texture coordinates; a textured head needs one per vertex (split the vertex)");
+    else {
+        const auto path = rig_path.parent_path() / doc["texture"].get<std::string>();
+        if (!std::filesystem::is_regular_file(path)) rig.problem("texture", "no such file: " + path.string());
         else {
-            const auto path = rig_path.parent_path() / doc["texture"].get<std::string>();
-            if (!std::filesystem::is_regular_file(path)) rig.problem("texture", "no such file: " + path.string());
-            else {
-                head.texture = read_image_rgba(path);
-                head.texture_path = path;
-            }
+            head.texture = read_image_rgba(path);
+            head.texture_path = path;
         }
     }
+}
+
+// Each group's material: the default for its name, with the rig's fields.
+void read_materials(Head& head, const json& doc, RigReader& rig) {
     head.materials.resize(head.mesh.group_names.size());
     for (std::size_t g = 0; g < head.materials.size(); ++g) head.materials[g] = default_material(head.mesh.group_names[g]);
     if (doc.contains("materials")) {
@@ -583,116 +572,143 @@ void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> 
                     rig.problem(field, "expected specular >= 0, shininess >= 1 and wrap in [0, 1]");
             }
     }
+}
 
+// Explicit sparse entries (the "weights" of a transform, the vertices of a
+// blendshape): vertex indices in [0, n), or none after a problem.
+std::vector<std::uint32_t> vertex_list(RigReader& rig, std::size_t n, const json& j, const std::string& f) {
+    std::vector<std::uint32_t> out;
+    if (!j.is_array()) {
+        rig.problem(f, "expected an array of vertex indices");
+        return out;
+    }
+    for (const auto& v : j) {
+        if (!v.is_number_unsigned() || v.get<std::uint64_t>() >= n) {
+            rig.problem(f, "expected vertex indices in [0, " + std::to_string(n) + "), got " + v.dump());
+            return std::vector<std::uint32_t>{};
+        }
+        out.push_back(static_cast<std::uint32_t>(v.get<std::uint64_t>()));
+    }
+    return out;
+}
+
+// One transform of the rig (`field` names it in messages), or none after a
+// problem that leaves it unusable.
+std::optional<RigTransform> read_transform(const json& t, const std::string& field, const Head& head, RigReader& rig) {
     const std::vector<std::string>& channels = channel_names();
+    RigTransform rt;
+    rt.channel = t.value("channel", "");
+    const auto it = std::find(channels.begin(), channels.end(), rt.channel);
+    if (it == channels.end()) {
+        const auto hint = closest_match(rt.channel, channels);
+        rig.problem(field + ".channel", "expected a parameter name, \"blink\", \"tongue_tip\", \"gaze_left\", \"gaze_up\", \"brow_inner_raise\", \"brow_outer_raise\" or \"cheek_raise\", got \"" +
+                                            rt.channel + "\"" +
+                                            (hint.empty() ? "" : " (did you mean '" + hint + "'?)"));
+        return std::nullopt;
+    }
+    rt.channel_index = static_cast<int>(it - channels.begin());
+    if (t.contains("side")) {
+        const std::string side = t["side"].is_string() ? t["side"].get<std::string>() : t["side"].dump();
+        if (side == "positive") rt.side = ChannelSide::Positive;
+        else if (side == "negative") rt.side = ChannelSide::Negative;
+        else rig.problem(field + ".side", "expected \"positive\" or \"negative\", got " + t["side"].dump());
+    }
+    if (t.contains("blendshape")) {
+        rt.kind = TransformKind::Blendshape;
+        const json& b = t["blendshape"];
+        rt.vertices = vertex_list(rig, head.mesh.positions.size(), b.value("vertices", json()), field + ".blendshape.vertices");
+        const json& o = b.value("offsets", json());
+        if (!o.is_array() || o.size() != 3 * rt.vertices.size()) {
+            rig.problem(field + ".blendshape.offsets", "expected 3 numbers per vertex (" + std::to_string(3 * rt.vertices.size()) +
+                                                            "), got " + (o.is_array() ? std::to_string(o.size()) : o.dump().substr(0, 40)));
+            return std::nullopt;
+        }
+        for (std::size_t k = 0; k < rt.vertices.size(); ++k) {
+            if (!o[3 * k].is_number() || !o[3 * k + 1].is_number() || !o[3 * k + 2].is_number()) {
+                rig.problem(field + ".blendshape.offsets", "expected numbers, got " + o[3 * k].dump());
+                break;
+            }
+            const std::string f = field + ".blendshape.offsets";
+            rt.offsets.push_back({rig.number(o[3 * k], f), rig.number(o[3 * k + 1], f), rig.number(o[3 * k + 2], f)});
+        }
+        rt.weights.assign(rt.vertices.size(), 1.0f);
+        if (t.contains("region")) {
+            const auto w = region_weights(head.mesh, t["region"], field + ".region", rig);
+            for (std::size_t k = 0; k < rt.vertices.size(); ++k) rt.weights[k] = std::min(w[rt.vertices[k]], 1.0f);
+        }
+        return rt;
+    }
+    if (t.contains("rotate")) {
+        rt.kind = TransformKind::Rotate;
+        rt.pivot = rig.vec3(t["rotate"].value("pivot", json()), field + ".rotate.pivot");
+        rt.axis = rig.vec3(t["rotate"].value("axis", json()), field + ".rotate.axis");
+        rt.angle_deg = rig.number(t["rotate"].value("angle_deg", json()), field + ".rotate.angle_deg");
+        if (glm::length(rt.axis) <= 0) rig.problem(field + ".rotate.axis", "expected a non-zero axis");
+        else rt.axis = glm::normalize(rt.axis);
+    } else if (t.contains("translate")) {
+        rt.kind = TransformKind::Translate;
+        rt.offset = rig.vec3(t["translate"], field + ".translate");
+    } else if (t.contains("scale")) {
+        rt.kind = TransformKind::Scale;
+        rt.pivot = rig.vec3(t["scale"].value("pivot", json()), field + ".scale.pivot");
+        rt.scale = rig.vec3(t["scale"].value("factor", json()), field + ".scale.factor");
+    } else {
+        rig.problem(field, "expected one of 'rotate', 'translate', 'scale', 'blendshape'");
+        return std::nullopt;
+    }
+    if (t.contains("weights")) {
+        if (t.contains("region")) rig.problem(field, "expected one of 'region' and 'weights', got both");
+        const json& w = t["weights"];
+        rt.vertices = vertex_list(rig, head.mesh.positions.size(), w.value("vertices", json()), field + ".weights.vertices");
+        const json& values = w.value("values", json());
+        if (!values.is_array() || values.size() != rt.vertices.size()) {
+            rig.problem(field + ".weights.values", "expected one weight per vertex (" + std::to_string(rt.vertices.size()) + ")");
+            return std::nullopt;
+        }
+        for (const auto& v : values) {
+            const float x = rig.number(v, field + ".weights.values");
+            if (!(x >= 0.0f && x <= 1.0f)) {
+                rig.problem(field + ".weights.values", "expected weights in [0, 1], got " + v.dump());
+                break;
+            }
+            rt.weights.push_back(x);
+        }
+    } else {
+        const auto w = region_weights(head.mesh, t.contains("region") ? t["region"] : json::object(), field + ".region", rig);
+        for (std::size_t i = 0; i < w.size(); ++i)
+            if (w[i] > 1e-4f) {
+                rt.vertices.push_back(static_cast<std::uint32_t>(i));
+                rt.weights.push_back(std::min(w[i], 1.0f));
+            }
+    }
+    return rt;
+}
 
+}  // namespace
+
+namespace detail {
+
+void read_rig(Head& head, const nlohmann::json& doc, std::optional<std::size_t> uv_conflict, bool check_format) {
+    RigReader rig{head.rig_path, {}};
+    if (check_format && json_string(doc, "format") != "avsi-rig")
+        rig.problem("format", "expected \"avsi-rig\", got " + doc.value("format", json()).dump());
+    read_landmarks(doc, rig, head.landmarks);
+    if (doc.contains("articulation")) {
+        if (!doc["articulation"].is_object()) rig.problem("articulation", "expected an object of landmark vertex indices");
+        else head.articulation = read_articulation(doc["articulation"], head.mesh, rig);
+    }
+
+    if (doc.contains("lip_contact")) {
+        if (!head.articulation) rig.problem("lip_contact", "needs the \"articulation\" section's lip contours");
+        else if (!doc["lip_contact"].is_object()) rig.problem("lip_contact", "expected an object");
+        else if (rig.problems.empty()) head.lip_contact = read_lip_contact(doc["lip_contact"], head, rig);
+    }
+    read_rig_texture(head, doc, rig, uv_conflict);
+    read_materials(head, doc, rig);
     int k = 0;
     for (const auto& t : doc.value("transforms", json::array())) {
         const std::string field = "transforms[" + std::to_string(k++) + "]";
-        RigTransform rt;
-        rt.channel = t.value("channel", "");
-        const auto it = std::find(channels.begin(), channels.end(), rt.channel);
-        if (it == channels.end()) {
-            const auto hint = closest_match(rt.channel, channels);
-            rig.problem(field + ".channel", "expected a parameter name, \"blink\", \"tongue_tip\", \"gaze_left\", \"gaze_up\", \"brow_inner_raise\", \"brow_outer_raise\" or \"cheek_raise\", got \"" +
-                                                rt.channel + "\"" +
-                                                (hint.empty() ? "" : " (did you mean '" + hint + "'?)"));
-            continue;
-        }
-        rt.channel_index = static_cast<int>(it - channels.begin());
-        if (t.contains("side")) {
-            const std::string side = t["side"].is_string() ? t["side"].get<std::string>() : t["side"].dump();
-            if (side == "positive") rt.side = ChannelSide::Positive;
-            else if (side == "negative") rt.side = ChannelSide::Negative;
-            else rig.problem(field + ".side", "expected \"positive\" or \"negative\", got " + t["side"].dump());
-        }
-        const std::size_t n = head.mesh.positions.size();
-        // Explicit sparse entries: "weights" of a transform, the vertices of a blendshape.
-        auto vertex_list = [&](const json& j, const std::string& f) {
-            std::vector<std::uint32_t> out;
-            if (!j.is_array()) {
-                rig.problem(f, "expected an array of vertex indices");
-                return out;
-            }
-            for (const auto& v : j) {
-                if (!v.is_number_unsigned() || v.get<std::uint64_t>() >= n) {
-                    rig.problem(f, "expected vertex indices in [0, " + std::to_string(n) + "), got " + v.dump());
-                    return std::vector<std::uint32_t>{};
-                }
-                out.push_back(static_cast<std::uint32_t>(v.get<std::uint64_t>()));
-            }
-            return out;
-        };
-        if (t.contains("blendshape")) {
-            rt.kind = TransformKind::Blendshape;
-            const json& b = t["blendshape"];
-            rt.vertices = vertex_list(b.value("vertices", json()), field + ".blendshape.vertices");
-            const json& o = b.value("offsets", json());
-            if (!o.is_array() || o.size() != 3 * rt.vertices.size()) {
-                rig.problem(field + ".blendshape.offsets", "expected 3 numbers per vertex (" + std::to_string(3 * rt.vertices.size()) +
-                                                                "), got " + (o.is_array() ? std::to_string(o.size()) : o.dump().substr(0, 40)));
-                continue;
-            }
-            for (std::size_t k = 0; k < rt.vertices.size(); ++k) {
-                if (!o[3 * k].is_number() || !o[3 * k + 1].is_number() || !o[3 * k + 2].is_number()) {
-                    rig.problem(field + ".blendshape.offsets", "expected numbers, got " + o[3 * k].dump());
-                    break;
-                }
-                const std::string f = field + ".blendshape.offsets";
-                rt.offsets.push_back({rig.number(o[3 * k], f), rig.number(o[3 * k + 1], f), rig.number(o[3 * k + 2], f)});
-            }
-            rt.weights.assign(rt.vertices.size(), 1.0f);
-            if (t.contains("region")) {
-                const auto w = region_weights(head.mesh, t["region"], field + ".region", rig);
-                for (std::size_t k = 0; k < rt.vertices.size(); ++k) rt.weights[k] = std::min(w[rt.vertices[k]], 1.0f);
-            }
-            head.transforms.push_back(std::move(rt));
-            continue;
-        }
-        if (t.contains("rotate")) {
-            rt.kind = TransformKind::Rotate;
-            rt.pivot = rig.vec3(t["rotate"].value("pivot", json()), field + ".rotate.pivot");
-            rt.axis = rig.vec3(t["rotate"].value("axis", json()), field + ".rotate.axis");
-            rt.angle_deg = rig.number(t["rotate"].value("angle_deg", json()), field + ".rotate.angle_deg");
-            if (glm::length(rt.axis) <= 0) rig.problem(field + ".rotate.axis", "expected a non-zero axis");
-            else rt.axis = glm::normalize(rt.axis);
-        } else if (t.contains("translate")) {
-            rt.kind = TransformKind::Translate;
-            rt.offset = rig.vec3(t["translate"], field + ".translate");
-        } else if (t.contains("scale")) {
-            rt.kind = TransformKind::Scale;
-            rt.pivot = rig.vec3(t["scale"].value("pivot", json()), field + ".scale.pivot");
-            rt.scale = rig.vec3(t["scale"].value("factor", json()), field + ".scale.factor");
-        } else {
-            rig.problem(field, "expected one of 'rotate', 'translate', 'scale', 'blendshape'");
-            continue;
-        }
-        if (t.contains("weights")) {
-            if (t.contains("region")) rig.problem(field, "expected one of 'region' and 'weights', got both");
-            const json& w = t["weights"];
-            rt.vertices = vertex_list(w.value("vertices", json()), field + ".weights.vertices");
-            const json& values = w.value("values", json());
-            if (!values.is_array() || values.size() != rt.vertices.size()) {
-                rig.problem(field + ".weights.values", "expected one weight per vertex (" + std::to_string(rt.vertices.size()) + ")");
-                continue;
-            }
-            for (const auto& v : values) {
-                const float x = rig.number(v, field + ".weights.values");
-                if (!(x >= 0.0f && x <= 1.0f)) {
-                    rig.problem(field + ".weights.values", "expected weights in [0, 1], got " + v.dump());
-                    break;
-                }
-                rt.weights.push_back(x);
-            }
-        } else {
-            const auto w = region_weights(head.mesh, t.contains("region") ? t["region"] : json::object(), field + ".region", rig);
-            for (std::size_t i = 0; i < w.size(); ++i)
-                if (w[i] > 1e-4f) {
-                    rt.vertices.push_back(static_cast<std::uint32_t>(i));
-                    rt.weights.push_back(std::min(w[i], 1.0f));
-                }
-        }
-        head.transforms.push_back(std::move(rt));
+        if (auto rt = read_transform(t, field, head, rig)) head.transforms.push_back(std::move(*rt));
     }
     rig.problems.throw_if_any();
 }

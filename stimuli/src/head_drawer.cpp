@@ -250,201 +250,230 @@ struct HeadDrawer::Impl {
         p.u_first_triangle = at("u_first_triangle");
         return p;
     }
-};
-
-HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make_unique<Impl>()) {
-    auto& d = *m_impl;
-    auto& gl = d.gl;
-    gl.load(loader);
-    const auto& mesh = head.mesh;
-    d.vertex_count = mesh.positions.size();
-    d.target = head.landmarks.head_center;
 
     // Per-vertex colour, material (from the group of its triangles) and
-    // texture coordinates.
-    const bool textured = head.texture.has_value() && mesh.uvs.size() == d.vertex_count;
-    std::vector<float> statics(d.vertex_count * 8, 0.0f);
-    const Material plain;
-    for (std::size_t i = 0; i < d.vertex_count; ++i) {
-        float* v = &statics[8 * i];
-        v[0] = mesh.colors[i].r, v[1] = mesh.colors[i].g, v[2] = mesh.colors[i].b;
-        v[3] = plain.specular, v[4] = plain.shininess, v[5] = plain.wrap;
-        if (textured) v[6] = mesh.uvs[i].x, v[7] = mesh.uvs[i].y;
-    }
-    const std::size_t triangle_count = mesh.indices.size() / 3;
-    std::vector<int> pass_of(triangle_count, int(Pass::Opaque));
-    for (std::size_t t = 0; t < triangle_count; ++t) {
-        const Material& m = head.materials.at(static_cast<std::size_t>(mesh.triangle_group[t]));
-        pass_of[t] = int(m.blend ? Pass::Blend : m.shininess >= glossy_shininess ? Pass::Glossy : Pass::Opaque);
-        for (int k = 0; k < 3; ++k) {
-            float* v = &statics[8 * mesh.indices[3 * t + static_cast<std::size_t>(k)]];
-            v[3] = m.specular, v[4] = m.shininess, v[5] = m.wrap;
+    // texture coordinates, 8 floats each; each triangle's pass into `pass_of`.
+    std::vector<float> vertex_statics(const Head& head, bool textured, std::vector<int>& pass_of) const {
+        const auto& mesh = head.mesh;
+        std::vector<float> statics(vertex_count * 8, 0.0f);
+        const Material plain;
+        for (std::size_t i = 0; i < vertex_count; ++i) {
+            float* v = &statics[8 * i];
+            v[0] = mesh.colors[i].r, v[1] = mesh.colors[i].g, v[2] = mesh.colors[i].b;
+            v[3] = plain.specular, v[4] = plain.shininess, v[5] = plain.wrap;
+            if (textured) v[6] = mesh.uvs[i].x, v[7] = mesh.uvs[i].y;
         }
+        const std::size_t triangle_count = mesh.indices.size() / 3;
+        pass_of.assign(triangle_count, int(Pass::Opaque));
+        for (std::size_t t = 0; t < triangle_count; ++t) {
+            const Material& m = head.materials.at(static_cast<std::size_t>(mesh.triangle_group[t]));
+            pass_of[t] = int(m.blend ? Pass::Blend : m.shininess >= glossy_shininess ? Pass::Glossy : Pass::Opaque);
+            for (int k = 0; k < 3; ++k) {
+                float* v = &statics[8 * mesh.indices[3 * t + static_cast<std::size_t>(k)]];
+                v[3] = m.specular, v[4] = m.shininess, v[5] = m.wrap;
+            }
+        }
+        return statics;
     }
 
-    gl.glGenVertexArrays(1, &d.vao);
-    gl.glBindVertexArray(d.vao);
-    gl.glGenBuffers(1, &d.vbo_dynamic);
-    gl.glBindBuffer(GL_ARRAY_BUFFER, d.vbo_dynamic);
-    gl.glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(d.vertex_count * 6 * sizeof(float)), nullptr,
-                    GL_STREAM_DRAW);
-    gl.glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
-    gl.glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
-                             reinterpret_cast<const void*>(3 * sizeof(float)));
-    gl.glEnableVertexAttribArray(0);
-    gl.glEnableVertexAttribArray(1);
-    gl.glGenBuffers(1, &d.vbo_static);
-    gl.glBindBuffer(GL_ARRAY_BUFFER, d.vbo_static);
-    gl.glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(statics.size() * sizeof(float)), statics.data(),
-                    GL_STATIC_DRAW);
-    gl.glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float), nullptr);
-    gl.glVertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float),
-                             reinterpret_cast<const void*>(3 * sizeof(float)));
-    gl.glVertexAttribPointer(4, 2, GL_FLOAT, GL_FALSE, 8 * sizeof(float),
-                             reinterpret_cast<const void*>(6 * sizeof(float)));
-    gl.glEnableVertexAttribArray(2);
-    gl.glEnableVertexAttribArray(3);
-    gl.glEnableVertexAttribArray(4);
-    gl.glBindVertexArray(0);
+    // The vertex array: the positions and normals streamed each frame, the statics once.
+    void upload_vertices(const std::vector<float>& statics) {
+        gl.glGenVertexArrays(1, &vao);
+        gl.glBindVertexArray(vao);
+        gl.glGenBuffers(1, &vbo_dynamic);
+        gl.glBindBuffer(GL_ARRAY_BUFFER, vbo_dynamic);
+        gl.glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertex_count * 6 * sizeof(float)), nullptr,
+                        GL_STREAM_DRAW);
+        gl.glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+        gl.glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                                 reinterpret_cast<const void*>(3 * sizeof(float)));
+        gl.glEnableVertexAttribArray(0);
+        gl.glEnableVertexAttribArray(1);
+        gl.glGenBuffers(1, &vbo_static);
+        gl.glBindBuffer(GL_ARRAY_BUFFER, vbo_static);
+        gl.glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(statics.size() * sizeof(float)), statics.data(),
+                        GL_STATIC_DRAW);
+        gl.glVertexAttribPointer(2, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float), nullptr);
+        gl.glVertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float),
+                                 reinterpret_cast<const void*>(3 * sizeof(float)));
+        gl.glVertexAttribPointer(4, 2, GL_FLOAT, GL_FALSE, 8 * sizeof(float),
+                                 reinterpret_cast<const void*>(6 * sizeof(float)));
+        gl.glEnableVertexAttribArray(2);
+        gl.glEnableVertexAttribArray(3);
+        gl.glEnableVertexAttribArray(4);
+        gl.glBindVertexArray(0);
+    }
 
     // The texture (mipmapped, trilinear), or one white texel.
-    gl.glGenTextures(1, &d.texture);
-    gl.glBindTexture(GL_TEXTURE_2D, d.texture);
-    const std::uint8_t white[4] = {255, 255, 255, 255};
-    if (textured) {
-        // GL's first row is v = 0, the image's last (OBJ texture coordinates count from the bottom).
-        const auto& tex = *head.texture;
-        const std::size_t row = std::size_t(tex.width) * 4;
-        std::vector<std::uint8_t> flipped(tex.rgba.size());
-        for (int y = 0; y < tex.height; ++y)
-            std::memcpy(&flipped[std::size_t(y) * row], &tex.rgba[std::size_t(tex.height - 1 - y) * row], row);
-        gl.glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex.width, tex.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, flipped.data());
-    } else
-        gl.glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 1, 1, 0, GL_RGBA, GL_UNSIGNED_BYTE, white);
-    gl.glGenerateMipmap(GL_TEXTURE_2D);
-    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-
-    // Triangle → group, read by the region mode.
-    std::vector<std::uint8_t> groups(triangle_count);
-    for (std::size_t t = 0; t < groups.size(); ++t) groups[t] = static_cast<std::uint8_t>(mesh.triangle_group[t]);
-
-    d.programs[0] = d.link(vertex_lit_shader, vertex_lit_fragment_shader);
-    d.programs[1] = d.link(vertex_shader, fragment_shader);
-    d.programs[2] = d.link(vertex_shader, region_shader);
-    d.interleaved.resize(d.vertex_count * 6);
+    void upload_texture(const Head& head, bool textured) {
+        gl.glGenTextures(1, &texture);
+        gl.glBindTexture(GL_TEXTURE_2D, texture);
+        const std::uint8_t white[4] = {255, 255, 255, 255};
+        if (textured) {
+            // GL's first row is v = 0, the image's last (OBJ texture coordinates count from the bottom).
+            const auto& tex = *head.texture;
+            const std::size_t row = std::size_t(tex.width) * 4;
+            std::vector<std::uint8_t> flipped(tex.rgba.size());
+            for (int y = 0; y < tex.height; ++y)
+                std::memcpy(&flipped[std::size_t(y) * row], &tex.rgba[std::size_t(tex.height - 1 - y) * row], row);
+            gl.glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex.width, tex.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, flipped.data());
+        } else
+            gl.glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 1, 1, 0, GL_RGBA, GL_UNSIGNED_BYTE, white);
+        gl.glGenerateMipmap(GL_TEXTURE_2D);
+        gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+        gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        gl.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    }
 
     // The static / moving split. A vertex moves when a rig transform weights
     // it; its normal (area-weighted over its triangles) changes when one of its
     // triangles has a moving vertex; a triangle's pixels change when one of its
-    // vertices moves or changes normal.
-    // moves: bit 1 = moved by a speech channel, bit 2 = moved by the blink.
-    std::vector<char> moves(d.vertex_count, 0), reshaded(d.vertex_count, 0), moving_triangle(triangle_count, 0);
-    // The expression channels (brows, cheeks) are left out: the renderer
-    // draws a frame with an expression uncached, so the cached split stays
-    // the speech-only head's.
-    for (const auto& t : head.transforms) {
-        if (is_expression_channel(static_cast<std::size_t>(t.channel_index))) continue;
-        const char bit = is_eye_channel(static_cast<std::size_t>(t.channel_index)) ? 2 : 1;
-        for (std::size_t k = 0; k < t.vertices.size(); ++k)
-            if (t.weights[k] != 0.0f) moves[t.vertices[k]] |= bit;
-    }
-    // The lip contact moves its vertices with the speech parameters.
-    if (head.lip_contact)
-        for (auto v : head.lip_contact->mesh.moved) moves[v] |= 1;
-    for (std::size_t t = 0; t < triangle_count; ++t) {
-        const std::uint32_t* v = &mesh.indices[3 * t];
-        if (moves[v[0]] || moves[v[1]] || moves[v[2]]) reshaded[v[0]] = reshaded[v[1]] = reshaded[v[2]] = 1;
-    }
-    for (std::size_t t = 0; t < triangle_count; ++t) {
-        const std::uint32_t* v = &mesh.indices[3 * t];
-        moving_triangle[t] = (reshaded[v[0]] || reshaded[v[1]] || reshaded[v[2]]) ? 1 : 0;
-    }
-    // Clusters: connected components of the moving triangles (union-find over vertices).
-    std::vector<std::uint32_t> parent(d.vertex_count);
-    for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<std::uint32_t>(i);
-    auto find = [&](std::uint32_t x) {
-        while (parent[x] != x) x = parent[x] = parent[parent[x]];
-        return x;
-    };
-    std::vector<char> in_moving(d.vertex_count, 0);
-    for (std::size_t t = 0; t < triangle_count; ++t) {
-        if (!moving_triangle[t]) continue;
-        const std::uint32_t* v = &mesh.indices[3 * t];
-        for (int k = 0; k < 3; ++k) in_moving[v[k]] = 1;
-        parent[find(v[1])] = find(v[0]);
-        parent[find(v[2])] = find(v[0]);
-    }
-    std::vector<int> cluster_of_root(d.vertex_count, -1);
-    std::vector<char> cluster_moves;  // the moves bits of each cluster's vertices
-    for (std::size_t i = 0; i < d.vertex_count; ++i) {
-        if (!in_moving[i]) continue;
-        const std::uint32_t root = find(static_cast<std::uint32_t>(i));
-        if (cluster_of_root[root] < 0) {
-            cluster_of_root[root] = static_cast<int>(d.moving_clusters.size());
-            d.moving_clusters.emplace_back();
-            cluster_moves.push_back(0);
+    // vertices moves or changes normal. Sets the moving clusters and which
+    // the blink alone moves; returns each triangle's part (0 static, 1
+    // blink-only, 2 moving).
+    std::vector<int> split_moving_parts(const Head& head) {
+        const auto& mesh = head.mesh;
+        const std::size_t triangle_count = mesh.indices.size() / 3;
+        // moves: bit 1 = moved by a speech channel, bit 2 = moved by the blink.
+        std::vector<char> moves(vertex_count, 0), reshaded(vertex_count, 0), moving_triangle(triangle_count, 0);
+        // The expression channels (brows, cheeks) are left out: the renderer
+        // draws a frame with an expression uncached, so the cached split stays
+        // the speech-only head's.
+        for (const auto& t : head.transforms) {
+            if (is_expression_channel(static_cast<std::size_t>(t.channel_index))) continue;
+            const char bit = is_eye_channel(static_cast<std::size_t>(t.channel_index)) ? 2 : 1;
+            for (std::size_t k = 0; k < t.vertices.size(); ++k)
+                if (t.weights[k] != 0.0f) moves[t.vertices[k]] |= bit;
         }
-        const auto c = static_cast<std::size_t>(cluster_of_root[root]);
-        d.moving_clusters[c].push_back(static_cast<std::uint32_t>(i));
-        cluster_moves[c] = static_cast<char>(cluster_moves[c] | moves[i]);
-    }
-    // A cluster moved by the blink alone (the eyelids) is at its rest pose in
-    // every frame without a blink: it can be cached with the static part.
-    d.blink_only_clusters.resize(d.moving_clusters.size());
-    for (std::size_t c = 0; c < d.moving_clusters.size(); ++c) d.blink_only_clusters[c] = cluster_moves[c] == 2;
-    std::vector<int> part_of(triangle_count, 0);
-    for (std::size_t t = 0; t < triangle_count; ++t) {
-        const std::uint32_t* v = &mesh.indices[3 * t];
-        part_of[t] = !moving_triangle[t] ? 0
-                     : d.blink_only_clusters[static_cast<std::size_t>(cluster_of_root[find(v[0])])] ? 1
-                                                                                                   : 2;
-    }
-    // Blended triangles back to front as the frontal camera sees them (by
-    // their centroids' depth; the camera looks along −z).
-    std::vector<std::size_t> order(triangle_count);
-    for (std::size_t t = 0; t < triangle_count; ++t) order[t] = t;
-    std::vector<float> depth(triangle_count);
-    for (std::size_t t = 0; t < triangle_count; ++t)
-        depth[t] = mesh.positions[mesh.indices[3 * t]].z + mesh.positions[mesh.indices[3 * t + 1]].z +
-                   mesh.positions[mesh.indices[3 * t + 2]].z;
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-        const bool blend_a = pass_of[a] == int(Pass::Blend), blend_b = pass_of[b] == int(Pass::Blend);
-        return blend_a && blend_b && depth[a] < depth[b];
-    });
-    // The split index buffer: parts in order, passes in order within a part.
-    std::vector<std::uint32_t> split;
-    split.reserve(mesh.indices.size());
-    std::vector<std::uint8_t> split_groups;
-    split_groups.reserve(triangle_count);
-    for (int part = 0; part < 3; ++part)
-        for (int pass = 0; pass < pass_count; ++pass) {
-            auto& r = d.ranges[part][pass];
-            r.first = static_cast<GLsizei>(split.size());
-            for (const std::size_t t : order) {
-                if (part_of[t] != part || pass_of[t] != pass) continue;
-                const std::uint32_t* v = &mesh.indices[3 * t];
-                split.insert(split.end(), v, v + 3);
-                split_groups.push_back(groups[t]);
+        // The lip contact moves its vertices with the speech parameters.
+        if (head.lip_contact)
+            for (auto v : head.lip_contact->mesh.moved) moves[v] |= 1;
+        for (std::size_t t = 0; t < triangle_count; ++t) {
+            const std::uint32_t* v = &mesh.indices[3 * t];
+            if (moves[v[0]] || moves[v[1]] || moves[v[2]]) reshaded[v[0]] = reshaded[v[1]] = reshaded[v[2]] = 1;
+        }
+        for (std::size_t t = 0; t < triangle_count; ++t) {
+            const std::uint32_t* v = &mesh.indices[3 * t];
+            moving_triangle[t] = (reshaded[v[0]] || reshaded[v[1]] || reshaded[v[2]]) ? 1 : 0;
+        }
+        // Clusters: connected components of the moving triangles (union-find over vertices).
+        std::vector<std::uint32_t> parent(vertex_count);
+        for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<std::uint32_t>(i);
+        auto find = [&](std::uint32_t x) {
+            while (parent[x] != x) x = parent[x] = parent[parent[x]];
+            return x;
+        };
+        std::vector<char> in_moving(vertex_count, 0);
+        for (std::size_t t = 0; t < triangle_count; ++t) {
+            if (!moving_triangle[t]) continue;
+            const std::uint32_t* v = &mesh.indices[3 * t];
+            for (int k = 0; k < 3; ++k) in_moving[v[k]] = 1;
+            parent[find(v[1])] = find(v[0]);
+            parent[find(v[2])] = find(v[0]);
+        }
+        std::vector<int> cluster_of_root(vertex_count, -1);
+        std::vector<char> cluster_moves;  // the moves bits of each cluster's vertices
+        for (std::size_t i = 0; i < vertex_count; ++i) {
+            if (!in_moving[i]) continue;
+            const std::uint32_t root = find(static_cast<std::uint32_t>(i));
+            if (cluster_of_root[root] < 0) {
+                cluster_of_root[root] = static_cast<int>(moving_clusters.size());
+                moving_clusters.emplace_back();
+                cluster_moves.push_back(0);
             }
-            r.count = static_cast<GLsizei>(split.size()) - r.first;
+            const auto c = static_cast<std::size_t>(cluster_of_root[root]);
+            moving_clusters[c].push_back(static_cast<std::uint32_t>(i));
+            cluster_moves[c] = static_cast<char>(cluster_moves[c] | moves[i]);
         }
+        // A cluster moved by the blink alone (the eyelids) is at its rest pose in
+        // every frame without a blink: it can be cached with the static part.
+        blink_only_clusters.resize(moving_clusters.size());
+        for (std::size_t c = 0; c < moving_clusters.size(); ++c) blink_only_clusters[c] = cluster_moves[c] == 2;
+        std::vector<int> part_of(triangle_count, 0);
+        for (std::size_t t = 0; t < triangle_count; ++t) {
+            const std::uint32_t* v = &mesh.indices[3 * t];
+            part_of[t] = !moving_triangle[t] ? 0
+                         : blink_only_clusters[static_cast<std::size_t>(cluster_of_root[find(v[0])])] ? 1
+                                                                                                       : 2;
+        }
+        return part_of;
+    }
 
-    gl.glBindVertexArray(d.vao);
-    gl.glGenBuffers(1, &d.ebo_split);
-    gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, d.ebo_split);
-    gl.glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(split.size() * sizeof(std::uint32_t)),
-                    split.data(), GL_STATIC_DRAW);
-    gl.glBindVertexArray(0);
-    gl.glGenBuffers(1, &d.group_buffer_split);
-    gl.glBindBuffer(GL_TEXTURE_BUFFER, d.group_buffer_split);
-    gl.glBufferData(GL_TEXTURE_BUFFER, static_cast<GLsizeiptr>(split_groups.size()), split_groups.data(),
-                    GL_STATIC_DRAW);
-    gl.glGenTextures(1, &d.group_texture_split);
-    gl.glBindTexture(GL_TEXTURE_BUFFER, d.group_texture_split);
-    gl.glTexBuffer(GL_TEXTURE_BUFFER, GL_R8UI, d.group_buffer_split);
+    // The triangles in drawing order: blended ones back to front as the
+    // frontal camera sees them (by their centroids' depth; the camera looks
+    // along −z), the others in mesh order.
+    static std::vector<std::size_t> drawing_order(const HeadMesh& mesh, const std::vector<int>& pass_of) {
+        const std::size_t triangle_count = mesh.indices.size() / 3;
+        std::vector<std::size_t> order(triangle_count);
+        for (std::size_t t = 0; t < triangle_count; ++t) order[t] = t;
+        std::vector<float> depth(triangle_count);
+        for (std::size_t t = 0; t < triangle_count; ++t)
+            depth[t] = mesh.positions[mesh.indices[3 * t]].z + mesh.positions[mesh.indices[3 * t + 1]].z +
+                       mesh.positions[mesh.indices[3 * t + 2]].z;
+        std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+            const bool blend_a = pass_of[a] == int(Pass::Blend), blend_b = pass_of[b] == int(Pass::Blend);
+            return blend_a && blend_b && depth[a] < depth[b];
+        });
+        return order;
+    }
+
+    // The split index buffer (parts in order, passes in order within a
+    // part) and its triangle → group table (read by the region mode).
+    void upload_split(const HeadMesh& mesh, const std::vector<std::size_t>& order, const std::vector<int>& part_of,
+                      const std::vector<int>& pass_of) {
+        const std::size_t triangle_count = mesh.indices.size() / 3;
+        std::vector<std::uint8_t> groups(triangle_count);
+        for (std::size_t t = 0; t < groups.size(); ++t) groups[t] = static_cast<std::uint8_t>(mesh.triangle_group[t]);
+        std::vector<std::uint32_t> split;
+        split.reserve(mesh.indices.size());
+        std::vector<std::uint8_t> split_groups;
+        split_groups.reserve(triangle_count);
+        for (int part = 0; part < 3; ++part)
+            for (int pass = 0; pass < pass_count; ++pass) {
+                auto& r = ranges[part][pass];
+                r.first = static_cast<GLsizei>(split.size());
+                for (const std::size_t t : order) {
+                    if (part_of[t] != part || pass_of[t] != pass) continue;
+                    const std::uint32_t* v = &mesh.indices[3 * t];
+                    split.insert(split.end(), v, v + 3);
+                    split_groups.push_back(groups[t]);
+                }
+                r.count = static_cast<GLsizei>(split.size()) - r.first;
+            }
+
+        gl.glBindVertexArray(vao);
+        gl.glGenBuffers(1, &ebo_split);
+        gl.glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, ebo_split);
+        gl.glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(split.size() * sizeof(std::uint32_t)),
+                        split.data(), GL_STATIC_DRAW);
+        gl.glBindVertexArray(0);
+        gl.glGenBuffers(1, &group_buffer_split);
+        gl.glBindBuffer(GL_TEXTURE_BUFFER, group_buffer_split);
+        gl.glBufferData(GL_TEXTURE_BUFFER, static_cast<GLsizeiptr>(split_groups.size()), split_groups.data(),
+                        GL_STATIC_DRAW);
+        gl.glGenTextures(1, &group_texture_split);
+        gl.glBindTexture(GL_TEXTURE_BUFFER, group_texture_split);
+        gl.glTexBuffer(GL_TEXTURE_BUFFER, GL_R8UI, group_buffer_split);
+    }
+};
+
+HeadDrawer::HeadDrawer(const Head& head, GlProcLoader loader) : m_impl(std::make_unique<Impl>()) {
+    auto& d = *m_impl;
+    d.gl.load(loader);
+    const auto& mesh = head.mesh;
+    d.vertex_count = mesh.positions.size();
+    d.target = head.landmarks.head_center;
+    const bool textured = head.texture.has_value() && mesh.uvs.size() == d.vertex_count;
+    std::vector<int> pass_of;
+    d.upload_vertices(d.vertex_statics(head, textured, pass_of));
+    d.upload_texture(head, textured);
+    d.programs[0] = d.link(vertex_lit_shader, vertex_lit_fragment_shader);
+    d.programs[1] = d.link(vertex_shader, fragment_shader);
+    d.programs[2] = d.link(vertex_shader, region_shader);
+    d.interleaved.resize(d.vertex_count * 6);
+    const std::vector<int> part_of = d.split_moving_parts(head);
+    d.upload_split(mesh, Impl::drawing_order(mesh, pass_of), part_of, pass_of);
 }
 
 HeadDrawer::~HeadDrawer() {

@@ -574,6 +574,70 @@ void check_layer_file(const ConfigSection& s, std::string_view key, const std::f
 
 }  // namespace
 
+namespace {
+
+// [condition.layers.blink] as a table: the blink timing.
+bool read_blink_table(LayerSpec& s, const ConfigSection& t, DiagnosticList& problems) {
+    s.blink.mean_interval_s = t.get_number("mean_interval_s", s.blink.mean_interval_s, 0.5, 60.0, problems);
+    s.blink.min_interval_s = t.get_number("min_interval_s", s.blink.min_interval_s, 0.3, 60.0, problems);
+    s.blink.closing_s = t.get_number("closing_s", s.blink.closing_s, 0.02, 0.5, problems);
+    s.blink.opening_s = t.get_number("opening_s", s.blink.opening_s, 0.02, 1.0, problems);
+    if (s.blink.min_interval_s > s.blink.mean_interval_s)
+        t.report("min_interval_s", "expected min_interval_s <= mean_interval_s", problems);
+    return true;
+}
+
+// [condition.layers.gaze] as a table: fixations and saccades.
+bool read_gaze_table(LayerSpec& s, const ConfigSection& t, DiagnosticList& problems) {
+    auto& g = s.gaze;
+    g.mean_fixation_s = t.get_number("mean_fixation_s", g.mean_fixation_s, 0.1, 30.0, problems);
+    g.min_fixation_s = t.get_number("min_fixation_s", g.min_fixation_s, 0.05, 30.0, problems);
+    g.mean_amplitude_deg = t.get_number("mean_amplitude_deg", g.mean_amplitude_deg, 0.1, 15.0, problems);
+    g.max_amplitude_deg = t.get_number("max_amplitude_deg", g.max_amplitude_deg, 0.5, 20.0, problems);
+    g.return_probability = t.get_number("return_probability", g.return_probability, 0.0, 1.0, problems);
+    if (g.min_fixation_s > g.mean_fixation_s)
+        t.report("min_fixation_s", "expected min_fixation_s <= mean_fixation_s", problems);
+    return true;
+}
+
+// A head motion's source named by a string: "idle" only (a file comes in a table).
+bool head_motion_source(LayerSpec& s, const std::string& source, const ConfigSection& at, std::string_view key,
+                        DiagnosticList& problems) {
+    if (source == "idle") {
+        s.source = "idle";
+        return true;
+    }
+    at.report(key, fmt::format("expected \"idle\" (or a table with fap = or quaternions = a file), got \"{}\"", source),
+              problems);
+    return false;
+}
+
+// [condition.layers.head_motion] as a table: a FAP or quaternion file, or
+// the idle motion, and the motion's size.
+bool read_head_motion_table(LayerSpec& s, const ConfigSection& t, const std::filesystem::path& base_dir,
+                            DiagnosticList& problems) {
+    const std::string fap = t.get_string("fap", "", problems);
+    const std::string quats = t.get_string("quaternions", "", problems);
+    const std::string source = t.get_string("source", "", problems);
+    if (!fap.empty() && !quats.empty()) {
+        t.report("quaternions", "expected one of fap and quaternions, got both", problems);
+        return false;
+    }
+    if (!fap.empty() || !quats.empty()) {
+        s.source = fap.empty() ? "quaternions" : "fap";
+        s.file = base_dir / (fap.empty() ? quats : fap);
+        check_layer_file(t, fap.empty() ? "quaternions" : "fap", s.file, problems);
+    } else if (!head_motion_source(s, source.empty() ? "idle" : source, t, "source", problems)) {
+        return false;
+    }
+    s.head.pitch_rms_deg = t.get_number("pitch_rms_deg", s.head.pitch_rms_deg, 0.0, 10.0, problems);
+    s.head.yaw_rms_deg = t.get_number("yaw_rms_deg", s.head.yaw_rms_deg, 0.0, 10.0, problems);
+    s.head.roll_rms_deg = t.get_number("roll_rms_deg", s.head.roll_rms_deg, 0.0, 10.0, problems);
+    return true;
+}
+
+}  // namespace
+
 LayerSettings parse_layer_settings(const ConfigSection& section, const std::filesystem::path& base_dir,
                                    DiagnosticList& problems) {
     if (!section.present()) return LayerSettings::speech_only();
@@ -617,66 +681,22 @@ LayerSettings parse_layer_settings(const ConfigSection& section, const std::file
     // Blinks are on unless blink = false.
     if (!section.has("blink")) out.layers.push_back(LayerSettings::speech_only().layers[0]);
     layer("blink", LayerKind::Blink,
-          [&](LayerSpec& s, const ConfigSection& t) {
-              s.blink.mean_interval_s = t.get_number("mean_interval_s", s.blink.mean_interval_s, 0.5, 60.0, problems);
-              s.blink.min_interval_s = t.get_number("min_interval_s", s.blink.min_interval_s, 0.3, 60.0, problems);
-              s.blink.closing_s = t.get_number("closing_s", s.blink.closing_s, 0.02, 0.5, problems);
-              s.blink.opening_s = t.get_number("opening_s", s.blink.opening_s, 0.02, 1.0, problems);
-              if (s.blink.min_interval_s > s.blink.mean_interval_s)
-                  t.report("min_interval_s", "expected min_interval_s <= mean_interval_s", problems);
-              return true;
-          },
+          [&](LayerSpec& s, const ConfigSection& t) { return read_blink_table(s, t, problems); },
           [&](LayerSpec&, const std::string& text) {
               section.report("blink", fmt::format("expected true, false or a table, got \"{}\"", text), problems);
               return false;
           });
     layer("gaze", LayerKind::Gaze,
-          [&](LayerSpec& s, const ConfigSection& t) {
-              auto& g = s.gaze;
-              g.mean_fixation_s = t.get_number("mean_fixation_s", g.mean_fixation_s, 0.1, 30.0, problems);
-              g.min_fixation_s = t.get_number("min_fixation_s", g.min_fixation_s, 0.05, 30.0, problems);
-              g.mean_amplitude_deg = t.get_number("mean_amplitude_deg", g.mean_amplitude_deg, 0.1, 15.0, problems);
-              g.max_amplitude_deg = t.get_number("max_amplitude_deg", g.max_amplitude_deg, 0.5, 20.0, problems);
-              g.return_probability = t.get_number("return_probability", g.return_probability, 0.0, 1.0, problems);
-              if (g.min_fixation_s > g.mean_fixation_s)
-                  t.report("min_fixation_s", "expected min_fixation_s <= mean_fixation_s", problems);
-              return true;
-          },
+          [&](LayerSpec& s, const ConfigSection& t) { return read_gaze_table(s, t, problems); },
           [&](LayerSpec&, const std::string& text) {
               section.report("gaze", fmt::format("expected true, false or a table, got \"{}\"", text), problems);
               return false;
           });
-    auto head_source = [&](LayerSpec& s, const std::string& source, const ConfigSection& at, std::string_view key) {
-        if (source == "idle") {
-            s.source = "idle";
-            return true;
-        }
-        at.report(key, fmt::format("expected \"idle\" (or a table with fap = or quaternions = a file), got \"{}\"", source),
-                  problems);
-        return false;
-    };
     layer("head_motion", LayerKind::HeadMotion,
-          [&](LayerSpec& s, const ConfigSection& t) {
-              const std::string fap = t.get_string("fap", "", problems);
-              const std::string quats = t.get_string("quaternions", "", problems);
-              const std::string source = t.get_string("source", "", problems);
-              if (!fap.empty() && !quats.empty()) {
-                  t.report("quaternions", "expected one of fap and quaternions, got both", problems);
-                  return false;
-              }
-              if (!fap.empty() || !quats.empty()) {
-                  s.source = fap.empty() ? "quaternions" : "fap";
-                  s.file = base_dir / (fap.empty() ? quats : fap);
-                  check_layer_file(t, fap.empty() ? "quaternions" : "fap", s.file, problems);
-              } else if (!head_source(s, source.empty() ? "idle" : source, t, "source")) {
-                  return false;
-              }
-              s.head.pitch_rms_deg = t.get_number("pitch_rms_deg", s.head.pitch_rms_deg, 0.0, 10.0, problems);
-              s.head.yaw_rms_deg = t.get_number("yaw_rms_deg", s.head.yaw_rms_deg, 0.0, 10.0, problems);
-              s.head.roll_rms_deg = t.get_number("roll_rms_deg", s.head.roll_rms_deg, 0.0, 10.0, problems);
-              return true;
-          },
-          [&](LayerSpec& s, const std::string& text) { return head_source(s, text, section, "head_motion"); });
+          [&](LayerSpec& s, const ConfigSection& t) { return read_head_motion_table(s, t, base_dir, problems); },
+          [&](LayerSpec& s, const std::string& text) {
+              return head_motion_source(s, text, section, "head_motion", problems);
+          });
     auto expression_name = [&](LayerSpec& s, const std::string& name, const ConfigSection& at, std::string_view key) {
         std::vector<std::string> names;
         try {
@@ -818,6 +838,67 @@ json weights_json(const std::optional<double>& weight, const std::array<std::opt
     return w;
 }
 
+// Sets each frame's head rotation from timed quaternions (slerp between
+// rows); frames before the first row or more than a frame after the last
+// stay unset.
+void set_rotations_from_quaternions(const std::vector<std::pair<double, glm::quat>>& q, double fps, Layer& l) {
+    std::size_t j = 0;
+    for (std::size_t k = 0; k < l.frames.size(); ++k) {
+        const double t = static_cast<double>(k) / fps;
+        while (j + 1 < q.size() && q[j + 1].first <= t) ++j;
+        if (t < q.front().first || (j + 1 == q.size() && t > q.back().first + 1.0 / fps)) continue;
+        glm::quat v = q[j].second;
+        if (j + 1 < q.size())
+            v = glm::slerp(q[j].second, q[j + 1].second,
+                           static_cast<float>((t - q[j].first) / (q[j + 1].first - q[j].first)));
+        l.frames[k].set_rotation(v);
+    }
+}
+
+// The blink layer of a spec with its seed, and its settings in the record.
+Layer recorded_blink_layer(const LayerSpec& spec, const LayerSeeds& seeds, std::size_t frames, double fps, json& r) {
+    BlinkSettings b = spec.blink;
+    b.seed = seeds.blink;
+    Layer l = blink_layer(frames, fps, b);
+    r["seed"] = b.seed;
+    r["mean_interval_s"] = b.mean_interval_s;
+    r["min_interval_s"] = b.min_interval_s;
+    r["closing_s"] = b.closing_s;
+    r["opening_s"] = b.opening_s;
+    return l;
+}
+
+// The gaze layer of a spec with its seed on the head's gaze transforms (a
+// warning when it has none), and its settings in the record.
+Layer recorded_gaze_layer(const Head& head, const LayerSpec& spec, const LayerSeeds& seeds, std::size_t frames,
+                          double fps, json& r, std::vector<std::string>& warnings) {
+    GazeSettings g = spec.gaze;
+    g.seed = seeds.gaze;
+    const double unit = gaze_unit_deg(head);
+    if (unit <= 0.0) warnings.push_back("gaze: the head's rig has no gaze transforms: the eyes stay still");
+    Layer l = gaze_layer(frames, fps, g, unit);
+    r["seed"] = g.seed;
+    r["mean_fixation_s"] = g.mean_fixation_s;
+    r["min_fixation_s"] = g.min_fixation_s;
+    r["mean_amplitude_deg"] = g.mean_amplitude_deg;
+    r["max_amplitude_deg"] = g.max_amplitude_deg;
+    r["return_probability"] = g.return_probability;
+    return l;
+}
+
+// A warning for each expression channel the stack moves that the head's rig cannot show.
+void warn_unrigged_expressions(const Head& head, const std::vector<Layer>& stack, std::vector<std::string>& warnings) {
+    for (std::size_t c : {brow_inner_raise_channel, brow_outer_raise_channel, cheek_raise_channel}) {
+        bool used = false, rigged = false;
+        for (const auto& l : stack)
+            for (const auto& f : l.frames) used = used || (f.set[c] && f.values[c] != 0.0);
+        for (const auto& t : head.transforms) rigged = rigged || static_cast<std::size_t>(t.channel_index) == c;
+        if (used && !rigged)
+            warnings.push_back(fmt::format("the head's rig ({}) has no {} transforms: that channel moves nothing",
+                                           head.rig_path.filename().string(), channel_names()[c]));
+    }
+}
+
 }  // namespace
 
 Animation animate(const Head& head, const synth::Trajectory& trajectory, const PhoneSequence* phones,
@@ -864,31 +945,8 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
         Layer l;
         json r = {{"kind", to_string(spec.kind)}, {"weights", weights_json(spec.weight, spec.group_weights)}};
         switch (spec.kind) {
-            case LayerKind::Blink: {
-                BlinkSettings b = spec.blink;
-                b.seed = seeds.blink;
-                l = blink_layer(frames, fps, b);
-                r["seed"] = b.seed;
-                r["mean_interval_s"] = b.mean_interval_s;
-                r["min_interval_s"] = b.min_interval_s;
-                r["closing_s"] = b.closing_s;
-                r["opening_s"] = b.opening_s;
-                break;
-            }
-            case LayerKind::Gaze: {
-                GazeSettings g = spec.gaze;
-                g.seed = seeds.gaze;
-                const double unit = gaze_unit_deg(head);
-                if (unit <= 0.0) out.warnings.push_back("gaze: the head's rig has no gaze transforms: the eyes stay still");
-                l = gaze_layer(frames, fps, g, unit);
-                r["seed"] = g.seed;
-                r["mean_fixation_s"] = g.mean_fixation_s;
-                r["min_fixation_s"] = g.min_fixation_s;
-                r["mean_amplitude_deg"] = g.mean_amplitude_deg;
-                r["max_amplitude_deg"] = g.max_amplitude_deg;
-                r["return_probability"] = g.return_probability;
-                break;
-            }
+            case LayerKind::Blink: l = recorded_blink_layer(spec, seeds, frames, fps, r); break;
+            case LayerKind::Gaze: l = recorded_gaze_layer(head, spec, seeds, frames, fps, r, out.warnings); break;
             case LayerKind::HeadMotion: {
                 l.name = "head_motion";
                 l.frames.resize(frames);
@@ -912,18 +970,7 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
                     r["sha256"] = sha256_file(spec.file);
                 } else {
                     l.set = LayerSet::Stream;
-                    const auto q = read_quaternions(spec.file);
-                    std::size_t j = 0;
-                    for (std::size_t k = 0; k < frames; ++k) {
-                        const double t = static_cast<double>(k) / fps;
-                        while (j + 1 < q.size() && q[j + 1].first <= t) ++j;
-                        if (t < q.front().first || (j + 1 == q.size() && t > q.back().first + 1.0 / fps)) continue;
-                        glm::quat v = q[j].second;
-                        if (j + 1 < q.size())
-                            v = glm::slerp(q[j].second, q[j + 1].second,
-                                           static_cast<float>((t - q[j].first) / (q[j + 1].first - q[j].first)));
-                        l.frames[k].set_rotation(v);
-                    }
+                    set_rotations_from_quaternions(read_quaternions(spec.file), fps, l);
                     r["file"] = spec.file.filename().string();
                     r["sha256"] = sha256_file(spec.file);
                 }
@@ -960,16 +1007,7 @@ Animation animate(const Head& head, const synth::Trajectory& trajectory, const P
         stack.push_back(std::move(l));
         record.push_back(std::move(r));
     }
-    // Expression channels the head cannot show.
-    for (std::size_t c : {brow_inner_raise_channel, brow_outer_raise_channel, cheek_raise_channel}) {
-        bool used = false, rigged = false;
-        for (const auto& l : stack)
-            for (const auto& f : l.frames) used = used || (f.set[c] && f.values[c] != 0.0);
-        for (const auto& t : head.transforms) rigged = rigged || static_cast<std::size_t>(t.channel_index) == c;
-        if (used && !rigged)
-            out.warnings.push_back(fmt::format("the head's rig ({}) has no {} transforms: that channel moves nothing",
-                                               head.rig_path.filename().string(), channel_names()[c]));
-    }
+    warn_unrigged_expressions(head, stack, out.warnings);
     out.poses.resize(frames);
     for (std::size_t k = 0; k < frames; ++k) out.poses[k] = blend_frame(stack, k, settings.speech_owns_mouth);
     out.record_json = record.dump();

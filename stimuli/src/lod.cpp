@@ -133,6 +133,45 @@ Partition partition(const Head& head) {
     return p;
 }
 
+// The rig, landmark indices and lip contact of `head` on the kept vertices
+// (`remap`: old index → new, k_dropped for a dropped vertex): each
+// transform keeps the entries of the surviving vertices.
+void remap_rig(const Head& head, const std::vector<std::uint32_t>& remap, Head& out) {
+    for (const auto& t : head.transforms) {
+        RigTransform nt = t;
+        nt.vertices.clear();
+        nt.weights.clear();
+        nt.offsets.clear();
+        for (std::size_t j = 0; j < t.vertices.size(); ++j) {
+            const auto v = remap[t.vertices[j]];
+            if (v == k_dropped) continue;
+            nt.vertices.push_back(v);
+            nt.weights.push_back(t.weights[j]);
+            if (!t.offsets.empty()) nt.offsets.push_back(t.offsets[j]);
+        }
+        out.transforms.push_back(std::move(nt));
+    }
+    auto map_list = [&](std::vector<std::uint32_t>& list) {
+        for (auto& v : list) v = remap[v];
+    };
+    if (head.articulation) {
+        out.articulation = head.articulation;
+        auto& a = *out.articulation;
+        for (auto* list : {&a.upper_lip_contour, &a.lower_lip_contour, &a.upper_incisor_edge, &a.lower_incisor_edge,
+                           &a.lower_lip_surface})
+            map_list(*list);
+        for (auto* v : {&a.mouth_corner_left, &a.mouth_corner_right, &a.upper_lip_point, &a.lower_lip_point})
+            *v = remap[*v];
+    }
+    if (head.lip_contact) {
+        out.lip_contact = head.lip_contact;
+        auto& c = out.lip_contact->mesh;
+        map_list(c.upper);
+        map_list(c.lower);
+        map_list(c.moved);  // every moved point is kept (indexed_vertices)
+    }
+}
+
 // The head with each group's simplifiable triangles reduced towards
 // `fraction` of their number (1 = untouched), no collapse beyond
 // `max_error_mm` of geometric error.
@@ -229,40 +268,7 @@ LodResult simplify(const Head& head, const Partition& p, double fraction, double
         if (!mesh.colors.empty()) m.colors.push_back(mesh.colors[v]);
         if (!mesh.uvs.empty()) m.uvs.push_back(mesh.uvs[v]);
     }
-    // The rig: each transform keeps the entries of the surviving vertices.
-    for (const auto& t : head.transforms) {
-        RigTransform nt = t;
-        nt.vertices.clear();
-        nt.weights.clear();
-        nt.offsets.clear();
-        for (std::size_t j = 0; j < t.vertices.size(); ++j) {
-            const auto v = remap[t.vertices[j]];
-            if (v == k_dropped) continue;
-            nt.vertices.push_back(v);
-            nt.weights.push_back(t.weights[j]);
-            if (!t.offsets.empty()) nt.offsets.push_back(t.offsets[j]);
-        }
-        out.transforms.push_back(std::move(nt));
-    }
-    auto map_list = [&](std::vector<std::uint32_t>& list) {
-        for (auto& v : list) v = remap[v];
-    };
-    if (head.articulation) {
-        out.articulation = head.articulation;
-        auto& a = *out.articulation;
-        for (auto* list : {&a.upper_lip_contour, &a.lower_lip_contour, &a.upper_incisor_edge, &a.lower_incisor_edge,
-                           &a.lower_lip_surface})
-            map_list(*list);
-        for (auto* v : {&a.mouth_corner_left, &a.mouth_corner_right, &a.upper_lip_point, &a.lower_lip_point})
-            *v = remap[*v];
-    }
-    if (head.lip_contact) {
-        out.lip_contact = head.lip_contact;
-        auto& c = out.lip_contact->mesh;
-        map_list(c.upper);
-        map_list(c.lower);
-        map_list(c.moved);  // every moved point is kept (indexed_vertices)
-    }
+    remap_rig(head, remap, out);
     r.triangles = m.triangle_count();
     return r;
 }

@@ -315,25 +315,33 @@ void write_fap(const std::filesystem::path& path, const FapStream& stream, FapTa
     write_text_file(path, text);
 }
 
+namespace {
+
+// The meaningful lines of a FAP file (not blank, not # comments), each as
+// its number and its whitespace-separated tokens.
+std::vector<std::pair<int, std::vector<std::string>>> fap_file_lines(const std::string& text) {
+    std::vector<std::pair<int, std::vector<std::string>>> lines;
+    std::istringstream in(text);
+    std::string line;
+    int number = 0;
+    while (std::getline(in, line)) {
+        ++number;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        std::istringstream words(line);
+        std::vector<std::string> tokens;
+        for (std::string w; words >> w;) tokens.push_back(w);
+        if (tokens.empty() || tokens[0][0] == '#') continue;
+        lines.emplace_back(number, std::move(tokens));
+    }
+    return lines;
+}
+
+}  // namespace
+
 FapStream read_fap(const std::filesystem::path& path) {
     const std::string text = read_text_file(path);
     const std::string file = path.string();
-    // Meaningful lines with their numbers.
-    std::vector<std::pair<int, std::vector<std::string>>> lines;
-    {
-        std::istringstream in(text);
-        std::string line;
-        int number = 0;
-        while (std::getline(in, line)) {
-            ++number;
-            if (!line.empty() && line.back() == '\r') line.pop_back();
-            std::istringstream words(line);
-            std::vector<std::string> tokens;
-            for (std::string w; words >> w;) tokens.push_back(w);
-            if (tokens.empty() || tokens[0][0] == '#') continue;
-            lines.emplace_back(number, std::move(tokens));
-        }
-    }
+    const std::vector<std::pair<int, std::vector<std::string>>> lines = fap_file_lines(text);
     if (lines.empty()) throw InputError(path, "empty FAP file: expected a header `2.1 name fps frames`");
     FapStream out;
     const auto& [header_line, header] = lines[0];

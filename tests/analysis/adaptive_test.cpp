@@ -443,7 +443,7 @@ TEST(AdaptiveListVariable, BandTrackStepsByPositionOnTheLevelsAsComputedByHand) 
     // Sentence by sentence (3 keywords): right, wrong, wrong, then right five times.
     const std::vector<int> correct{3, 1, 2, 3, 3, 3, 3, 3};
     for (int c : correct) t.record(3, c);
-    const auto steps = a.in_units(t.steps());
+    const auto steps = in_units(a, t.steps());
     // By hand: 4 -(2 positions)-> 2 -(+2)-> 4 -(+1, small from sentence 3)-> 6 -> 4 -> 3 -> 2 -> 1 -> 1 (bound).
     const std::vector<double> level{4, 2, 4, 6, 4, 3, 2, 1}, next{2, 4, 6, 4, 3, 2, 1, 1};
     ASSERT_EQ(steps.size(), level.size());

@@ -9,7 +9,7 @@
 // ConfigSection; the vocoder module validates it), [design], [render],
 // [session], [scoring], [online] (kept as a ConfigSection; the experiment
 // module's web study export validates it), [adaptive] (kept as a ConfigSection;
-// analysis/adaptive.h validates it). Paths in the file are relative to the protocol file.
+// adaptive_protocol.h validates it). Paths in the file are relative to the protocol file.
 #pragma once
 
 #include <cstdint>
@@ -145,7 +145,7 @@ struct Protocol {
     ConfigSection render_section;  // [render]
     ConfigSection session_section; // [session]
     ConfigSection online;          // [online], validated by the experiment module (web study export/import)
-    ConfigSection adaptive;        // [adaptive], adaptive SRT tracks, validated by the analysis module (adaptive.h)
+    ConfigSection adaptive;        // [adaptive], adaptive SRT tracks, validated by adaptive_protocol() (adaptive_protocol.h)
 
     // Index of the condition with that name, or -1.
     int condition_index(const std::string& name) const;
