@@ -7,7 +7,8 @@
 
 #include "avsi/analysis/alternates.h"
 #include "avsi/core/corpus.h"
-#include "avsi/core/corpus_tools.h"
+#include "avsi/core/keyword_proposals.h"
+#include "avsi/core/word_table.h"
 #include "avsi/core/files.h"
 
 namespace avsi::analysis {

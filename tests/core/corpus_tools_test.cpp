@@ -1,4 +1,5 @@
-// Corpus tools (core/corpus_tools.h) and the shipped English corpus and
+// Corpus tools (core/word_table.h, sentence_profile.h, list_balance.h,
+// keyword_proposals.h) and the shipped English corpus and
 // protocol: word lookup, viseme classes, the one-way ANOVA, the seeded list
 // balancing, keyword proposals, and the properties the study's material needs
 // (protocols/corpus/sentences.csv, protocols/beskow2004-en.toml).
@@ -12,7 +13,9 @@
 #include <set>
 
 #include "avsi/core/corpus.h"
-#include "avsi/core/corpus_tools.h"
+#include "avsi/core/keyword_proposals.h"
+#include "avsi/core/list_balance.h"
+#include "avsi/core/word_table.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/protocol.h"
