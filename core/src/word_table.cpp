@@ -1,7 +1,6 @@
 // The word table of the corpus tools (word_table.h): WordNet lemma counts,
 // parts of speech and irregular forms, function words and Zipf frequencies;
-// a form's lemmas by WordNet's morphy detachment rules (WordNet 3.0,
-// morph.c / morphy(7WN)).
+// a form's lemmas through core's morphology (morphology.h).
 #include "avsi/core/word_table.h"
 
 #include <algorithm>
@@ -13,6 +12,7 @@
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/morphology.h"
 #include "avsi/core/text.h"
 
 namespace avsi {
@@ -22,20 +22,6 @@ namespace {
 bool ends_with(std::string_view s, std::string_view suffix) {
     return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
 }
-
-struct Detachment {
-    char pos;
-    const char* suffix;
-    const char* ending;
-};
-// morphy's detachment rules.
-constexpr Detachment detachments[] = {
-    {'n', "s", ""},    {'n', "ses", "s"}, {'n', "xes", "x"}, {'n', "zes", "z"}, {'n', "ches", "ch"},
-    {'n', "shes", "sh"}, {'n', "men", "man"}, {'n', "ies", "y"},
-    {'v', "s", ""},    {'v', "ies", "y"}, {'v', "es", "e"},  {'v', "es", ""},   {'v', "ed", "e"},
-    {'v', "ed", ""},   {'v', "ing", "e"}, {'v', "ing", ""},
-    {'a', "er", ""},   {'a', "est", ""},  {'a', "er", "e"},  {'a', "est", "e"},
-};
 
 }  // namespace
 
@@ -118,14 +104,15 @@ std::vector<WordFrequency> WordTable::lookup(std::string_view word_in) const {
     };
     const auto [first, last] = m_rows.equal_range(word);
     for (auto it = first; it != last; ++it) add(it->second);
-    for (const auto& d : detachments) {
-        if (!ends_with(word, d.suffix) || word.size() <= std::char_traits<char>::length(d.suffix) + 1) continue;
-        const std::string lemma = word.substr(0, word.size() - std::char_traits<char>::length(d.suffix)) + d.ending;
-        const auto it = m_lemma_pos.find(lemma);
-        if (it == m_lemma_pos.end() || it->second.find(d.pos) == std::string::npos) continue;
-        const auto [f, l] = m_rows.equal_range(lemma);
+    const auto pos_of = [&](const std::string& w) {
+        const auto it = m_lemma_pos.find(w);
+        return it == m_lemma_pos.end() ? PartsOfSpeech{} : parts_of_speech(it->second);
+    };
+    for (const RegularBase& b : regular_bases(word, pos_of(word))) {
+        if (!b.takes(pos_of(b.base))) continue;
+        const auto [f, l] = m_rows.equal_range(b.base);
         for (auto r = f; r != l; ++r)
-            if (r->second.lemma == lemma) add(r->second);
+            if (r->second.lemma == b.base) add(r->second);
     }
     std::stable_sort(out.begin(), out.end(),
                      [](const WordFrequency& a, const WordFrequency& b) { return a.count > b.count; });

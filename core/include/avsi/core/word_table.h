@@ -1,7 +1,7 @@
 // English word frequencies, parts of speech and function words for the
 // corpus tools (list_balance.h, keyword_proposals.h): a keyword's log
 // frequency is that of its lemma, found through the table's irregular forms
-// and WordNet's regular suffix rules.
+// and core's morphology (morphology.h).
 //
 // Tables (protocols/corpus/): word-frequency.tsv, the SemCor sense-tagged
 // count of each WordNet 3.0 lemma with its parts of speech and WordNet's
@@ -43,10 +43,11 @@ public:
                           const std::filesystem::path& function_words,
                           const std::filesystem::path& zipf_tsv = {});
 
-    // The lemmas `word` (any case) can be a form of, highest count first: the
-    // table's own rows (lemma or irregular form), then WordNet's regular
-    // suffix rules (morphy: dogs → dog, barked → bark, bigger → big) where the
-    // lemma exists with that part of speech. Empty when unknown.
+    // The lemmas `word` (any case; a possessive 's removed) can be a form of,
+    // highest count first: the table's own rows (lemma or irregular form),
+    // then the bases it is a regular inflection of (morphology.h: dogs → dog,
+    // barked → bark, bigger → big) where the table has the base as a lemma
+    // of a part of speech that takes the suffix. Empty when unknown.
     std::vector<WordFrequency> lookup(std::string_view word) const;
     // log10(1 + count) of the most frequent lemma; 0 for an unknown word.
     double log_frequency(std::string_view word) const;
