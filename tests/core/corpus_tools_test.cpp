@@ -4,7 +4,6 @@
 // balancing, keyword proposals, and the properties the study's material needs
 // (protocols/corpus/sentences.csv, protocols/beskow2004-en.toml).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -20,6 +19,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/protocol.h"
 #include "avsi/core/rng.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -198,8 +198,7 @@ TEST(ImportSentences, RanksOrdinaryWordsByARealFrequency) {
 }
 
 TEST(ImportSentences, NumberedAndHeadedListsAsPeopleWriteThem) {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_import_lists_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("import_lists");
     write_text_file(dir / "harvard.md",
                     "# Harvard sentences, as typed by a lab\n"
                     "## List 1\n"

@@ -3,44 +3,32 @@
 // --help and the light commands load nothing heavy; every command listed by
 // --help answers `avsi <command> --help`; a missing helper is reported.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
-#include <cstdio>
+#include <algorithm>
 #include <filesystem>
+#include <map>
 #include <regex>
 #include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include "../cli_run.h"
+#include "avsi/core/files.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path work_dir() {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_e2e_front_end_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
-    return dir;
-}
-
-// Standard output of a shell command.
-std::string output_of(const std::string& command) {
-    std::string out;
-    FILE* pipe = ::popen(command.c_str(), "r");
-    if (!pipe) return out;
-    char buffer[4096];
-    while (std::fgets(buffer, sizeof buffer, pipe)) out += buffer;
-    ::pclose(pipe);
-    return out;
-}
+using test::CliResult;
+using test::run_avsi;
 
 // The shared libraries an executable names (DT_NEEDED), from readelf.
 std::vector<std::string> needed(const fs::path& executable) {
     std::vector<std::string> libraries;
-    std::istringstream lines(output_of("readelf -d " + test::shell_quote(executable.string()) + " 2>/dev/null"));
+    std::istringstream lines(test::run_command("readelf -d " + test::shell_quote(executable.string())).out);
     const std::regex pattern(R"(\(NEEDED\).*\[(.*)\])");
     for (std::string line; std::getline(lines, line);) {
         std::smatch m;
@@ -49,20 +37,26 @@ std::vector<std::string> needed(const fs::path& executable) {
     return libraries;
 }
 
+// The commands `avsi --help` lists, by the heading of the group each is
+// listed under (in the order of the help).
+std::vector<std::pair<std::string, std::string>> listed_commands_by_group() {
+    const CliResult r = run_avsi("--help");
+    std::vector<std::pair<std::string, std::string>> listed;
+    std::istringstream lines(r.out);
+    std::string group;
+    for (std::string line; std::getline(lines, line);) {
+        std::smatch m;
+        if (std::regex_match(line, m, std::regex(R"(^(\S.*):$)"))) group = m[1];
+        else if (group != "Options" && std::regex_search(line, m, std::regex(R"(^  ([a-z][a-z0-9-]*)\s)")))
+            listed.emplace_back(group, m[1]);
+    }
+    return listed;
+}
+
 // The command names `avsi --help` lists.
 std::vector<std::string> listed_commands() {
-    const test::CliResult r = test::run_avsi("--help", work_dir());
     std::vector<std::string> names;
-    std::istringstream lines(r.out);
-    bool in_list = false;
-    for (std::string line; std::getline(lines, line);) {
-        if (line.rfind("Subcommands:", 0) == 0) {
-            in_list = true;
-            continue;
-        }
-        std::smatch m;
-        if (in_list && std::regex_search(line, m, std::regex(R"(^  ([a-z0-9-]+)\s)"))) names.push_back(m[1]);
-    }
+    for (const auto& [group, name] : listed_commands_by_group()) names.push_back(name);
     return names;
 }
 
@@ -115,14 +109,14 @@ TEST(FrontEnd, NoHelperLinksASpeechEngine) {
 }
 
 TEST(FrontEnd, VersionAndHelpComeFromTheFrontEnd) {
-    const test::CliResult version = test::run_avsi("--version", work_dir());
+    const CliResult version = run_avsi("--version");
     EXPECT_EQ(version.exit_code, 0);
     EXPECT_EQ(version.out, "avsi 0.1.0\n");
-    const test::CliResult none = test::run_avsi("", work_dir());
+    const CliResult none = run_avsi("");
     EXPECT_EQ(none.exit_code, 2);
     EXPECT_NE(none.err.find("A subcommand is required"), std::string::npos) << none.err;
     // A mistyped command is not a command (CLI11 reads it as an extra argument).
-    const test::CliResult typo = test::run_avsi("vocod in.wav out.wav", work_dir());
+    const CliResult typo = run_avsi("vocod in.wav out.wav");
     EXPECT_EQ(typo.exit_code, 2);
     EXPECT_NE(typo.err.find("A subcommand is required"), std::string::npos) << typo.err;
 }
@@ -134,7 +128,7 @@ TEST(FrontEnd, EveryListedCommandAnswersHelp) {
                              "build-stimuli", "measure", "evaluate", "design", "export-web", "run"})
         EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name << " not listed";
     for (const std::string& name : names) {
-        const test::CliResult r = test::run_avsi(name + " --help", work_dir());
+        const CliResult r = run_avsi(name + " --help");
         EXPECT_EQ(r.exit_code, 0) << name << ": " << r.err;
         EXPECT_NE(r.out.find("avsi " + name), std::string::npos) << name << ": " << r.out.substr(0, 200);
     }
@@ -159,29 +153,24 @@ TEST(FrontEnd, EveryRegisteredCommandIsListed) {
 }
 
 TEST(FrontEnd, UsageErrorsOfACommandKeepTheirExitCode) {
-    const test::CliResult r = test::run_avsi("vocode --bands 3", work_dir());
+    const CliResult r = run_avsi("vocode --bands 3");
     EXPECT_EQ(r.exit_code, 2);
     EXPECT_NE(r.err.find("input is required"), std::string::npos) << r.err;
-    const test::CliResult missing = test::run_avsi("stoi /nonexistent/a.wav /nonexistent/b.wav", work_dir());
+    const CliResult missing = run_avsi("stoi /nonexistent/a.wav /nonexistent/b.wav");
     EXPECT_EQ(missing.exit_code, 2) << missing.err;
 }
 
 TEST(FrontEnd, AMissingHelperIsNamedAndAvsiExecPathFindsIt) {
-    const fs::path dir = work_dir() / "alone";
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("e2e_front_end_alone");
     const fs::path copy = dir / "avsi";
     fs::copy_file(cli, copy, fs::copy_options::overwrite_existing);
     const std::string command = test::shell_quote(copy.string()) + " power --help";
-    const fs::path err = dir / "err.txt";
-    const int status = std::system((command + " >/dev/null 2>" + test::shell_quote(err.string())).c_str());
-    EXPECT_EQ(WEXITSTATUS(status), 1);
-    const std::string message = read_text_file(err);
-    EXPECT_NE(message.find("avsi-analysis"), std::string::npos) << message;
-    EXPECT_NE(message.find("AVSI_EXEC_PATH"), std::string::npos) << message;
-    const int found = std::system(("AVSI_EXEC_PATH=" + test::shell_quote(helpers.string()) + " " + command +
-                                   " >/dev/null 2>&1")
-                                      .c_str());
-    EXPECT_EQ(WEXITSTATUS(found), 0);
+    const CliResult alone = test::run_command(command);
+    EXPECT_EQ(alone.exit_code, 1);
+    EXPECT_NE(alone.err.find("avsi-analysis"), std::string::npos) << alone.err;
+    EXPECT_NE(alone.err.find("AVSI_EXEC_PATH"), std::string::npos) << alone.err;
+    const CliResult found = test::run_command("AVSI_EXEC_PATH=" + test::shell_quote(helpers.string()) + " " + command);
+    EXPECT_EQ(found.exit_code, 0) << found.err;
 }
 
 }  // namespace
