@@ -5,6 +5,7 @@
 
 #include "avsi/stimuli/commands.h"
 #include "command.h"
+#include "head_options.h"
 #include "lod_options.h"
 
 namespace avsi::cli {
@@ -21,13 +22,7 @@ const bool registered_render = register_command({
         sub.add_option("--out", o->out_path, "Output: x.mp4, or a folder for PNG frames")->required();
         sub.add_option("--phones", o->phones_path,
                        "Timed phones (.tsv/.TextGrid/.lab): the tongue tip rises for /θ ð t d n l/");
-        sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ with vertex colours and texture coordinates)")->capture_default_str();
-        sub.add_option("--rig", o->head.rig, "Head rig (JSON)")->capture_default_str();
-        sub.add_option("--head", o->head.gltf, "A glTF head (.glb/.gltf) with ARKit-named morph targets, instead of --mesh/--rig")
-            ->excludes(sub.get_option("--mesh"))
-            ->excludes(sub.get_option("--rig"));
-        sub.add_option("--mapping", o->head.mapping,
-                       "Blendshape mapping of a --head glTF (default: protocols/head/arkit_mapping.json)");
+        add_head_options(sub, o->head);
         sub.add_option("--width", o->render.width, "Frame width in pixels")->capture_default_str();
         sub.add_option("--height", o->render.height, "Frame height in pixels")->capture_default_str();
         sub.add_option("--camera", o->camera, "Camera: front or three-quarter")->capture_default_str();

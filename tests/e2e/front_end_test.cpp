@@ -152,6 +152,28 @@ TEST(FrontEnd, EveryRegisteredCommandIsListed) {
     EXPECT_EQ(names.size(), found);
 }
 
+// The head options are declared once (cli/head_options.h): every command
+// that draws or measures a head takes --mesh, --rig, --head and --mapping
+// with the same help.
+TEST(FrontEnd, EveryCommandThatTakesAHeadTakesTheSameHeadOptions) {
+    std::map<std::string, std::string> first;  // option -> its help lines, as the first command gives them
+    for (const char* command : {"render", "contact-sheet", "measure", "export-head", "evaluate"}) {
+        SCOPED_TRACE(command);
+        const CliResult help = run_avsi(std::string(command) + " --help");
+        ASSERT_EQ(help.exit_code, 0) << help.err;
+        for (const char* option : {"--mesh", "--rig", "--head", "--mapping"}) {
+            const std::size_t at = help.out.find(std::string("\n  ") + option + " ");
+            ASSERT_NE(at, std::string::npos) << option << " missing in\n" << help.out;
+            // The option's entry: its line and the indented lines of its help after it.
+            std::size_t end = help.out.find('\n', at + 1);
+            while (end != std::string::npos && help.out.compare(end + 1, 6, "      ") == 0) end = help.out.find('\n', end + 1);
+            const std::string entry = help.out.substr(at, end - at);
+            const auto [it, inserted] = first.emplace(option, entry);
+            EXPECT_EQ(entry, it->second) << option;
+        }
+    }
+}
+
 TEST(FrontEnd, UsageErrorsOfACommandKeepTheirExitCode) {
     const CliResult r = run_avsi("vocode --bands 3");
     EXPECT_EQ(r.exit_code, 2);
