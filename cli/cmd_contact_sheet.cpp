@@ -5,6 +5,7 @@
 #include "avsi/stimuli/commands.h"
 #include "command.h"
 #include "head_options.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -18,7 +19,9 @@ const bool registered_contact_sheet = register_command({
         sub.add_option("--targets", o->targets_path, "Targets CSV (label, phone, parameters…)")
             ->capture_default_str();
         add_head_options(sub, o->head);
-        sub.add_option("--camera", o->camera, "Camera: front or three-quarter")->capture_default_str();
+        sub.add_option("--camera", o->camera, "Camera: front or three-quarter")
+            ->capture_default_str()
+            ->check(one_of({"front", "three-quarter"}));
         sub.add_option("--tile-width", o->sheet.tile_width, "Tile width in pixels")->capture_default_str();
         sub.add_option("--tile-height", o->sheet.tile_height, "Tile height in pixels")->capture_default_str();
         sub.add_option("--columns", o->sheet.columns, "Tiles per row")->capture_default_str();

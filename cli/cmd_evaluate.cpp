@@ -12,6 +12,8 @@
 #include "avsi/stimuli/commands.h"
 #include "command.h"
 #include "head_options.h"
+#include "one_of.h"
+#include "synth_choices.h"
 
 namespace avsi::cli {
 namespace {
@@ -27,12 +29,16 @@ const bool registered_evaluate = register_command({
         sub.add_option("--models", s->models, "Model files (.json), one or more")->required();
         sub.add_option("--out", s->out,
                        "Output prefix: writes <out>.csv, <out>.md, <out>.svg and <out>_phonetic.csv")->required();
-        sub.add_option("--subset", s->subset, "Utterances to score: test, train or all")->capture_default_str();
+        sub.add_option("--subset", s->subset, "Utterances to score: test, train or all")
+            ->capture_default_str()
+            ->check(one_of({"test", "train", "all"}));
         auto* seed_opt = sub.add_option("--split-seed", *seed, "Split seed (default: the corpus manifest's)");
         auto* fraction_opt =
             sub.add_option("--test-fraction", *fraction, "Test fraction (default: the corpus manifest's)");
         sub.add_option("--plot-utterance", s->plot_utterance, "Utterance id to plot (default: the first scored)");
-        sub.add_option("--plot-param", s->plot_param, "Parameter to plot")->capture_default_str();
+        sub.add_option("--plot-param", s->plot_param, "Parameter to plot")
+            ->capture_default_str()
+            ->check(one_of(param_names()));
         auto head = std::make_shared<stimuli::HeadFiles>();
         auto phonetic = std::make_shared<bool>(true);
         add_head_options(sub, *head);

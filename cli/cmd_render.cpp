@@ -7,6 +7,7 @@
 #include "command.h"
 #include "head_options.h"
 #include "lod_options.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -25,7 +26,9 @@ const bool registered_render = register_command({
         add_head_options(sub, o->head);
         sub.add_option("--width", o->render.width, "Frame width in pixels")->capture_default_str();
         sub.add_option("--height", o->render.height, "Frame height in pixels")->capture_default_str();
-        sub.add_option("--camera", o->camera, "Camera: front or three-quarter")->capture_default_str();
+        sub.add_option("--camera", o->camera, "Camera: front or three-quarter")
+            ->capture_default_str()
+            ->check(one_of({"front", "three-quarter"}));
         sub.add_option("--samples", o->render.samples, "MSAA samples per pixel (1 = off; 4 costs many times a frame on llvmpipe)")
             ->capture_default_str();
         sub.add_flag("!--no-fxaa", o->render.fxaa, "Do not anti-alias with FXAA");

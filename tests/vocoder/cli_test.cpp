@@ -52,6 +52,36 @@ TEST_F(VocoderCli, VocodesAFileAndReportsTheSettings) {
     EXPECT_EQ(read_audio(path("out2.wav")).samples, out.samples);
 }
 
+// The command line as people type it: a mistyped command or option is named
+// with the nearest (`avsi vocod` → vocode, `--band` → --bands), and a value
+// outside a set of names fails when the line is read, the same way for every
+// such option (tests/e2e/front_end_test.cpp checks every command's); nothing
+// is written, exit status 2.
+TEST_F(VocoderCli, MistypedCommandOptionsAndNamesSuggestTheNearest) {
+    const std::string files = " " + path("in/s0.wav") + " " + path("out.wav");
+    const CliResult command = run_avsi("vocod" + files);
+    EXPECT_EQ(command.exit_code, 2);
+    EXPECT_EQ(command.err, "avsi: 'vocod' is not an avsi command. Did you mean 'vocode'?\n"
+                           "Run 'avsi --help' for the commands.\n");
+    const CliResult option = run_avsi("vocode --band 3" + files);
+    EXPECT_EQ(option.exit_code, 2);
+    EXPECT_EQ(option.err, "avsi vocode: unknown option '--band'. Did you mean '--bands'?\n"
+                          "Run 'avsi vocode --help' for its options.\n");
+    const CliResult stage = run_avsi("vocode --noise speech-shaped --snr-db 0 --noise-stage x" + files);
+    EXPECT_EQ(stage.exit_code, 2);
+    EXPECT_EQ(stage.err, "avsi vocode: --noise-stage: expected one of before, after, got \"x\"\n"
+                         "Run 'avsi vocode --help' for more information.\n");
+    // Without --noise too: a value is never silently ignored.
+    EXPECT_EQ(run_avsi("vocode --noise-stage aftr" + files).err.find(
+                  "avsi vocode: --noise-stage: expected one of before, after, got \"aftr\" (did you mean \"after\"?)"),
+              0u);
+    const CliResult spacing = run_avsi("vocode --spacing linaer" + files);
+    EXPECT_EQ(spacing.exit_code, 2);
+    EXPECT_EQ(spacing.err.substr(0, spacing.err.find('\n')),
+              "avsi vocode: --spacing: expected one of greenwood, log, linear, got \"linaer\" (did you mean \"linear\"?)");
+    EXPECT_FALSE(fs::exists(path("out.wav")));
+}
+
 TEST_F(VocoderCli, RefusesAHighCutoffAboveNyquist) {
     const CliResult r = run_avsi("vocode " + path("in/s0.wav") + " " + path("out.wav") + " --high-hz 9000");
     EXPECT_EQ(r.exit_code, 1);
@@ -119,9 +149,9 @@ TEST_F(VocoderCli, StereoIsMixedDownByDefaultAndKeptWithTheSameCarrier) {
     const Audio mixed = read_audio(path("mixed.wav"));
     ASSERT_EQ(mixed.channels, 2);
     EXPECT_EQ(mixed.channel(0), mixed.channel(1));
-    EXPECT_NE(run_avsi("vocode " + path("stereo.wav") + " " + path("x.wav") + " --channels both").output().find(
-                  "--channels: expected mono or keep, got \"both\""),
-              std::string::npos);
+    const CliResult both = run_avsi("vocode " + path("stereo.wav") + " " + path("x.wav") + " --channels both");
+    EXPECT_EQ(both.exit_code, 2);
+    EXPECT_NE(both.err.find("--channels: expected one of mono, keep, got \"both\""), std::string::npos) << both.err;
 }
 
 TEST_F(VocoderCli, StoiNamesBothFilesOnARateOrLengthMismatchAndScoresChannels) {
