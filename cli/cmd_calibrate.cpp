@@ -12,6 +12,8 @@
 #include "avsi/vocoder/batch.h"
 #include "avsi/vocoder/calibrate.h"
 #include "command.h"
+#include "one_of.h"
+#include "vocoder_choices.h"
 
 namespace avsi::cli {
 namespace {
@@ -57,11 +59,17 @@ const bool registered_calibrate = register_command({
             ->delimiter(',')->capture_default_str();
         sub.add_option("--low-hz", o->c.base.low_hz, "Lower edge of the lowest band (Hz)")->capture_default_str();
         sub.add_option("--high-hz", o->c.base.high_hz, "Upper edge of the highest band (Hz)")->capture_default_str();
-        sub.add_option("--spacing", o->spacing, "Band spacing: greenwood, log or linear")->capture_default_str();
+        sub.add_option("--spacing", o->spacing, "Band spacing: greenwood, log or linear")
+            ->capture_default_str()
+            ->check(one_of(band_spacing_names()));
         sub.add_option("--order", o->c.base.filter_order, "Butterworth prototype order of each band-pass")
             ->capture_default_str()->check(CLI::Range(1, 16));
-        sub.add_option("--envelope", o->envelope, "Envelope: rectify, full-wave or hilbert")->capture_default_str();
-        sub.add_option("--carrier", o->carrier, "Carrier: noise, sine or low-noise")->capture_default_str();
+        sub.add_option("--envelope", o->envelope, "Envelope: rectify, full-wave or hilbert")
+            ->capture_default_str()
+            ->check(one_of(envelope_method_names()));
+        sub.add_option("--carrier", o->carrier, "Carrier: noise, sine or low-noise")
+            ->capture_default_str()
+            ->check(one_of(carrier_type_names()));
         sub.add_option("--seed", o->c.base.seed, "Carrier noise seed")->capture_default_str();
         sub.add_option("--threads", o->c.threads, "Threads (0: all cores)")->capture_default_str();
         sub.add_option("--out", o->out, "Also write the table to this text file");

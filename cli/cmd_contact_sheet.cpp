@@ -4,6 +4,8 @@
 
 #include "avsi/stimuli/commands.h"
 #include "command.h"
+#include "head_options.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -16,14 +18,10 @@ const bool registered_contact_sheet = register_command({
         sub.add_option("--out", o->out_path, "Output PNG")->required();
         sub.add_option("--targets", o->targets_path, "Targets CSV (label, phone, parameters…)")
             ->capture_default_str();
-        sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ with vertex colours and texture coordinates)")->capture_default_str();
-        sub.add_option("--rig", o->head.rig, "Head rig (JSON)")->capture_default_str();
-        sub.add_option("--head", o->head.gltf, "A glTF head (.glb/.gltf) with ARKit-named morph targets, instead of --mesh/--rig")
-            ->excludes(sub.get_option("--mesh"))
-            ->excludes(sub.get_option("--rig"));
-        sub.add_option("--mapping", o->head.mapping,
-                       "Blendshape mapping of a --head glTF (default: protocols/head/arkit_mapping.json)");
-        sub.add_option("--camera", o->camera, "Camera: front or three-quarter")->capture_default_str();
+        add_head_options(sub, o->head);
+        sub.add_option("--camera", o->camera, "Camera: front or three-quarter")
+            ->capture_default_str()
+            ->check(one_of({"front", "three-quarter"}));
         sub.add_option("--tile-width", o->sheet.tile_width, "Tile width in pixels")->capture_default_str();
         sub.add_option("--tile-height", o->sheet.tile_height, "Tile height in pixels")->capture_default_str();
         sub.add_option("--columns", o->sheet.columns, "Tiles per row")->capture_default_str();

@@ -1,9 +1,10 @@
 // `avsi corpus import` and `avsi corpus balance`: sentence corpora for the
-// intelligibility test (core/corpus_tools.h). `import` proposes keywords for
-// an unmarked sentence list and reports what it did; `balance` assigns the
-// test lists of a corpus, balanced for keyword frequency, syllables and
-// keyword viseme content, and writes a Markdown report. Both are actions of
-// `avsi corpus` (cmd_corpus.cpp), added through register_action.
+// intelligibility test. `import` proposes keywords for an unmarked sentence
+// list and reports what it did (core/keyword_proposals.h); `balance` assigns
+// the test lists of a corpus, balanced for keyword frequency, syllables and
+// keyword viseme content, and writes a Markdown report (core/list_balance.h).
+// Both are actions of `avsi corpus` (cmd_corpus.cpp), added through
+// register_action.
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -13,9 +14,10 @@
 
 #include "avsi/analysis/alternates.h"
 #include "avsi/core/corpus.h"
-#include "avsi/core/corpus_tools.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/keyword_proposals.h"
+#include "avsi/core/list_balance.h"
 #include "avsi/core/log.h"
 #include "command.h"
 

@@ -11,6 +11,9 @@
 #include "avsi/stimuli/articulation.h"
 #include "avsi/stimuli/commands.h"
 #include "command.h"
+#include "head_options.h"
+#include "one_of.h"
+#include "synth_choices.h"
 
 namespace avsi::cli {
 namespace {
@@ -26,16 +29,19 @@ const bool registered_evaluate = register_command({
         sub.add_option("--models", s->models, "Model files (.json), one or more")->required();
         sub.add_option("--out", s->out,
                        "Output prefix: writes <out>.csv, <out>.md, <out>.svg and <out>_phonetic.csv")->required();
-        sub.add_option("--subset", s->subset, "Utterances to score: test, train or all")->capture_default_str();
+        sub.add_option("--subset", s->subset, "Utterances to score: test, train or all")
+            ->capture_default_str()
+            ->check(one_of({"test", "train", "all"}));
         auto* seed_opt = sub.add_option("--split-seed", *seed, "Split seed (default: the corpus manifest's)");
         auto* fraction_opt =
             sub.add_option("--test-fraction", *fraction, "Test fraction (default: the corpus manifest's)");
         sub.add_option("--plot-utterance", s->plot_utterance, "Utterance id to plot (default: the first scored)");
-        sub.add_option("--plot-param", s->plot_param, "Parameter to plot")->capture_default_str();
+        sub.add_option("--plot-param", s->plot_param, "Parameter to plot")
+            ->capture_default_str()
+            ->check(one_of(param_names()));
         auto head = std::make_shared<stimuli::HeadFiles>();
         auto phonetic = std::make_shared<bool>(true);
-        sub.add_option("--mesh", head->obj, "Head mesh for the phonetic columns (OBJ)")->capture_default_str();
-        sub.add_option("--rig", head->rig, "Head rig with articulation landmarks (JSON)")->capture_default_str();
+        add_head_options(sub, *head);
         sub.add_flag("!--no-phonetic", *phonetic,
                      "Leave out the phonetic columns (bilabial closure and labiodental contact measured on the head)");
         sub.add_flag("--closure-hold", s->closure_hold,
@@ -46,7 +52,7 @@ const bool registered_evaluate = register_command({
             std::shared_ptr<const stimuli::Head> loaded;
             std::shared_ptr<const stimuli::ArticulationMeter> meter;
             if (*phonetic) {
-                loaded = std::make_shared<const stimuli::Head>(stimuli::load_head(head->obj, head->rig));
+                loaded = std::make_shared<const stimuli::Head>(stimuli::load_head_files(*head));
                 meter = std::make_shared<const stimuli::ArticulationMeter>(*loaded);
                 s->articulation = [meter, loaded](const synth::Trajectory& t) { return meter->measure(t); };
                 s->lip_tasks = [meter, loaded](const synth::Frame& frame) {
@@ -55,8 +61,9 @@ const bool registered_evaluate = register_command({
                     const auto m = meter->measure(pose);
                     return synth::LipTaskMeasures{m.aperture_max_mm, m.lip_to_incisors_mm};
                 };
-                s->articulation_head = head->rig == stimuli::default_head_rig() ? "the built-in head"
-                                                                                : head->rig.filename().string();
+                s->articulation_head = !head->gltf.empty()                      ? head->gltf.filename().string()
+                                       : head->rig == stimuli::default_head_rig() ? "the built-in head"
+                                                                                  : head->rig.filename().string();
             }
             const learn::EvaluationResult r = learn::run_evaluation(*s);
             fmt::print("{}\n", r.markdown);

@@ -5,6 +5,7 @@
 
 #include "avsi/stimuli/commands.h"
 #include "command.h"
+#include "head_options.h"
 
 namespace avsi::cli {
 namespace {
@@ -18,13 +19,7 @@ const bool registered_export_head = register_command({
             "The morph targets are the ones the mapping names (protocols/head/arkit_mapping.json), each the head's "
             "rig posed at that end of its parameter's range; `avsi render --head OUT.glb` reads the file back.");
         sub.add_option("--out", o->out_path, "Output .glb (binary glTF) or .gltf")->required();
-        sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ)")->capture_default_str();
-        sub.add_option("--rig", o->head.rig, "Head rig (JSON)")->capture_default_str();
-        sub.add_option("--head", o->head.gltf, "A glTF head to re-export instead of --mesh/--rig")
-            ->excludes(sub.get_option("--mesh"))
-            ->excludes(sub.get_option("--rig"));
-        sub.add_option("--mapping", o->head.mapping,
-                       "Blendshape mapping (default: protocols/head/arkit_mapping.json)");
+        add_head_options(sub, o->head);
         return [o] {
             stimuli::run_export_head(*o);
             return 0;

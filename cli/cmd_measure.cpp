@@ -10,6 +10,7 @@
 #include "avsi/core/log.h"
 #include "avsi/stimuli/commands.h"
 #include "command.h"
+#include "head_options.h"
 
 namespace avsi::cli {
 namespace {
@@ -36,13 +37,7 @@ const bool registered_measure = register_command({
         sub.add_option("--fps", o->fps, "Frame rate of the model's trajectory")->capture_default_str();
         sub.add_option("--out", o->out_path, "Measures CSV, one row per frame")->required();
         sub.add_option("--plot", o->plot_path, "SVG plot of the lip aperture over time with the phone labels");
-        sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ)")->capture_default_str();
-        sub.add_option("--rig", o->head.rig, "Head rig (JSON) with an \"articulation\" section")->capture_default_str();
-        sub.add_option("--head", o->head.gltf, "A glTF head (.glb/.gltf) with ARKit-named morph targets, instead of --mesh/--rig")
-            ->excludes(sub.get_option("--mesh"))
-            ->excludes(sub.get_option("--rig"));
-        sub.add_option("--mapping", o->head.mapping,
-                       "Blendshape mapping of a --head glTF (default: protocols/head/arkit_mapping.json)");
+        add_head_options(sub, o->head);
         sub.add_option("--closure-mm", o->limits.closure_mm, "Largest aperture that counts as closed")
             ->capture_default_str();
         sub.add_option("--labiodental-mm", o->limits.labiodental_mm,

@@ -11,6 +11,8 @@
 #include "avsi/core/log.h"
 #include "avsi/vocoder/batch.h"
 #include "command.h"
+#include "one_of.h"
+#include "vocoder_choices.h"
 
 namespace avsi::cli {
 namespace {
@@ -64,7 +66,8 @@ const bool registered_mix = register_command({
         sub.add_option("--snr-db", o->snr_db, "Speech-to-noise ratio in dB")->required();
         sub.add_option("--snr-reference", o->snr_reference,
                        "Speech level over the whole signal (whole) or over active 20 ms frames (active)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(one_of(snr_reference_names()));
         sub.add_option("--ltas-from", o->ltas_from,
                        "WAV files or folders whose long-term spectrum shapes speech-shaped noise (default: the inputs)");
         sub.add_option("--seed", o->seed, "Seed of the noise (per file: derived from it and the file name in --batch)")
@@ -75,7 +78,8 @@ const bool registered_mix = register_command({
         sub.add_option("--channels", o->channels,
                        "Several channels: mono (mixed down first, a note says so) or keep (the same noise added to "
                        "every channel)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(one_of(channel_mode_names()));
         return [o] { return run_mix(*o); };
     }});
 

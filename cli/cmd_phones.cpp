@@ -14,6 +14,7 @@
 #include "avsi/core/log.h"
 #include "avsi/core/tts.h"
 #include "command.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -72,12 +73,7 @@ int run_phones(PhonesOptions o) {
         throw UsageError(fmt::format("--out {}: unsupported extension '{}'; supported extensions are '.tsv' "
                                      "and '.TextGrid' (or - for TSV on standard output)",
                                      o.out, std::filesystem::path(o.out).extension().string()));
-    const auto phone_set = parse_label_phone_set(o.phone_set);
-    if (!phone_set)
-        throw UsageError(fmt::format("--phone-set: expected auto, arpabet, festival, timit or mocha, got \"{}\"",
-                                     o.phone_set));
-    if (o.lab_units != "auto" && o.lab_units != "100ns" && o.lab_units != "seconds")
-        throw UsageError(fmt::format("--lab-units: expected auto, 100ns or seconds, got \"{}\"", o.lab_units));
+    const auto phone_set = parse_label_phone_set(o.phone_set);  // one_of let only its names through
 
     PhoneSequence phones;
     if (!o.text.empty()) {
@@ -138,10 +134,12 @@ const bool registered_phones = register_command({
         sub.add_option("--phone-set", o->phone_set,
                        "Phone set of the labels: auto (project ARPAbet, IPA, Festival, TIMIT; MOCHA when only it "
                        "fits), arpabet, festival, timit or mocha")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(one_of({"auto", "arpabet", "festival", "timit", "mocha"}));
         sub.add_option("--lab-units", o->lab_units,
                        ".lab times: auto (integers 100 ns, decimals seconds), 100ns or seconds")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(one_of({"auto", "100ns", "seconds"}));
         sub.add_option("--tsv", o->tsv, "TSV label file to read phones from (start_s end_s phone)")
             ->capture_default_str();
         sub.add_option("--tier", o->tier, "TextGrid tier holding the phones")->capture_default_str();

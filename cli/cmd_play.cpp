@@ -12,6 +12,7 @@
 #include "avsi/core/log.h"
 #include "avsi/experiment/player.h"
 #include "command.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -94,7 +95,7 @@ const bool registered_play = register_command({
         sub.add_option("--audio", s.audio,
                        "Audio output: portaudio (the default device) or null (silent, simulated clock at --refresh-hz)")
             ->capture_default_str()
-            ->check(CLI::IsMember({"portaudio", "null"}));
+            ->check(one_of({"portaudio", "null"}));
         sub.add_option("--audio-device", s.audio_device, "PortAudio output device: an index or part of a name");
         sub.add_option("--refresh-hz", s.null_refresh_hz, "Refreshes per second of the simulated clock (--audio null)")
             ->capture_default_str()

@@ -5,7 +5,9 @@
 
 #include "avsi/stimuli/commands.h"
 #include "command.h"
+#include "head_options.h"
 #include "lod_options.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -21,16 +23,12 @@ const bool registered_render = register_command({
         sub.add_option("--out", o->out_path, "Output: x.mp4, or a folder for PNG frames")->required();
         sub.add_option("--phones", o->phones_path,
                        "Timed phones (.tsv/.TextGrid/.lab): the tongue tip rises for /θ ð t d n l/");
-        sub.add_option("--mesh", o->head.obj, "Head mesh (OBJ with vertex colours and texture coordinates)")->capture_default_str();
-        sub.add_option("--rig", o->head.rig, "Head rig (JSON)")->capture_default_str();
-        sub.add_option("--head", o->head.gltf, "A glTF head (.glb/.gltf) with ARKit-named morph targets, instead of --mesh/--rig")
-            ->excludes(sub.get_option("--mesh"))
-            ->excludes(sub.get_option("--rig"));
-        sub.add_option("--mapping", o->head.mapping,
-                       "Blendshape mapping of a --head glTF (default: protocols/head/arkit_mapping.json)");
+        add_head_options(sub, o->head);
         sub.add_option("--width", o->render.width, "Frame width in pixels")->capture_default_str();
         sub.add_option("--height", o->render.height, "Frame height in pixels")->capture_default_str();
-        sub.add_option("--camera", o->camera, "Camera: front or three-quarter")->capture_default_str();
+        sub.add_option("--camera", o->camera, "Camera: front or three-quarter")
+            ->capture_default_str()
+            ->check(one_of({"front", "three-quarter"}));
         sub.add_option("--samples", o->render.samples, "MSAA samples per pixel (1 = off; 4 costs many times a frame on llvmpipe)")
             ->capture_default_str();
         sub.add_flag("!--no-fxaa", o->render.fxaa, "Do not anti-alias with FXAA");

@@ -11,6 +11,7 @@
 #include "avsi/core/protocol.h"
 #include "avsi/experiment/runner.h"
 #include "command.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -93,7 +94,7 @@ const bool registered_run = register_command({
         sub.add_option("--audio", s.audio, "Audio output: portaudio (the default device) or null (silent, simulated "
                                            "clock at --refresh-hz)")
             ->capture_default_str()
-            ->check(CLI::IsMember({"portaudio", "null"}));
+            ->check(one_of({"portaudio", "null"}));
         sub.add_option("--audio-device", s.audio_device,
                        "PortAudio output device: an index or part of a name from --list-audio-devices (default: the "
                        "system's default output)")

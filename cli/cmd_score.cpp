@@ -9,6 +9,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/protocol.h"
 #include "command.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -41,7 +42,8 @@ const bool registered_score = register_command({
         sub.add_option("--rules", o->rules,
                        "Rule set: strict (exact word, alternates, number words, US/UK spellings, homophones), "
                        "loose (also inflections of the keyword's root), lenient (also non-word misspellings); "
-                       "default: the protocol's [scoring] rules, else strict (docs/scoring.md)");
+                       "default: the protocol's [scoring] rules, else strict (docs/scoring.md)")
+            ->check(one_of(analysis::rule_set_names()));
         sub.add_flag("--strict", o->strict, "Same as --rules strict");
         sub.add_option("--overrides", o->overrides,
                        "Manual overrides CSV: subject,trial or sentence,keyword_index,correct,reason "

@@ -12,6 +12,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/protocol.h"
 #include "command.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -73,7 +74,8 @@ const bool registered_simulate_srt = register_command({
         auto* procedure = sub.add_option("--procedure", o->procedure,
                                          "Without --protocol: sentence (1-up/1-down, HINT steps) or word (Brand & "
                                          "Kollmeier 2002) with the default rules")
-                              ->check(CLI::IsMember({"sentence", "word"}))
+                              ->check(one_of({to_string(analysis::AdaptiveProcedure::Sentence),
+                                              to_string(analysis::AdaptiveProcedure::Word)}))
                               ->capture_default_str();
         sub.add_option("--l50-db", o->l50_db, "The listener's keyword L50 (dB SNR)")->capture_default_str();
         sub.add_option("--slope", o->slope, "The listener's keyword slope at L50 (proportion per dB)")

@@ -6,6 +6,8 @@
 
 #include "avsi/vocoder/stoi.h"
 #include "command.h"
+#include "one_of.h"
+#include "vocoder_choices.h"
 
 namespace avsi::cli {
 namespace {
@@ -27,7 +29,8 @@ const bool registered_stoi = register_command({
         sub.add_option("--channels", o->channels,
                        "Several channels: mono (mixed down to one, a note says so) or keep (one value per channel, "
                        "a line each)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(one_of(channel_mode_names()));
         return [o] {
             const auto mode = vocoder::parse_channel_mode(o->channels);
             for (double d : vocoder::stoi_files(o->clean, o->degraded, {.extended = o->extended}, mode))

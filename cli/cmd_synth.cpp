@@ -7,6 +7,8 @@
 
 #include "avsi/synth/synthesis.h"
 #include "command.h"
+#include "one_of.h"
+#include "synth_choices.h"
 
 namespace avsi::cli {
 namespace {
@@ -37,13 +39,17 @@ const bool registered_synth = register_command({
         auto* fps = sub.add_option("--fps", o->fps, "Frame rate of the trajectory")->capture_default_str();
         sub.add_option("--out", o->out_path, "Output trajectory (.csv or .fap)")->required()->capture_default_str();
         sub.add_option("--format", o->format, "Output format: csv, fap, or auto (by --out extension)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(one_of({"csv", "fap", "auto"}));
         sub.add_option("--target", o->fap_target,
                        "FAP output for: mpeg4 (68 mask entries, Xface and MPEG-4 players) or greta (25 fps, "
                        "Greta's 69-entry masks; Greta plays every file at 25 fps)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(one_of({"mpeg4", "greta"}));
         sub.add_option("--plot", o->plot_path, "Write an SVG plot of one parameter here")->capture_default_str();
-        sub.add_option("--param", o->plot_param, "Parameter to plot (snake_case name)")->capture_default_str();
+        sub.add_option("--param", o->plot_param, "Parameter to plot (snake_case name)")
+            ->capture_default_str()
+            ->check(one_of(param_names()));
         return [o, fps, voice] {
             o->fps_given = fps->count() > 0;
             if (!voice->empty()) o->tts = "espeak:" + *voice;

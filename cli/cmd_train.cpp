@@ -6,6 +6,7 @@
 #include "avsi/learn/ann_training.h"
 #include "avsi/learn/training.h"
 #include "command.h"
+#include "one_of.h"
 
 namespace avsi::cli {
 namespace {
@@ -17,8 +18,10 @@ const bool registered_train = register_command({
         auto s = std::make_shared<learn::TrainCommandSettings>();
         auto seed = std::make_shared<std::uint64_t>(0);
         auto fraction = std::make_shared<double>(0.0);
-        sub.add_option("--model", s->training.model, "Model kind: cohen-massaro, ohman, mpeg4-cohen-massaro, ann (= ann1), ann1 or ann2")
-            ->capture_default_str();
+        sub.add_option("--model", s->training.model,
+                       "Model kind: cohen-massaro, ohman, mpeg4-cohen-massaro (or mpeg4-cm), ann (= ann1), ann1 or ann2")
+            ->capture_default_str()
+            ->check(one_of({"cohen-massaro", "ohman", "mpeg4-cohen-massaro", "mpeg4-cm", "ann", "ann1", "ann2"}));
         sub.add_option("--corpus", s->corpus, "Corpus folder (corpus.json or corpus.csv)")->required();
         sub.add_option("--out", s->out, "Model file to write (.json)")->required();
         sub.add_option("--init", s->training.init_model,

@@ -13,6 +13,8 @@
 #include "avsi/core/log.h"
 #include "avsi/vocoder/batch.h"
 #include "command.h"
+#include "one_of.h"
+#include "vocoder_choices.h"
 
 namespace avsi::cli {
 namespace {
@@ -65,8 +67,6 @@ int run_vocode(const VocodeOptions& o, const CLI::App& sub) {
         s.noise.mix.snr_db = o.snr_db;
         s.noise.mix.reference = parse_snr_reference(o.snr_reference, "--snr-reference");
         s.noise.mix.seed = o.v.seed;
-        if (o.noise_stage != "before" && o.noise_stage != "after")
-            throw UsageError(fmt::format("--noise-stage: expected before or after, got \"{}\"", o.noise_stage));
         s.noise.stage = o.noise_stage == "before" ? NoiseStage::BeforeVocoding : NoiseStage::AfterVocoding;
         for (const auto& p : o.ltas_from) s.noise.ltas_from.emplace_back(p);
     } else if (sub.count("--snr-db") > 0) {
@@ -103,18 +103,24 @@ const bool registered_vocode = register_command({
         sub.add_option("--bands", o->v.bands, "Number of analysis bands")->capture_default_str()->check(CLI::Range(1, 64));
         sub.add_option("--low-hz", o->v.low_hz, "Lower edge of the lowest band (Hz)")->capture_default_str();
         sub.add_option("--high-hz", o->v.high_hz, "Upper edge of the highest band (Hz), below Nyquist")->capture_default_str();
-        sub.add_option("--spacing", o->spacing, "Band spacing: greenwood, log or linear")->capture_default_str();
+        sub.add_option("--spacing", o->spacing, "Band spacing: greenwood, log or linear")
+            ->capture_default_str()
+            ->check(one_of(band_spacing_names()));
         sub.add_option("--edges-hz", o->edges_hz, "Explicit band edges in Hz, comma-separated (sets bands and range)")
             ->delimiter(',');
         sub.add_option("--order", o->v.filter_order,
                        "Butterworth prototype order of each band-pass (2·order poles, 6·order dB/octave)")
             ->capture_default_str()->check(CLI::Range(1, 16));
         sub.add_flag("--zero-phase", o->v.zero_phase, "Filter forward and backward (no phase shift, doubled slopes)");
-        sub.add_option("--envelope", o->envelope, "Envelope: rectify (half-wave), full-wave or hilbert")->capture_default_str();
+        sub.add_option("--envelope", o->envelope, "Envelope: rectify (half-wave), full-wave or hilbert")
+            ->capture_default_str()
+            ->check(one_of(envelope_method_names()));
         sub.add_option("--envelope-cutoff-hz", o->v.envelope_cutoff_hz, "Envelope low-pass cutoff (Hz)")->capture_default_str();
         sub.add_option("--envelope-order", o->v.envelope_filter_order, "Envelope Butterworth low-pass order")
             ->capture_default_str()->check(CLI::Range(1, 16));
-        sub.add_option("--carrier", o->carrier, "Carrier: noise, sine or low-noise")->capture_default_str();
+        sub.add_option("--carrier", o->carrier, "Carrier: noise, sine or low-noise")
+            ->capture_default_str()
+            ->check(one_of(carrier_type_names()));
         sub.add_flag("--prefilter-carrier", o->v.prefilter_carrier, "Also band-pass the carrier before modulation");
         sub.add_flag("--no-refilter", o->no_refilter, "Do not band-pass the modulated carrier (not recommended)");
         sub.add_option("--low-noise-iterations", o->v.low_noise_iterations, "Iterations for the low-noise carrier")
@@ -124,8 +130,11 @@ const bool registered_vocode = register_command({
         sub.add_option("--snr-db", o->snr_db, "Speech-to-noise ratio in dB (with --noise)")->capture_default_str();
         sub.add_option("--snr-reference", o->snr_reference,
                        "Speech level over the whole signal (whole) or over active 20 ms frames (active)")
-            ->capture_default_str();
-        sub.add_option("--noise-stage", o->noise_stage, "Add the noise before or after vocoding")->capture_default_str();
+            ->capture_default_str()
+            ->check(one_of(snr_reference_names()));
+        sub.add_option("--noise-stage", o->noise_stage, "Add the noise before or after vocoding")
+            ->capture_default_str()
+            ->check(one_of({"before", "after"}));
         sub.add_option("--ltas-from", o->ltas_from,
                        "WAV files or folders whose long-term spectrum shapes speech-shaped noise (default: the inputs)");
         sub.add_flag("--report", o->report, "Print every setting a methods section needs (band edges, filters, ...)");
@@ -133,7 +142,8 @@ const bool registered_vocode = register_command({
         sub.add_option("--channels", o->channels,
                        "Several channels: mono (mixed down first, a note says so) or keep (each vocoded with the "
                        "same noise carrier, so a dual-mono input stays dual-mono)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(one_of(channel_mode_names()));
         return [o, &sub] { return run_vocode(*o, sub); };
     }});
 

@@ -1,7 +1,8 @@
 // The avsi command registry. Each subcommand lives in its own cmd_<name>.cpp,
 // registers itself here, parses options into its library's settings struct,
 // calls one library function and returns an exit code; exceptions become
-// exit codes in main.cpp.
+// exit codes in the helper executables' main (helper_main.cpp). Where
+// `avsi --help` lists a command is its workflow in app.h.
 #pragma once
 
 #include <CLI/CLI.hpp>

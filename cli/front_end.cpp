@@ -5,7 +5,8 @@
 // (libexec/avsi-<group>) in its own place with the same arguments (execv:
 // same process, standard streams, exit code and signals). It links no avsi
 // module library, so `avsi --version`, `avsi --help` and a mistyped command
-// load no heavy library, and each command loads only what its helper links.
+// (named with the nearest command, app.h) load no heavy library, and each
+// command loads only what its helper links.
 // Why helper executables rather than plugins or lazy loading:
 // docs/cli-design.md.
 #include <unistd.h>
@@ -16,7 +17,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "app.h"
@@ -84,8 +84,8 @@ int main(int argc, char** argv) {
     std::vector<const Entry*> sorted;
     for (const Entry& entry : kRegistry) sorted.push_back(&entry);
     std::sort(sorted.begin(), sorted.end(),
-              [](const Entry* a, const Entry* b) { return std::string_view(a->name) < std::string_view(b->name); });
-    for (const Entry* entry : sorted) app.add_subcommand(entry->name, entry->summary)->prefix_command();
+              [](const Entry* a, const Entry* b) { return less_by_workflow(a->name, b->name); });
+    for (const Entry* entry : sorted) add_command(app, entry->name, entry->summary)->prefix_command();
 
     // Once a command is named, whatever else the line holds (help, an
     // unknown option, a missing argument) is the helper's to report: it
@@ -101,9 +101,8 @@ int main(int argc, char** argv) {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         if (const Entry* entry = chosen()) return run_helper(*entry, argv);
-        const int code = app.exit(e);
-        return code == 0 ? 0 : 2;
+        return report_parse_error(app, e);
     }
     if (const Entry* entry = chosen()) return run_helper(*entry, argv);
-    return 2;
+    return avsi::ExitUsage;
 }

@@ -169,10 +169,10 @@ int main(int argc, char** argv) {
 
     auto& registry = commands();
     std::sort(registry.begin(), registry.end(),
-              [](const Command& a, const Command& b) { return a.name < b.name; });
+              [](const Command& a, const Command& b) { return less_by_workflow(a.name, b.name); });
     std::function<int()> to_run;
     for (const auto& command : registry) {
-        CLI::App* sub = app.add_subcommand(command.name, command.summary);
+        CLI::App* sub = add_command(app, command.name, command.summary);
         auto run = command.setup(*sub);
         sub->callback([&to_run, run] { to_run = run; });
     }
@@ -180,15 +180,14 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        const int code = app.exit(e);
-        return code == 0 ? ExitSuccess : ExitUsage;
+        return report_parse_error(app, e);
     }
 
     set_log_sink(std::make_shared<ConsoleSink>(stderr_is_terminal(), verbose));
     try {
         return to_run ? to_run() : ExitUsage;
     } catch (const UsageError& e) {
-        fmt::print(stderr, "avsi: usage error: {}\n", e.what());
+        report_usage_error(chosen_command(app), e.what());
         return ExitUsage;
     } catch (const std::exception& e) {
         print_exception_chain(e);

@@ -6,6 +6,8 @@
 
 #include "avsi/analysis/inflection.h"
 #include "avsi/analysis/scoring.h"
+#include "avsi/core/morphology.h"
+#include "avsi/core/word_table.h"
 
 namespace avsi::analysis {
 
@@ -36,7 +38,7 @@ std::vector<AlternateProposal> AlternateFinder::propose(const std::string& w) co
     bool is_plural = false;  // w is the regular plural of a noun ("bowls")
     for (const auto& lemma : inf.lemmas(w)) {
         if (lemma == w) continue;
-        const auto plurals = Inflections::regular_forms(lemma, Suffix::S);
+        const auto plurals = regular_forms(lemma, Suffix::S);
         const bool singular = inf.is_noun(lemma) && std::find(plurals.begin(), plurals.end(), w) != plurals.end();
         is_plural = is_plural || singular;
         add(lemma, singular ? "singular" : "base form");
@@ -47,7 +49,7 @@ std::vector<AlternateProposal> AlternateFinder::propose(const std::string& w) co
     // when it knows none (birches), the regular ones.
     if (inf.is_noun(w) && !is_plural) {
         std::vector<std::string> candidates;
-        for (const auto& plural : Inflections::regular_forms(w, Suffix::S))
+        for (const auto& plural : regular_forms(w, Suffix::S))
             if (inf.same_lemma(w, plural)) candidates.push_back(plural);
         const std::vector<std::string> regular = candidates;
         if (w.size() > 3 && w.ends_with("man")) candidates.push_back(w.substr(0, w.size() - 3) + "men");

@@ -1,5 +1,6 @@
 // Regular and listed English inflections for keyword scoring (see
-// inflection.h). The spelling rules mirror scripts/make-inflections.
+// inflection.h): the regular ones by core's morphology (morphology.h), the
+// listed ones and the parts of speech from the shipped tables.
 #include "avsi/analysis/inflection.h"
 
 #include <algorithm>
@@ -8,75 +9,18 @@
 
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
+#include "avsi/core/morphology.h"
 #include "avsi/core/text.h"
 
 namespace avsi::analysis {
 
 namespace {
 
-bool is_vowel(char c) { return c == 'a' || c == 'e' || c == 'i' || c == 'o' || c == 'u'; }
-
-bool has_suffix(const std::string& s, std::string_view suffix) {
-    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-// Vowel groups (a rough syllable count: "stop" 1, "visit" 2, "travel" 2).
-std::size_t vowel_groups(const std::string& b) {
-    std::size_t groups = 0;
-    bool in_vowel = false;
-    for (char c : b) {
-        const bool v = is_vowel(c) || (c == 'y' && groups > 0);
-        if (v && !in_vowel) ++groups;
-        in_vowel = v;
-    }
-    return groups;
-}
-
-// consonant + single vowel + consonant (not w, x, y) at the end: the final
-// consonant doubles before -ed/-ing in one syllable (stop -> stopped, hat ->
-// hatted, never hated) and may or may not in longer words, depending on
-// stress and variety (prefer -> preferred, visit -> visited, travel ->
-// travelled or traveled).
-bool ends_cvc(const std::string& b) {
-    const std::size_t n = b.size();
-    if (n < 3) return false;
-    const char last = b[n - 1];
-    return !is_vowel(last) && last != 'w' && last != 'x' && last != 'y' && is_vowel(b[n - 2]) &&
-           !is_vowel(b[n - 3]);
-}
-
 bool is_word_text(const std::string& w) {
     return !w.empty() && std::all_of(w.begin(), w.end(), [](char c) { return c >= 'a' && c <= 'z'; });
 }
 
 }  // namespace
-
-std::vector<std::string> Inflections::regular_forms(const std::string& b, Suffix suffix) {
-    const std::size_t n = b.size();
-    const bool consonant_y = n >= 2 && b[n - 1] == 'y' && !is_vowel(b[n - 2]);
-    switch (suffix) {
-    case Suffix::S:
-        if (has_suffix(b, "s") || has_suffix(b, "x") || has_suffix(b, "z") || has_suffix(b, "ch") || has_suffix(b, "sh"))
-            return {b + "es"};
-        if (consonant_y) return {b.substr(0, n - 1) + "ies"};
-        if (n >= 2 && b[n - 1] == 'o' && !is_vowel(b[n - 2])) return {b + "es", b + "s"};
-        return {b + "s"};
-    case Suffix::Ed:
-        if (has_suffix(b, "e")) return {b + "d"};
-        if (consonant_y) return {b.substr(0, n - 1) + "ied"};
-        if (ends_cvc(b)) return vowel_groups(b) == 1 ? std::vector<std::string>{b + b.back() + "ed"}
-                                                     : std::vector<std::string>{b + b.back() + "ed", b + "ed"};
-        return {b + "ed"};
-    case Suffix::Ing:
-        if (has_suffix(b, "ie")) return {b.substr(0, n - 2) + "ying"};
-        if (has_suffix(b, "e") && !has_suffix(b, "ee") && !has_suffix(b, "ye") && !has_suffix(b, "oe") && n > 2)
-            return {b.substr(0, n - 1) + "ing"};
-        if (ends_cvc(b)) return vowel_groups(b) == 1 ? std::vector<std::string>{b + b.back() + "ing"}
-                                                     : std::vector<std::string>{b + b.back() + "ing", b + "ing"};
-        return {b + "ing"};
-    }
-    return {};
-}
 
 Inflections Inflections::read(const std::filesystem::path& table_path, const std::filesystem::path& pos_path) {
     Inflections out;
@@ -151,40 +95,19 @@ std::uint8_t Inflections::base_pos_of(const std::string& word, const OpenWords* 
 std::vector<std::string> Inflections::lemmas(const std::string& w, const OpenWords* open) const {
     std::vector<std::string> out{w};
     if (!is_word_text(w)) return out;  // numbers and the like inflect by no rule
-    auto add_base = [&](const std::string& base, Suffix suffix) {
-        if (base.size() < 2 || std::find(out.begin(), out.end(), base) != out.end()) return;
-        const std::uint8_t pos = base_pos_of(base, open);
-        if (suffix == Suffix::S ? (pos & (Noun | Verb)) == 0 : (pos & Verb) == 0) return;
-        if (m_not.count({w, base})) return;
-        const auto forms = regular_forms(base, suffix);
-        if (std::find(forms.begin(), forms.end(), w) != forms.end()) out.push_back(base);
-    };
-    const std::size_t n = w.size();
-    // -s, -es, -ies
-    if (has_suffix(w, "s")) {
-        add_base(w.substr(0, n - 1), Suffix::S);
-        if (has_suffix(w, "es")) add_base(w.substr(0, n - 2), Suffix::S);
-        if (has_suffix(w, "ies")) add_base(w.substr(0, n - 3) + "y", Suffix::S);
-    }
-    // An -ed or -ing form that is itself a verb (feed, need, bed, sing) is a base form.
-    const bool is_verb = (pos_of(w) & Verb) != 0;
-    if (!is_verb && has_suffix(w, "ed")) {
-        add_base(w.substr(0, n - 1), Suffix::Ed);  // -d after e
-        add_base(w.substr(0, n - 2), Suffix::Ed);
-        if (n >= 4 && w[n - 3] == w[n - 4]) add_base(w.substr(0, n - 3), Suffix::Ed);  // doubled
-        if (has_suffix(w, "ied")) add_base(w.substr(0, n - 3) + "y", Suffix::Ed);
-    }
-    if (!is_verb && has_suffix(w, "ing")) {
-        add_base(w.substr(0, n - 3), Suffix::Ing);
-        add_base(w.substr(0, n - 3) + "e", Suffix::Ing);
-        if (n >= 5 && w[n - 4] == w[n - 5]) add_base(w.substr(0, n - 4), Suffix::Ing);  // doubled
-        if (has_suffix(w, "ying")) add_base(w.substr(0, n - 4) + "ie", Suffix::Ing);
-    }
-    // -men plurals of -man nouns (women, mailmen): WordNet makes them by a
-    // detachment rule, so its exception list (our irregular table) lacks them.
-    if (n > 3 && has_suffix(w, "men")) {
-        const std::string base = w.substr(0, n - 3) + "man";
-        if ((pos_of(base) & Noun) != 0 && std::find(out.begin(), out.end(), base) == out.end()) out.push_back(base);
+    PartsOfSpeech form_pos;
+    form_pos.verb = (pos_of(w) & Verb) != 0;
+    for (const RegularBase& b : regular_bases(w, form_pos)) {
+        if (std::find(out.begin(), out.end(), b.base) != out.end()) continue;
+        // A -men plural needs a WordNet noun; the regular suffixes also take
+        // open words, and never make a form listed as a word of its own.
+        if (b.men_plural) {
+            if ((pos_of(b.base) & Noun) != 0) out.push_back(b.base);
+            continue;
+        }
+        const std::uint8_t pos = base_pos_of(b.base, open);
+        if (!b.takes({.noun = (pos & Noun) != 0, .verb = (pos & Verb) != 0}) || m_not.count({w, b.base})) continue;
+        out.push_back(b.base);
     }
     if (const auto it = m_irregular.find(w); it != m_irregular.end())
         for (const auto& lemma : it->second)

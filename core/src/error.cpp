@@ -73,38 +73,6 @@ std::string excerpt(std::string_view text, std::size_t max_bytes) {
     return out;
 }
 
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-    const std::size_t n = a.size(), m = b.size();
-    std::vector<std::vector<std::size_t>> d(n + 1, std::vector<std::size_t>(m + 1));
-    for (std::size_t i = 0; i <= n; ++i) d[i][0] = i;
-    for (std::size_t j = 0; j <= m; ++j) d[0][j] = j;
-    for (std::size_t i = 1; i <= n; ++i) {
-        for (std::size_t j = 1; j <= m; ++j) {
-            const std::size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
-            d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
-            if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
-                d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
-        }
-    }
-    return d[n][m];
-}
-
-std::string closest_match(const std::string& word, const std::vector<std::string>& candidates) {
-    // Only short tokens can be typos of a name; the distance is quadratic in
-    // the length, so a megabyte-long label must not reach it.
-    if (word.size() > k_max_hint_length) return {};
-    std::string best;
-    std::size_t best_distance = std::max<std::size_t>(2, word.size() / 3) + 1;
-    for (const auto& c : candidates) {
-        const std::size_t dist = edit_distance(word, c);
-        if (dist < best_distance) {
-            best_distance = dist;
-            best = c;
-        }
-    }
-    return best;
-}
-
 namespace detail {
 void assertion_failed(const char* expression, const char* file, int line) {
     std::fprintf(stderr, "%s:%d: internal error: assertion failed: %s\n", file, line, expression);

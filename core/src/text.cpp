@@ -35,4 +35,22 @@ std::string xml_escape(std::string_view s) {
     return out;
 }
 
+std::vector<std::string> text_words(std::string_view text) {
+    std::vector<std::string> words;
+    std::string w;
+    auto flush = [&] {
+        while (!w.empty() && w.back() == '\'') w.pop_back();
+        while (!w.empty() && w.front() == '\'') w.erase(w.begin());
+        if (!w.empty()) words.push_back(w);
+        w.clear();
+    };
+    for (char ch : text) {
+        const auto c = static_cast<unsigned char>(ch);
+        if (std::isalnum(c) || ch == '\'' || c >= 0x80) w += ch;
+        else flush();
+    }
+    flush();
+    return words;
+}
+
 }  // namespace avsi

@@ -17,6 +17,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/protocol.h"
 #include "avsi/core/rng.h"
+#include "support/temp_dir.h"
 
 using namespace avsi;
 using namespace avsi::analysis;
@@ -230,7 +231,7 @@ TEST(AdaptiveCeiling, UnconvergedTracksAreNamedAndLeftOutOfTheStatistics) {
     ASSERT_EQ(a.benefits.size(), 1u);
     EXPECT_EQ(a.benefits[0].n, 7u);
 
-    const fs::path dir = fs::temp_directory_path() / fmt::format("avsi_ceiling_{}", ::getpid());
+    const fs::path dir = test::temp_dir("ceiling");
     SrtReportSettings rs;
     rs.out_dir = dir;
     rs.source = "mem";
@@ -255,8 +256,7 @@ TEST(AdaptiveCeiling, UnconvergedTracksAreNamedAndLeftOutOfTheStatistics) {
 // tracked proportion is a design-time warning.
 TEST(AdaptiveCeiling, ProtocolCeilingsAndTheDesignWarning) {
     const fs::path src = fs::path(AVSI_TEST_DATA_DIR) / "adaptive" / "protocol.toml";
-    const fs::path dir = fs::temp_directory_path() / fmt::format("avsi_ceiling_protocol_{}", ::getpid());
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("ceiling_protocol");
     write_text_file(dir / "corpus.csv", read_text_file(src.parent_path() / "corpus.csv"));
     const std::string base = read_text_file(src);
     write_text_file(dir / "p.toml", base + "ceilings = { \"audio-only\" = 0.627, \"audiovisual\" = 0.95 }\n");

@@ -17,6 +17,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/protocol.h"
 #include "avsi/core/rng.h"
+#include "support/temp_dir.h"
 
 using namespace avsi;
 using namespace avsi::analysis;
@@ -25,13 +26,6 @@ namespace fs = std::filesystem;
 namespace {
 
 const fs::path kProtocol = fs::path(AVSI_TEST_DATA_DIR) / "adaptive" / "protocol.toml";
-
-fs::path temp_dir(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_adaptive_report_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
 
 // 12 simulated subjects: audio-only L50 ~ N(−4, 1.5²), audiovisual 5 dB
 // better ± N(0, 1²), slope 0.15/dB, 3 keywords, one track of 10 sentences per
@@ -61,7 +55,7 @@ void write_study(const fs::path& csv) {
 }  // namespace
 
 TEST(AdaptiveReport, SimulatedTwelveSubjectStudyMatchesAnIndependentComputation) {
-    const fs::path dir = temp_dir("study");
+    const fs::path dir = test::temp_dir("adaptive_report_study");
     write_study(dir / "adaptive_trials.csv");
     AdaptiveAnalyzeSettings s;
     s.input = dir / "adaptive_trials.csv";
@@ -155,7 +149,7 @@ TEST(AdaptiveReport, SimulatedTwelveSubjectStudyMatchesAnIndependentComputation)
 }
 
 TEST(AdaptiveReport, AStoredLevelTheRulesDoNotGiveIsRefusedWithItsLine) {
-    const fs::path dir = temp_dir("tampered");
+    const fs::path dir = test::temp_dir("adaptive_report_tampered");
     write_study(dir / "adaptive_trials.csv");
     std::string text = read_text_file(dir / "adaptive_trials.csv");
     // Line 4 is subject 1's second audio-only presentation; change its level.
@@ -186,7 +180,7 @@ TEST(AdaptiveReport, AStoredLevelTheRulesDoNotGiveIsRefusedWithItsLine) {
 }
 
 TEST(AdaptiveReport, BadFieldsAreReportedWithFileLineAndColumn) {
-    const fs::path dir = temp_dir("bad");
+    const fs::path dir = test::temp_dir("adaptive_report_bad");
     write_text_file(dir / "t.csv", "subject,condition,presentation,level_db,keywords,correct\n1,audio-only,1,x,3,4\n");
     try {
         read_adaptive_trials(dir / "t.csv");
@@ -205,7 +199,7 @@ TEST(AdaptiveReport, BadFieldsAreReportedWithFileLineAndColumn) {
 // on the log2(bands) scale — each SRT checked against the mean of the log2 of
 // the CSV's own band levels.
 TEST(AdaptiveReport, BandCountTracksAreReportedInBands) {
-    const fs::path dir = temp_dir("bands");
+    const fs::path dir = test::temp_dir("adaptive_report_bands");
     const std::string protocol_text = read_text_file(kProtocol);
     write_text_file(dir / "corpus.csv", read_text_file(kProtocol.parent_path() / "corpus.csv"));
     write_text_file(dir / "bands.toml",
@@ -343,7 +337,7 @@ TEST(AdaptiveReport, SphericityViolatedCaseMatchesR) {
     EXPECT_NE(*a.benefits[0].p_holm, *a.benefits[0].p_value);
 
     // The printed report: the GG and HF lines with R's ε and p, and the Holm column.
-    const fs::path dir = temp_dir("r_case");
+    const fs::path dir = test::temp_dir("adaptive_report_r_case");
     SrtReportSettings rs;
     rs.out_dir = dir;
     rs.source = "srt_sphericity.adaptive_trials.csv";

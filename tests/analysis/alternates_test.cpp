@@ -1,14 +1,15 @@
 // Keyword alternates proposed by `avsi corpus import` for review, from the
 // scoring module's inflection and spelling-variant tables (issue 20).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 
 #include "avsi/analysis/alternates.h"
 #include "avsi/core/corpus.h"
-#include "avsi/core/corpus_tools.h"
+#include "avsi/core/keyword_proposals.h"
+#include "avsi/core/word_table.h"
 #include "avsi/core/files.h"
+#include "support/temp_dir.h"
 
 namespace avsi::analysis {
 namespace {
@@ -52,8 +53,7 @@ TEST(Alternates, ImportMarksThemForReviewNotForScoring) {
     EXPECT_EQ(sentence.review, "birch|birches;canoe|canoes;planks|plank");
     EXPECT_NE(o.report.find("canoe: proposed alternates, to review: canoes (plural)"), std::string::npos) << o.report;
     // The review column survives writing and reading the corpus.
-    const auto dir = std::filesystem::temp_directory_path() / ("avsi_alternates_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
+    const auto dir = test::temp_dir("alternates");
     o.corpus.path = dir / "s.csv";
     write_corpus(dir / "s.csv", o.corpus);
     const Corpus back = read_corpus(dir / "s.csv");

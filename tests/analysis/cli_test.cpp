@@ -1,8 +1,6 @@
 // End-to-end: `avsi score`, `avsi analyze` and `avsi power` through the
 // executable (skipped when it has not been built).
-#include <sys/wait.h>
 
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 
@@ -15,35 +13,21 @@
 #include "avsi/core/corpus.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/files.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-    int code = -1;
-    std::string output;  // stdout + stderr
-};
-
-CliRun run_cli(const std::string& args) {
-    CliRun r;
-    const std::string cmd = std::string(AVSI_CLI_PATH) + " " + args + " 2>&1";
-    FILE* pipe = ::popen(cmd.c_str(), "r");
-    if (!pipe) return r;
-    char buffer[4096];
-    while (std::size_t got = std::fread(buffer, 1, sizeof buffer, pipe)) r.output.append(buffer, got);
-    const int status = ::pclose(pipe);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    return r;
-}
+using avsi::test::CliResult;
+using avsi::test::run_avsi;
 
 class Cli : public ::testing::Test {
 protected:
     void SetUp() override {
         if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
-        dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analysis_cli_test");
-        fs::remove_all(dir);
-        fs::create_directories(dir);
+        dir = avsi::test::temp_dir("analysis_cli_test");
     }
     void TearDown() override { fs::remove_all(dir); }
     fs::path dir;
@@ -68,15 +52,15 @@ TEST_F(Cli, ScoreThenAnalyze) {
                                      (t + s) % 2 ? "face" : "audio", t % 2 + 1, t + 1, answers[s][t]);
     avsi::write_text_file(dir / "responses.csv", responses);
 
-    const CliRun score = run_cli(fmt::format("score --corpus {0}/sentences.csv --responses {0}/responses.csv --out {0}/out",
+    const CliResult score = run_avsi(fmt::format("score --corpus {0}/sentences.csv --responses {0}/responses.csv --out {0}/out",
                                       dir.string()));
-    ASSERT_EQ(score.code, 0) << score.output;
+    ASSERT_EQ(score.exit_code, 0) << score.output();
     const auto scores = avsi::read_csv(dir / "out" / "scores.csv");
     EXPECT_EQ(scores.rows.size(), 8u);
 
-    const CliRun analyze = run_cli(fmt::format("analyze {0}/out/scores.csv --out {0}/report", dir.string()));
-    ASSERT_EQ(analyze.code, 0) << analyze.output;
-    EXPECT_NE(analyze.output.find("F(1, 3) = "), std::string::npos) << analyze.output;
+    const CliResult analyze = run_avsi(fmt::format("analyze {0}/out/scores.csv --out {0}/report", dir.string()));
+    ASSERT_EQ(analyze.exit_code, 0) << analyze.output();
+    EXPECT_NE(analyze.output().find("F(1, 3) = "), std::string::npos) << analyze.output();
     EXPECT_TRUE(fs::exists(dir / "report" / "index.html"));
     // glmer.R points at the keywords.csv beside scores.csv.
     EXPECT_NE(avsi::read_text_file(dir / "report" / "glmer.R").find((dir / "out" / "keywords.csv").string()),
@@ -92,9 +76,9 @@ TEST_F(Cli, AnalyzeTakesTheConditionOrderFromTheProtocol) {
             scores += fmt::format("p{},{},45,{},{}\n", s, session_order[c], 20 + 3 * int(c) + s,
                                   100.0 * (20 + 3 * int(c) + s) / 45.0);
     avsi::write_text_file(dir / "scores.csv", scores);
-    const CliRun r = run_cli(fmt::format("analyze {0}/scores.csv --out {0}/report --protocol {1}/beskow2004-en.toml",
+    const CliResult r = run_avsi(fmt::format("analyze {0}/scores.csv --out {0}/report --protocol {1}/beskow2004-en.toml",
                                          dir.string(), AVSI_PROTOCOLS_DIR));
-    ASSERT_EQ(r.code, 0) << r.output;
+    ASSERT_EQ(r.exit_code, 0) << r.output();
     const std::string md = avsi::read_text_file(dir / "report" / "report.md");
     std::size_t previous = 0;
     for (const char* name : {"| audio-only |", "| cohen-massaro |", "| ohman |", "| ann1 |", "| ann2 |", "| rule |"}) {
@@ -103,12 +87,12 @@ TEST_F(Cli, AnalyzeTakesTheConditionOrderFromTheProtocol) {
         EXPECT_GT(at, previous) << name << " out of the protocol's order in\n" << md;
         previous = at;
     }
-    const CliRun both = run_cli(fmt::format("analyze {0}/scores.csv --out {0}/r2 --conditions rule,ohman --protocol {1}/beskow2004-en.toml",
+    const CliResult both = run_avsi(fmt::format("analyze {0}/scores.csv --out {0}/r2 --conditions rule,ohman --protocol {1}/beskow2004-en.toml",
                                             dir.string(), AVSI_PROTOCOLS_DIR));
-    EXPECT_NE(both.code, 0) << both.output;
-    const CliRun typo = run_cli(fmt::format("analyze {0}/scores.csv --out {0}/r3 --conditions rule,ohmann", dir.string()));
-    EXPECT_EQ(typo.code, 1) << typo.output;
-    EXPECT_NE(typo.output.find("did you mean 'ohman'"), std::string::npos) << typo.output;
+    EXPECT_NE(both.exit_code, 0) << both.output();
+    const CliResult typo = run_avsi(fmt::format("analyze {0}/scores.csv --out {0}/r3 --conditions rule,ohmann", dir.string()));
+    EXPECT_EQ(typo.exit_code, 1) << typo.output();
+    EXPECT_NE(typo.output().find("did you mean 'ohman'"), std::string::npos) << typo.output();
     EXPECT_FALSE(fs::exists(dir / "r3"));
 }
 
@@ -125,20 +109,20 @@ TEST_F(Cli, ScoreRuleSetsByNameAndStrictAlias) {
         {"--rules strict", "0"}, {"--strict", "0"}, {"--rules loose", "1"}, {"--rules lenient", "2"}, {"", "0"}};
     for (const auto& [option, correct] : expected) {
         SCOPED_TRACE(option);
-        const CliRun r = run_cli(base + " --out " + (dir / "o").string() + " " + option);
-        ASSERT_EQ(r.code, 0) << r.output;
+        const CliResult r = run_avsi(base + " --out " + (dir / "o").string() + " " + option);
+        ASSERT_EQ(r.exit_code, 0) << r.output();
         const auto scores = avsi::read_csv(dir / "o" / "scores.csv");
         ASSERT_EQ(scores.rows.size(), 1u);
         EXPECT_EQ(scores.rows[0].fields[scores.require_column("correct")], correct);
         const std::string set = option.empty() ? "strict" : option == "--strict" ? "strict" : option.substr(8);
         EXPECT_EQ(scores.rows[0].fields[scores.require_column("rule_set")], set);
-        EXPECT_NE(r.output.find("with the " + set + " rule set"), std::string::npos) << r.output;
+        EXPECT_NE(r.output().find("with the " + set + " rule set"), std::string::npos) << r.output();
     }
-    const CliRun typo = run_cli(base + " --out " + (dir / "x").string() + " --rules lose");
-    EXPECT_EQ(typo.code, 2) << typo.output;
-    EXPECT_NE(typo.output.find("did you mean \"loose\""), std::string::npos) << typo.output;
-    const CliRun both = run_cli(base + " --out " + (dir / "x").string() + " --strict --rules loose");
-    EXPECT_EQ(both.code, 2) << both.output;
+    const CliResult typo = run_avsi(base + " --out " + (dir / "x").string() + " --rules lose");
+    EXPECT_EQ(typo.exit_code, 2) << typo.output();
+    EXPECT_NE(typo.output().find("did you mean \"loose\""), std::string::npos) << typo.output();
+    const CliResult both = run_avsi(base + " --out " + (dir / "x").string() + " --strict --rules loose");
+    EXPECT_EQ(both.exit_code, 2) << both.output();
     EXPECT_FALSE(fs::exists(dir / "x"));
 }
 
@@ -151,11 +135,11 @@ TEST_F(Cli, ScoreAgreementWithASecondScorer) {
                           "p1,1,1,test,a,1,s1,\"the boy pound the gardne\"\n");
     // The second scorer credits only the misspelt garden.
     avsi::write_text_file(dir / "second.csv", "subject,trial,keyword_index,correct\np1,1,1,0\np1,1,2,0\np1,1,3,1\n");
-    const CliRun r = run_cli(fmt::format("score --corpus {0}/sentences.csv --responses {0}/responses.csv --out {0}/o "
+    const CliResult r = run_avsi(fmt::format("score --corpus {0}/sentences.csv --responses {0}/responses.csv --out {0}/o "
                                          "--agreement {0}/second.csv",
                                          dir.string()));
-    ASSERT_EQ(r.code, 0) << r.output;
-    EXPECT_NE(r.output.find("Cohen's kappa"), std::string::npos) << r.output;
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    EXPECT_NE(r.output().find("Cohen's kappa"), std::string::npos) << r.output();
     const auto agreement = avsi::read_csv(dir / "o" / "agreement.csv");
     ASSERT_EQ(agreement.rows.size(), 3u);
     // strict: 0 0 0 vs 0 0 1 -> 2 of 3 agree, kappa NA (the automatic side has one verdict throughout).
@@ -172,8 +156,8 @@ TEST_F(Cli, ScoreAgreementWithASecondScorer) {
 // protocol names is in scores.csv, keywords.csv and the report.
 TEST_F(Cli, DefaultProtocolDryRunReportsItsRuleSet) {
     const std::string protocol = std::string(AVSI_PROTOCOLS_DIR) + "/beskow2004-en.toml";
-    const CliRun design = run_cli(fmt::format("design {} --subjects 1 --out {}/lists.csv", protocol, dir.string()));
-    ASSERT_EQ(design.code, 0) << design.output;
+    const CliResult design = run_avsi(fmt::format("design {} --subjects 1 --out {}/lists.csv", protocol, dir.string()));
+    ASSERT_EQ(design.exit_code, 0) << design.output();
     const auto corpus = avsi::read_corpus(std::string(AVSI_PROTOCOLS_DIR) + "/corpus/sentences.csv");
     const auto lists = avsi::read_csv(dir / "lists.csv");
     std::string responses = "subject,session,trial,phase,condition,list,sentence,response\n";
@@ -194,10 +178,10 @@ TEST_F(Cli, DefaultProtocolDryRunReportsItsRuleSet) {
                                  row.fields[lists.require_column("list")], id, answer);
     }
     avsi::write_text_file(dir / "responses.csv", responses);
-    const CliRun score = run_cli(fmt::format("score --protocol {} --responses {}/responses.csv --out {}/scores", protocol,
+    const CliResult score = run_avsi(fmt::format("score --protocol {} --responses {}/responses.csv --out {}/scores", protocol,
                                              dir.string(), dir.string()));
-    ASSERT_EQ(score.code, 0) << score.output;
-    EXPECT_NE(score.output.find("with the strict rule set"), std::string::npos) << score.output;
+    ASSERT_EQ(score.exit_code, 0) << score.output();
+    EXPECT_NE(score.output().find("with the strict rule set"), std::string::npos) << score.output();
     const auto scores = avsi::read_csv(dir / "scores" / "scores.csv");
     ASSERT_EQ(scores.rows.size(), 6u);
     for (const auto& row : scores.rows) EXPECT_EQ(row.fields[scores.require_column("rule_set")], "strict");
@@ -209,9 +193,9 @@ TEST_F(Cli, DefaultProtocolDryRunReportsItsRuleSet) {
             EXPECT_EQ(row.fields[audit.require_column("correct")], "0");  // strict does not credit them
         }
     EXPECT_GT(typos, 10u);
-    const CliRun analyze = run_cli(fmt::format("analyze {0}/scores/scores.csv --out {0}/report --protocol {1}",
+    const CliResult analyze = run_avsi(fmt::format("analyze {0}/scores/scores.csv --out {0}/report --protocol {1}",
                                                dir.string(), protocol));
-    ASSERT_EQ(analyze.code, 0) << analyze.output;
+    ASSERT_EQ(analyze.exit_code, 0) << analyze.output();
     const std::string report = avsi::read_text_file(dir / "report" / "report.md");
     EXPECT_NE(report.find("Keywords scored with the strict rule set"), std::string::npos) << report;
     EXPECT_NE(avsi::read_text_file(dir / "report" / "index.html").find("strict rule set"), std::string::npos);
@@ -219,52 +203,52 @@ TEST_F(Cli, DefaultProtocolDryRunReportsItsRuleSet) {
 
 TEST_F(Cli, AnalyzeRefusesDatabase) {
     avsi::write_text_file(dir / "session.db", std::string("SQLite format 3\0........", 24));
-    const CliRun r = run_cli(fmt::format("analyze {0}/session.db --out {0}/report", dir.string()));
-    EXPECT_EQ(r.code, 1);
-    EXPECT_NE(r.output.find("avsi export"), std::string::npos) << r.output;
+    const CliResult r = run_avsi(fmt::format("analyze {0}/session.db --out {0}/report", dir.string()));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.output().find("avsi export"), std::string::npos) << r.output();
 }
 
 TEST_F(Cli, PowerIsLabelledSimulation) {
-    const CliRun r = run_cli(fmt::format("power --means 50,60,70 --subjects 6,12 --sentences-per-cell 4 --sims 20 --seed 3 "
+    const CliResult r = run_avsi(fmt::format("power --means 50,60,70 --subjects 6,12 --sentences-per-cell 4 --sims 20 --seed 3 "
                                   "--contrast 2-1 --out {}/power",
                                   dir.string()));
-    ASSERT_EQ(r.code, 0) << r.output;
-    EXPECT_NE(r.output.find("Power by simulation"), std::string::npos);
-    EXPECT_NE(r.output.find("c2 - c1"), std::string::npos);
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    EXPECT_NE(r.output().find("Power by simulation"), std::string::npos);
+    EXPECT_NE(r.output().find("c2 - c1"), std::string::npos);
     EXPECT_TRUE(fs::exists(dir / "power" / "power.csv"));
-    const CliRun bad = run_cli("power --means 50,150");
-    EXPECT_EQ(bad.code, 1);
-    EXPECT_NE(bad.output.find("--means"), std::string::npos) << bad.output;
+    const CliResult bad = run_avsi("power --means 50,150");
+    EXPECT_EQ(bad.exit_code, 1);
+    EXPECT_NE(bad.output().find("--means"), std::string::npos) << bad.output();
 }
 
 TEST_F(Cli, SimulateSrtPrintsBiasAndSpreadAndRefusesShortTracks) {
     const std::string protocol = std::string(AVSI_TEST_DATA_DIR) + "/adaptive/protocol.toml";
-    const CliRun r = run_cli(fmt::format("simulate-srt --protocol {} --sentences 10,20 --listeners 100 --seed 4 --out {}/sim",
+    const CliResult r = run_avsi(fmt::format("simulate-srt --protocol {} --sentences 10,20 --listeners 100 --seed 4 --out {}/sim",
                                          protocol, dir.string()));
-    ASSERT_EQ(r.code, 0) << r.output;
-    EXPECT_NE(r.output.find("SRT by simulation (100 simulated listeners per row, seed 4): sentence scoring"),
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    EXPECT_NE(r.output().find("SRT by simulation (100 simulated listeners per row, seed 4): sentence scoring"),
               std::string::npos)
-        << r.output;
+        << r.output();
     const auto csv = avsi::read_csv(dir / "sim" / "srt_simulation.csv");
     EXPECT_EQ(csv.rows.size(), 4u);  // 2 lengths × (mean, ml)
     EXPECT_TRUE(fs::exists(dir / "sim" / "srt_simulation.png"));
-    const CliRun bad = run_cli(fmt::format("simulate-srt --protocol {} --sentences 3", protocol));
-    EXPECT_EQ(bad.code, 1);
-    EXPECT_NE(bad.output.find("--sentences: expected sentence counts in [6 (srt_from + 1), 1000], got 3"),
+    const CliResult bad = run_avsi(fmt::format("simulate-srt --protocol {} --sentences 3", protocol));
+    EXPECT_EQ(bad.exit_code, 1);
+    EXPECT_NE(bad.output().find("--sentences: expected sentence counts in [6 (srt_from + 1), 1000], got 3"),
               std::string::npos)
-        << bad.output;
-    const CliRun both = run_cli(fmt::format("simulate-srt --protocol {} --procedure word", protocol));
-    EXPECT_EQ(both.code, 2) << both.output;
+        << bad.output();
+    const CliResult both = run_avsi(fmt::format("simulate-srt --protocol {} --procedure word", protocol));
+    EXPECT_EQ(both.exit_code, 2) << both.output();
 }
 
 // Must-show of issue 39: a listener ceiling of 0.63 flags tracks and counts them;
 // --include-unconverged keeps them; a ceiling outside (0, 1] is refused.
 TEST_F(Cli, SimulateSrtWithACeilingCountsTheTracksItLeavesOut) {
-    const CliRun r = run_cli(fmt::format("simulate-srt --ceiling 0.63 --sentences 20 --listeners 200 --out {}/sim",
+    const CliResult r = run_avsi(fmt::format("simulate-srt --ceiling 0.63 --sentences 20 --listeners 200 --out {}/sim",
                                          dir.string()));
-    ASSERT_EQ(r.code, 0) << r.output;
-    EXPECT_NE(r.output.find("ceiling 0.630"), std::string::npos) << r.output;
-    EXPECT_NE(r.output.find("is at or above the ceiling: no threshold exists"), std::string::npos) << r.output;
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    EXPECT_NE(r.output().find("ceiling 0.630"), std::string::npos) << r.output();
+    EXPECT_NE(r.output().find("is at or above the ceiling: no threshold exists"), std::string::npos) << r.output();
     const auto csv = avsi::read_csv(dir / "sim" / "srt_simulation.csv");
     ASSERT_EQ(csv.rows.size(), 2u);
     const int unconverged = std::stoi(csv.rows[0].fields[csv.require_column("unconverged")]);
@@ -272,27 +256,27 @@ TEST_F(Cli, SimulateSrtWithACeilingCountsTheTracksItLeavesOut) {
     EXPECT_GT(unconverged, 20);
     EXPECT_EQ(valid, 200 - unconverged);
     EXPECT_EQ(csv.rows[0].fields[csv.require_column("true_db")], "NA");
-    const CliRun kept = run_cli(fmt::format("simulate-srt --ceiling 0.63 --sentences 20 --listeners 200 "
+    const CliResult kept = run_avsi(fmt::format("simulate-srt --ceiling 0.63 --sentences 20 --listeners 200 "
                                             "--include-unconverged --out {}/kept", dir.string()));
-    ASSERT_EQ(kept.code, 0) << kept.output;
+    ASSERT_EQ(kept.exit_code, 0) << kept.output();
     const auto kept_csv = avsi::read_csv(dir / "kept" / "srt_simulation.csv");
     EXPECT_EQ(kept_csv.rows[0].fields[kept_csv.require_column("valid")], "200");
     EXPECT_EQ(std::stoi(kept_csv.rows[0].fields[kept_csv.require_column("unconverged")]), unconverged);
-    const CliRun bad = run_cli("simulate-srt --ceiling 1.5");
-    EXPECT_EQ(bad.code, 1);
-    EXPECT_NE(bad.output.find("--ceiling: expected a proportion in (0, 1], got 1.5"), std::string::npos) << bad.output;
+    const CliResult bad = run_avsi("simulate-srt --ceiling 1.5");
+    EXPECT_EQ(bad.exit_code, 1);
+    EXPECT_NE(bad.output().find("--ceiling: expected a proportion in (0, 1], got 1.5"), std::string::npos) << bad.output();
 }
 
 TEST_F(Cli, AnalyzeOfAdaptiveTrialsNeedsTheProtocol) {
     avsi::write_text_file(dir / "adaptive_trials.csv",
                     "subject,condition,presentation,level_db,keywords,correct\n1,audio-only,1,0,3,3\n");
-    const CliRun r = run_cli(fmt::format("analyze {}/adaptive_trials.csv --out {}/r", dir.string(), dir.string()));
-    EXPECT_EQ(r.code, 2) << r.output;
-    EXPECT_NE(r.output.find("--protocol"), std::string::npos) << r.output;
-    const CliRun dv = run_cli(fmt::format("analyze {}/adaptive_trials.csv --dv level_db --protocol {}/adaptive/protocol.toml",
+    const CliResult r = run_avsi(fmt::format("analyze {}/adaptive_trials.csv --out {}/r", dir.string(), dir.string()));
+    EXPECT_EQ(r.exit_code, 2) << r.output();
+    EXPECT_NE(r.output().find("--protocol"), std::string::npos) << r.output();
+    const CliResult dv = run_avsi(fmt::format("analyze {}/adaptive_trials.csv --dv level_db --protocol {}/adaptive/protocol.toml",
                                           dir.string(), AVSI_TEST_DATA_DIR));
-    EXPECT_EQ(dv.code, 2) << dv.output;
-    EXPECT_NE(dv.output.find("--dv: adaptive_trials.csv is analysed as SRTs"), std::string::npos) << dv.output;
+    EXPECT_EQ(dv.exit_code, 2) << dv.output();
+    EXPECT_NE(dv.output().find("--dv: adaptive_trials.csv is analysed as SRTs"), std::string::npos) << dv.output();
 }
 
 TEST_F(Cli, AnalyzeAnyDependentVariableReproducesTheReferenceAnova) {
@@ -308,8 +292,8 @@ TEST_F(Cli, AnalyzeAnyDependentVariableReproducesTheReferenceAnova) {
                fmt::format("{:.12g}", 0.5 * *avsi::parse_double(row.fields[in.require_column("percent")]) - 20.0) +
                "\n";
     avsi::write_text_file(dir / "long.csv", csv);
-    const CliRun r = run_cli("analyze " + (dir / "long.csv").string() + " --dv score --out " + (dir / "report").string());
-    ASSERT_EQ(r.code, 0) << r.output;
+    const CliResult r = run_avsi("analyze " + (dir / "long.csv").string() + " --dv score --out " + (dir / "report").string());
+    ASSERT_EQ(r.exit_code, 0) << r.output();
     const auto doc = nlohmann::json::parse(avsi::read_text_file(dir / "report" / "anova.json"));
     const auto expected = nlohmann::json::parse(
         avsi::read_text_file(fs::path(AVSI_TEST_DATA_DIR) / "analysis" / "balanced.expected.json"));
@@ -324,16 +308,16 @@ TEST_F(Cli, AnalyzeAnyDependentVariableReproducesTheReferenceAnova) {
                 1e-9);
     EXPECT_NEAR(doc["anova"]["partial_eta_squared"].get<double>(), expected["pes"].get<double>(), 1e-9);
     // The default dependent variable is percent: this file has none, and says so.
-    const CliRun missing = run_cli("analyze " + (dir / "long.csv").string() + " --out " + (dir / "r2").string());
-    EXPECT_EQ(missing.code, 1);
-    EXPECT_NE(missing.output.find("percent"), std::string::npos) << missing.output;
+    const CliResult missing = run_avsi("analyze " + (dir / "long.csv").string() + " --out " + (dir / "r2").string());
+    EXPECT_EQ(missing.exit_code, 1);
+    EXPECT_NE(missing.output().find("percent"), std::string::npos) << missing.output();
     // Only percent is held to [0, 100]; a non-number in the score column names file:line:column.
     avsi::write_text_file(dir / "bad.csv", "subject,condition,score\ns1,a,-3.5\ns1,b,x\n");
-    const CliRun bad = run_cli("analyze " + (dir / "bad.csv").string() + " --dv score --out " + (dir / "r3").string());
-    EXPECT_EQ(bad.code, 1);
-    EXPECT_NE(bad.output.find("bad.csv:3:3: error: score: expected a number or NA, got \"x\""), std::string::npos)
-        << bad.output;
-    EXPECT_EQ(bad.output.find("bad.csv:2:"), std::string::npos) << bad.output;  // -3.5 is fine
+    const CliResult bad = run_avsi("analyze " + (dir / "bad.csv").string() + " --dv score --out " + (dir / "r3").string());
+    EXPECT_EQ(bad.exit_code, 1);
+    EXPECT_NE(bad.output().find("bad.csv:3:3: error: score: expected a number or NA, got \"x\""), std::string::npos)
+        << bad.output();
+    EXPECT_EQ(bad.output().find("bad.csv:2:"), std::string::npos) << bad.output();  // -3.5 is fine
 }
 
 }  // namespace

@@ -3,13 +3,12 @@
 #include <filesystem>
 #include <map>
 
-#include <unistd.h>
-
 #include <gtest/gtest.h>
 
 #include "avsi/analysis/power.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "support/temp_dir.h"
 
 #include <cmath>
 
@@ -81,9 +80,7 @@ TEST(Power, ConditionSdZeroReproducesTheEarlierNumbers) {
     s.simulations = 500;
     s.seed = 39;
     s.condition_sd = 0.0;
-    const std::filesystem::path dir =
-        std::filesystem::temp_directory_path() / ("avsi_power_sd0_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
+    const std::filesystem::path dir = test::temp_dir("power_sd0");
     write_power_files(dir, simulate_power(s));
     EXPECT_EQ(read_text_file(dir / "power.csv"),
               read_text_file(std::filesystem::path(AVSI_TEST_DATA_DIR) / "analysis" / "power_sd0.csv"));
@@ -157,8 +154,7 @@ TEST(Power, ParsesOptions) {
 
 TEST(Power, EveryOutputSaysSimulation) {
     const auto r = simulate_power(small({50, 70}, 20));
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_power_test");
-    std::filesystem::remove_all(dir);
+    const auto dir = test::temp_dir("power_test");
     write_power_files(dir, r);
     for (const char* f : {"power.csv", "power.json", "power.txt"}) {
         SCOPED_TRACE(f);

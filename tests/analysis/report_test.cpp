@@ -7,8 +7,6 @@
 #include <algorithm>
 #include <cctype>
 
-#include <unistd.h>
-
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -16,6 +14,7 @@
 #include "avsi/analysis/scores.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "support/temp_dir.h"
 
 namespace avsi::analysis {
 namespace {
@@ -25,8 +24,7 @@ namespace fs = std::filesystem;
 class Report : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
-        dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_report_test");
-        fs::remove_all(dir);
+        dir = test::temp_dir("report_test");
         AnalyzeSettings s;
         s.input = AVSI_TEST_DATA_DIR "/analysis/balanced.csv";
         s.out_dir = dir / "report";
@@ -154,7 +152,7 @@ TEST(ReportSphericity, HuynhFeldtWithTwoSubjectsIsNotEstimableNotNan) {
     const AnalysisResult r = analyze(data);
     EXPECT_FALSE(r.anova.huynh_feldt.epsilon.has_value());
     ASSERT_TRUE(r.anova.greenhouse_geisser.epsilon.has_value());
-    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_report_hf_n2");
+    const fs::path dir = test::temp_dir("report_hf_n2");
     ReportSettings s;
     s.out_dir = dir;
     write_report(r, s);
@@ -169,9 +167,7 @@ TEST(ReportSphericity, HuynhFeldtWithTwoSubjectsIsNotEstimableNotNan) {
 }
 
 TEST(ReportTiming, CertificateSectionAndExclusionOfFailingSubjects) {
-    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_report_timing");
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("report_timing");
     const std::string header =
         "subject,verdict,trials,frames_total,frames_shown,dropped_frames,dropped_share,repeated_frames,offset_frames,"
         "offset_min_ms,offset_p5_ms,offset_median_ms,offset_mean_ms,offset_p95_ms,offset_max_ms,audio_leading_frames,"
@@ -236,11 +232,12 @@ TEST(Apa, FormatsLikeThePaper) {
 }
 
 TEST(AnalyzeFile, RefusesSessionDatabaseWithAdvice) {
-    const fs::path db = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_refuse.sqlite");
+    const fs::path dir = test::temp_dir("analyze_refuse");
+    const fs::path db = dir / "session.sqlite";
     write_text_file(db, std::string("SQLite format 3\0rest-of-header-bytes", 36));
     AnalyzeSettings s;
     s.input = db;
-    s.out_dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_refuse_out");
+    s.out_dir = dir / "report";
     try {
         analyze_file(s);
         FAIL() << "expected InputError";
@@ -249,14 +246,11 @@ TEST(AnalyzeFile, RefusesSessionDatabaseWithAdvice) {
         EXPECT_NE(std::string(e.what()).find("avsi score"), std::string::npos);
     }
     EXPECT_FALSE(fs::exists(s.out_dir));
-    fs::remove(db);
+    fs::remove_all(dir);
 }
 
-
 TEST(AnalyzeFile, OneSubjectDryRunGivesPilotReportWithPooledPercent) {
-    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_pilot");
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("analyze_pilot");
     write_text_file(dir / "scores.csv",
                     "subject,condition,keywords,correct,percent\n"
                     "s01,audio,45,9,20\n"
@@ -279,9 +273,7 @@ TEST(AnalyzeFile, OneSubjectDryRunGivesPilotReportWithPooledPercent) {
 }
 
 TEST(AnalyzeFile, ConditionsListOrdersAndSelectsTheAnalysedConditions) {
-    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_order");
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("analyze_order");
     write_text_file(dir / "scores.csv",
                     "subject,condition,keywords,correct,percent\n"
                     "s01,rule,45,30,66.7\ns01,audio,45,20,44.4\ns01,face,45,25,55.6\n"
@@ -318,8 +310,7 @@ TEST(AnalyzeFile, ConditionsListOrdersAndSelectsTheAnalysedConditions) {
 }
 
 TEST(AnalyzeFile, OneConditionIsStillAnError) {
-    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_analyze_onecond");
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("analyze_onecond");
     write_text_file(dir / "scores.csv", "subject,condition,keywords,correct,percent\ns01,audio,45,9,20\n");
     AnalyzeSettings s;
     s.input = dir / "scores.csv";

@@ -166,25 +166,6 @@ TEST(Inflection, CorpusWordsWordNetLacksAreBasesButFormsAreNot) {
     EXPECT_EQ(with_corpus.score(sentence_of("rang"), "rung")[0].rule, MatchRule::Inflection);  // both forms of ring
 }
 
-TEST(Inflection, RegularSpellingRules) {
-    using V = std::vector<std::string>;
-    EXPECT_EQ(Inflections::regular_forms("boy", Suffix::S), V{"boys"});
-    EXPECT_EQ(Inflections::regular_forms("box", Suffix::S), V{"boxes"});
-    EXPECT_EQ(Inflections::regular_forms("baby", Suffix::S), V{"babies"});
-    EXPECT_EQ(Inflections::regular_forms("potato", Suffix::S), (V{"potatoes", "potatos"}));
-    EXPECT_EQ(Inflections::regular_forms("bake", Suffix::Ed), V{"baked"});
-    EXPECT_EQ(Inflections::regular_forms("carry", Suffix::Ed), V{"carried"});
-    EXPECT_EQ(Inflections::regular_forms("stop", Suffix::Ed), V{"stopped"});   // one syllable: doubled
-    EXPECT_EQ(Inflections::regular_forms("hat", Suffix::Ed), V{"hatted"});     // so hated is not hat + ed
-    EXPECT_EQ(Inflections::regular_forms("travel", Suffix::Ed), (V{"travelled", "traveled"}));
-    EXPECT_EQ(Inflections::regular_forms("help", Suffix::Ed), V{"helped"});
-    EXPECT_EQ(Inflections::regular_forms("bake", Suffix::Ing), V{"baking"});
-    EXPECT_EQ(Inflections::regular_forms("see", Suffix::Ing), V{"seeing"});
-    EXPECT_EQ(Inflections::regular_forms("die", Suffix::Ing), V{"dying"});
-    EXPECT_EQ(Inflections::regular_forms("run", Suffix::Ing), V{"running"});
-    EXPECT_EQ(Inflections::regular_forms("visit", Suffix::Ing), (V{"visitting", "visiting"}));
-}
-
 TEST(Inflection, LemmasNeedARealBaseOfTheRightPartOfSpeech) {
     const Inflections inf = Inflections::read_default();
     EXPECT_GT(inf.irregular_count(), 500u);

@@ -14,6 +14,7 @@
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "support/temp_dir.h"
 
 namespace avsi::analysis {
 namespace {
@@ -236,10 +237,7 @@ TEST(Kappa, MatchesHandComputation) {
 class ScoreFiles : public ::testing::Test {
 protected:
     void SetUp() override {
-        dir = std::filesystem::temp_directory_path() /
-              ("avsi_scoring_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-        std::filesystem::remove_all(dir);
-        std::filesystem::create_directories(dir);
+        dir = test::temp_dir("scoring_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
         write_text_file(dir / "sentences.csv",
                         "id,text,keywords\n"
                         "s1,\"The dog barked at the mailman.\",\"dog|dogs;barked;mailman|postman\"\n"

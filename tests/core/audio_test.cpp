@@ -1,7 +1,5 @@
 #include "avsi/core/audio.h"
 
-#include <unistd.h>
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -15,6 +13,7 @@
 #include "avsi/core/audio_stream.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -46,9 +45,8 @@ class AudioRoundTrip : public ::testing::TestWithParam<Case> {};
 
 TEST_P(AudioRoundTrip, ReadsBackWhatWasWritten) {
     const Case c = GetParam();
-    const fs::path path = fs::temp_directory_path() /
-                          ("avsi_audio_" + std::to_string(::getpid()) + "_" + std::to_string(c.rate) +
-                           "_" + std::to_string(static_cast<int>(c.format)) + c.ext);
+    const fs::path path = test::temp_dir("audio_roundtrip") /
+                          (std::to_string(c.rate) + "_" + std::to_string(static_cast<int>(c.format)) + c.ext);
     const Audio in = make_tone(c.rate, c.channels, 0.25);
     write_audio(path, in, c.format);
     const Audio out = read_audio(path);
@@ -81,7 +79,8 @@ TEST(Audio, MonoAveragesChannels) {
 }
 
 TEST(Audio, UnreadableFilesAreInputErrorsNamingTheFile) {
-    const fs::path bogus = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_not_audio.wav");
+    const fs::path dir = test::temp_dir("audio_unreadable");
+    const fs::path bogus = dir / "not_audio.wav";
     write_text_file(bogus, "this is not a wav file");
     try {
         read_audio(bogus);
@@ -90,7 +89,7 @@ TEST(Audio, UnreadableFilesAreInputErrorsNamingTheFile) {
         EXPECT_EQ(e.first().path, bogus.string());
     }
     EXPECT_THROW(read_audio("/nonexistent/x.wav"), InputError);
-    EXPECT_THROW(write_audio(fs::temp_directory_path() / (std::to_string(::getpid()) + "_x.mp3"), Audio{8000, 1, {0.0f}}), InputError);
+    EXPECT_THROW(write_audio(dir / "x.mp3", Audio{8000, 1, {0.0f}}), InputError);
     fs::remove(bogus);
 }
 
@@ -99,8 +98,8 @@ TEST(Audio, UnreadableFilesAreInputErrorsNamingTheFile) {
 // log); a WAV whose sizes are the 0xFFFFFFFF placeholder of a writer that
 // could not go back to fill them in reads.
 TEST(Audio, TruncatedWavIsRefusedNamingBothLengths) {
-    const fs::path whole = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_whole.wav");
-    const fs::path cut = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_cut.wav");
+    const fs::path dir = test::temp_dir("audio_truncated");
+    const fs::path whole = dir / "whole.wav", cut = dir / "cut.wav";
     write_audio(whole, make_tone(16000, 1, 1.0));
     const std::string bytes = read_text_file(whole);  // 44-byte header, 32000 bytes of samples
     write_text_file(cut, bytes.substr(0, 44 + 8000));
@@ -133,7 +132,7 @@ TEST(Audio, TruncatedWavIsRefusedNamingBothLengths) {
 // reader and the block reader alike, naming the frame and the channel (a
 // vocoder run on it wrote a file of full-scale negative samples).
 TEST(Audio, FloatFilesWithNonFiniteSamplesAreRefusedNamingTheSample) {
-    const fs::path path = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_nonfinite.wav");
+    const fs::path path = test::temp_dir("audio_nonfinite") / "nonfinite.wav";
     for (const float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
                             -std::numeric_limits<float>::infinity()}) {
         Audio a = make_tone(8000, 2, 1.0);
@@ -202,9 +201,8 @@ TEST(AudioStream, SixteenBitSamplesMadeHereGiveLibsndfilesFile) {
     for (int channels : {1, 2}) {
         SCOPED_TRACE(channels);
         const std::size_t frames = values.size() / static_cast<std::size_t>(channels);
-        const std::string stem = "avsi_pcm16_" + std::to_string(::getpid()) + "_" + std::to_string(channels);
-        const fs::path theirs = fs::temp_directory_path() / (stem + "_libsndfile.wav");
-        const fs::path ours = fs::temp_directory_path() / (stem + "_ours.wav");
+        const fs::path dir = test::temp_dir("audio_pcm16");
+        const fs::path theirs = dir / "libsndfile.wav", ours = dir / "ours.wav";
         {
             AudioFileWriter out(theirs, 22050, channels);
             out.write(values.data(), frames);
@@ -230,8 +228,8 @@ TEST(AudioStream, SixteenBitSamplesMadeHereGiveLibsndfilesFile) {
 
 // Only a 16-bit WAV takes ready-made 16-bit samples.
 TEST(AudioStream, OnlySixteenBitWavTakesSixteenBitSamples) {
-    const fs::path dir = fs::temp_directory_path();
-    const std::string stem = "avsi_takes_" + std::to_string(::getpid());
+    const fs::path dir = test::temp_dir("audio_takes");
+    const std::string stem = "takes";
     struct Kind {
         const char* ext;
         SampleFormat format;
@@ -255,8 +253,7 @@ TEST(AudioStream, SixteenBitWavGivesSamplesWhoseFloatsAreThemOver32768) {
     for (int v = -32768; v <= 32767; ++v) every.push_back(static_cast<std::int16_t>(v));
     for (int channels : {1, 2}) {
         SCOPED_TRACE(channels);
-        const fs::path path = fs::temp_directory_path() /
-                              ("avsi_gives_" + std::to_string(::getpid()) + "_" + std::to_string(channels) + ".wav");
+        const fs::path path = test::temp_dir("audio_gives") / (std::to_string(channels) + ".wav");
         const std::size_t frames = every.size() / static_cast<std::size_t>(channels);
         {
             AudioFileWriter out(path, 16000, channels);
@@ -280,8 +277,8 @@ TEST(AudioStream, SixteenBitWavGivesSamplesWhoseFloatsAreThemOver32768) {
         EXPECT_EQ(differing, 0u);
         fs::remove(path);
     }
-    const fs::path dir = fs::temp_directory_path();
-    const std::string stem = "avsi_gives_" + std::to_string(::getpid());
+    const fs::path dir = test::temp_dir("audio_gives");
+    const std::string stem = "gives";
     for (auto [ext, format] : {std::pair{".wav", SampleFormat::Pcm24}, std::pair{".wav", SampleFormat::Float32},
                                std::pair{".flac", SampleFormat::Pcm16}}) {
         const fs::path path = dir / (stem + ext);

@@ -6,14 +6,17 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
 
 namespace fs = std::filesystem;
 
+// `text` as the file `name` in this process's folder (ctest runs each test in a process of its own).
 fs::path write_temp(const std::string& name, const std::string& text) {
-    const fs::path p = fs::temp_directory_path() / ("avsi_corpus_" + std::to_string(::getpid())) / name;
+    static const fs::path dir = test::temp_dir("corpus");
+    const fs::path p = dir / name;
     write_text_file(p, text);
     return p;
 }

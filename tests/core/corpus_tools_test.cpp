@@ -1,9 +1,9 @@
-// Corpus tools (core/corpus_tools.h) and the shipped English corpus and
+// Corpus tools (core/word_table.h, sentence_profile.h, list_balance.h,
+// keyword_proposals.h) and the shipped English corpus and
 // protocol: word lookup, viseme classes, the one-way ANOVA, the seeded list
 // balancing, keyword proposals, and the properties the study's material needs
 // (protocols/corpus/sentences.csv, protocols/beskow2004-en.toml).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -12,11 +12,14 @@
 #include <set>
 
 #include "avsi/core/corpus.h"
-#include "avsi/core/corpus_tools.h"
+#include "avsi/core/keyword_proposals.h"
+#include "avsi/core/list_balance.h"
+#include "avsi/core/word_table.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/protocol.h"
 #include "avsi/core/rng.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -195,8 +198,7 @@ TEST(ImportSentences, RanksOrdinaryWordsByARealFrequency) {
 }
 
 TEST(ImportSentences, NumberedAndHeadedListsAsPeopleWriteThem) {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_import_lists_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("import_lists");
     write_text_file(dir / "harvard.md",
                     "# Harvard sentences, as typed by a lab\n"
                     "## List 1\n"

@@ -5,18 +5,14 @@
 #include <filesystem>
 
 #include "avsi/core/error.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path temp_dir(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_test_" + name + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+using test::temp_dir;
 
 TEST(Files, WriteThenReadRoundTripsAndCreatesFolders) {
     const auto dir = temp_dir("files");

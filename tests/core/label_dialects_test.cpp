@@ -5,7 +5,6 @@
 // file the test writes, and a damaged copy of each refused at file:line. Also
 // the plausibility check of label times (a file in the wrong unit).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <string>
@@ -14,6 +13,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -23,9 +23,7 @@ namespace fs = std::filesystem;
 class LabelDialects : public ::testing::Test {
 protected:
     void SetUp() override {
-        dir = fs::temp_directory_path() / ("avsi_label_dialects_" + std::to_string(::getpid()));
-        fs::remove_all(dir);
-        fs::create_directories(dir);
+        dir = test::temp_dir("label_dialects");
     }
     void TearDown() override { fs::remove_all(dir); }
 

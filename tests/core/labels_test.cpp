@@ -3,7 +3,6 @@
 #include "avsi/core/labels.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -11,6 +10,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/rng.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -18,12 +18,6 @@ namespace {
 namespace fs = std::filesystem;
 
 const fs::path data_dir = fs::path(AVSI_TEST_DATA_DIR) / "core";
-
-fs::path temp_dir() {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_labels_test_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
-    return dir;
-}
 
 // UTF-8 to UTF-16 with a BOM (test helper; input is valid UTF-8).
 std::string to_utf16(const std::string& utf8, bool big_endian) {
@@ -81,7 +75,7 @@ TEST(TextGrid, ShortFormatReadsTheSameAsLong) {
 TEST(TextGrid, ReadsUtf16AndUtf8WithBom) {
     const std::string utf8 = read_text_file(data_dir / "mfa_ipa.TextGrid");
     const TextGrid want = read_textgrid(data_dir / "mfa_ipa.TextGrid");
-    const fs::path dir = temp_dir();
+    const fs::path dir = test::temp_dir("labels_test");
     write_text_file(dir / "le.TextGrid", to_utf16(utf8, false));
     write_text_file(dir / "be.TextGrid", to_utf16(utf8, true));
     write_text_file(dir / "bom.TextGrid", "\xEF\xBB\xBF" + utf8);
@@ -103,7 +97,7 @@ TEST(TextGrid, WrittenGridReadsBackIdentically) {
                    {1.0 / 7.0 + 1.0, grid.end_s, "two\nlines", 0}};
     Tier marks{"marks", false, 0.0, grid.end_s, {{0.123456789012345, 0.123456789012345, "x", 0}}};
     grid.tiers = {words, marks};
-    const fs::path dir = temp_dir();
+    const fs::path dir = test::temp_dir("labels_test");
     write_textgrid(dir / "out.TextGrid", grid);
     EXPECT_EQ(read_textgrid(dir / "out.TextGrid"), grid);
     TextGrid empty;
@@ -151,7 +145,7 @@ INSTANTIATE_TEST_SUITE_P(
 TEST(TextGrid, DamagedFilesNeverCrash) {
     // Property: every truncation and seeded byte damage of a valid TextGrid
     // either reads or throws InputError naming the file.
-    const fs::path dir = temp_dir();
+    const fs::path dir = test::temp_dir("labels_test");
     const fs::path path = dir / "damaged.TextGrid";
     for (const char* name : {"long.TextGrid", "short.TextGrid"}) {
         const std::string good = read_text_file(data_dir / name);
@@ -254,7 +248,7 @@ TEST(Labels, PhoneFilesRoundTrip) {
     const PhoneSequence phones = {{"sil", 0.0, 0.1, false},       {"K", 0.1, 1.0 / 3.0, false},
                                   {"AH", 1.0 / 3.0, 0.4, true},    {"M", 0.4, 0.51, false},
                                   {"ER", 0.51, 0.6 + 1e-9, false}, {"sil", 0.6 + 1e-9, 0.9, false}};
-    const fs::path dir = temp_dir();
+    const fs::path dir = test::temp_dir("labels_test");
     write_phones_textgrid(dir / "p.TextGrid", phones);
     EXPECT_EQ(read_phones(dir / "p.TextGrid"), phones);
     write_phones_tsv(dir / "p.tsv", phones);

@@ -2,8 +2,6 @@
 // §4.4), label parsing, and the espeak-ng / MFA IPA mappings (phone_map.tsv).
 #include "avsi/core/phones.h"
 
-#include <unistd.h>
-
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -11,6 +9,7 @@
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -214,8 +213,7 @@ TEST(PhoneMap, UnknownIpaNamesTheLabel) {
 }
 
 TEST(PhoneInventoryLoad, MalformedTablesReportFileAndLine) {
-    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_phones_test");
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("phones_test");
     const std::string header =
         "symbol\tclass\tipa\texample\tvowel\tbilabial\tlabiodental\tdental\tretroflex\talveolar\tvelar\t"
         "nasal\tfricative\tstop\trelease\tvoiced\topen\tfront\trounded\tprotruded\tstress\n";

@@ -3,12 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
-#include <unistd.h>
 #include <filesystem>
 #include <string>
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -73,8 +73,7 @@ TEST(Protocol, LoadsAValidProtocol) {
 // [corpus] tts = "<engine>:<voice>" (or the older voice = "<espeak-ng voice>"):
 // read into engine and voice; mistakes reported at the key.
 TEST(Protocol, TtsKeyNamesEngineAndVoice) {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_protocol_tts_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("protocol_tts");
     fs::copy_file(data_dir / "corpus.csv", dir / "corpus.csv", fs::copy_options::overwrite_existing);
     const auto load = [&](const std::string& corpus_keys) {
         write_text_file(dir / "p.toml", "[experiment]\nname = \"t\"\n\n[corpus]\nsentences = \"corpus.csv\"\n" +

@@ -21,7 +21,8 @@
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/onsets.h"
-#include "../cli_run.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -243,12 +244,10 @@ TEST(Tts, FirstUtteranceOfAProcessIsTheSameAsALaterOne) {
     (void)synthesize_speech("One.");
     (void)synthesize_speech("Two.");
     const TtsResult later = synthesize_speech(text);
-    const auto dir = std::filesystem::temp_directory_path() / ("avsi_tts_first_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
+    const auto dir = test::temp_dir("tts_first");
     const test::CliResult r = test::run_avsi("phones --text " + test::shell_quote(text) + " --wav " +
-                                                 test::shell_quote((dir / "s.wav").string()) + " --out " +
-                                                 test::shell_quote((dir / "s.tsv").string()),
-                                             dir);
+                                             test::shell_quote((dir / "s.wav").string()) + " --out " +
+                                             test::shell_quote((dir / "s.tsv").string()));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const Audio first = read_audio(dir / "s.wav");
     const PhoneSequence first_phones = read_phones(dir / "s.tsv");
@@ -379,9 +378,7 @@ TEST(TtsFestival, ConcurrentCallsGiveTheSameSpeechAsSequentialOnes) {
 // the voice if Festival loaded it. (ctest runs each test in a process of its
 // own, so the Festival server starts here, with this HOME.)
 TEST(TtsFestival, IgnoresTheUsersFestivalrc) {
-    const std::filesystem::path home =
-        std::filesystem::temp_directory_path() / ("avsi_festivalrc_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(home);
+    const std::filesystem::path home = test::temp_dir("festivalrc");
     write_text_file(home / ".festivalrc", "(set! voice_cmu_us_slt_arctic_hts nil)\n(set! voice_kal_diphone nil)\n");
     const char* old_home = std::getenv("HOME");
     const std::string saved = old_home ? old_home : "";

@@ -4,12 +4,9 @@
 // `avsi corpus import` and `avsi corpus balance` write corpora the loader
 // reads; `avsi design` accepts the shipped protocol for the study's 25 subjects.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -21,7 +18,8 @@
 #include "avsi/core/files.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/tts.h"
-#include "../cli_run.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -31,13 +29,7 @@ namespace fs = std::filesystem;
 using RunResult = test::CliResult;
 using test::run_avsi;
 
-fs::path work_dir(const std::string& name) {
-    const fs::path dir =
-        fs::temp_directory_path() / ("avsi_e2e_corpus_" + std::to_string(::getpid())) / name;
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+fs::path work_dir(const std::string& name) { return test::temp_dir("e2e_corpus_" + name); }
 
 std::string quote(const std::string& s) { return test::shell_quote(s); }
 
@@ -79,8 +71,7 @@ TEST(UserCorpus, WavAndTextGridRecordingsReplaceTtsWithNoCodeChange) {
                                                "[render]\nfps = 30\nwidth = 64\nheight = 48\n");
 
     const RunResult r = run_avsi("build-stimuli " + quote((dir / "protocol.toml").string()) + " --out " +
-                                     quote((dir / "stimuli").string()) + " --jobs 1",
-                                 dir);
+                                     quote((dir / "stimuli").string()) + " --jobs 1");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto manifest = nlohmann::json::parse(read_text_file(dir / "stimuli" / "manifest.json"));
     ASSERT_EQ(manifest["stimuli"].size(), 4u);
@@ -115,8 +106,7 @@ TEST(CorpusImport, ProposesKeywordsAndWritesACorpusTheLoaderReads) {
     write_text_file(dir / "sentences.txt",
                     "# a user's unmarked list\nThe old man walked with a stick.\n\nIt is in the box.\n");
     const RunResult r = run_avsi("corpus import " + quote((dir / "sentences.txt").string()) + " --out " +
-                                     quote((dir / "corpus.csv").string()),
-                                 dir);
+                                     quote((dir / "corpus.csv").string()));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const Corpus c = read_corpus(dir / "corpus.csv");
     ASSERT_EQ(c.sentences.size(), 2u);
@@ -126,7 +116,7 @@ TEST(CorpusImport, ProposesKeywordsAndWritesACorpusTheLoaderReads) {
     EXPECT_NE(r.out.find("only 1 of 3: check by hand"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("syllables: 5  <- outside 7–9"), std::string::npos) << r.out;
 
-    const RunResult missing = run_avsi("corpus import " + quote((dir / "nope.txt").string()) + " --out x.csv", dir);
+    const RunResult missing = run_avsi("corpus import " + quote((dir / "nope.txt").string()) + " --out x.csv");
     EXPECT_EQ(missing.exit_code, 2) << missing.err;
 }
 
@@ -145,7 +135,7 @@ TEST(CorpusBalance, AssignsBalancedListsAndWritesTheReport) {
     const std::string args = "corpus balance " + quote((dir / "in.csv").string()) + " --out " +
                              quote((dir / "out.csv").string()) + " --report " + quote((dir / "balance.md").string()) +
                              " --lists 2 --per-list 3 --restarts 2 --iterations 500 --seed 9";
-    const RunResult r = run_avsi(args, dir);
+    const RunResult r = run_avsi(args);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const Corpus c = read_corpus(dir / "out.csv");
     std::map<std::string, int> count;
@@ -159,7 +149,7 @@ TEST(CorpusBalance, AssignsBalancedListsAndWritesTheReport) {
     EXPECT_NE(report.find("--seed 9"), std::string::npos) << report;
     // Deterministic: the same command gives the same lists.
     const std::string first = read_text_file(dir / "out.csv");
-    ASSERT_EQ(run_avsi(args, dir).exit_code, 0);
+    ASSERT_EQ(run_avsi(args).exit_code, 0);
     EXPECT_EQ(read_text_file(dir / "out.csv"), first);
 }
 
@@ -170,8 +160,7 @@ TEST(ShippedCorpus, BalanceCommandReproducesTheCommittedListsAndReport) {
     const fs::path corpus = fs::path(AVSI_PROTOCOLS_DIR) / "corpus";
     const RunResult r = run_avsi("corpus balance " + quote((corpus / "sentences.csv").string()) + " --out " +
                                      quote((dir / "sentences.csv").string()) + " --report " +
-                                     quote((dir / "balance.md").string()),
-                                 dir);
+                                     quote((dir / "balance.md").string()));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const Corpus shipped = read_corpus(corpus / "sentences.csv");
     const Corpus again = read_corpus(dir / "sentences.csv");
@@ -185,8 +174,7 @@ TEST(ShippedCorpus, BalanceCommandReproducesTheCommittedListsAndReport) {
 TEST(ShippedProtocol, DesignsListsForTheStudysTwentyFiveSubjects) {
     const fs::path dir = work_dir("design");
     const RunResult r = run_avsi("design " + quote(std::string(AVSI_PROTOCOLS_DIR) + "/beskow2004-en.toml") +
-                                     " --subjects 25 --out " + quote((dir / "lists.csv").string()),
-                                 dir);
+                                     " --subjects 25 --out " + quote((dir / "lists.csv").string()));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string lists = read_text_file(dir / "lists.csv");
     // 25 subjects × (15 warm-up + 6 practice + 90 test) trials, one line each plus the header.

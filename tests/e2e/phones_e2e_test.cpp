@@ -1,11 +1,8 @@
 // `avsi phones` end to end: text and label-file inputs, exit codes 0/1/2, and
 // compiler-style error messages for malformed label files.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -15,7 +12,8 @@
 #include "avsi/core/labels.h"
 #include "avsi/core/phones.h"
 #include "avsi/core/tts.h"
-#include "../cli_run.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace avsi {
 namespace {
@@ -26,16 +24,15 @@ using RunResult = test::CliResult;
 
 const fs::path data_dir = fs::path(AVSI_TEST_DATA_DIR) / "core";
 
+// The folder of this process's tests (ctest runs each test in a process of its own).
 fs::path work_dir() {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_e2e_phones_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
+    static const fs::path dir = test::temp_dir("e2e_phones");
     return dir;
 }
 
 std::string quote(const std::string& s) { return test::shell_quote(s); }
 
-// Runs `avsi <args>` with stdout and stderr captured to files.
-RunResult run_avsi(const std::string& args) { return test::run_avsi(args, work_dir()); }
+using test::run_avsi;
 
 TEST(PhonesCli, TextGivesWavAndContiguousPhonesCoveringIt) {
     const fs::path dir = work_dir();
@@ -59,12 +56,9 @@ TEST(PhonesCli, PipesIntoStream) {
     // `avsi phones … --out - | avsi stream`: the TSV with its header on stdout is what stream reads.
     const fs::path dir = work_dir();
     const std::string cli = quote(AVSI_CLI_PATH);
-    const std::string out = (dir / "frames.csv").string(), err = (dir / "pipe_err.txt").string();
-    const std::string command = cli + " phones --text 'Come here John.' --out - | " + cli + " stream >" + quote(out) +
-                                " 2>" + quote(err);
-    const int status = std::system(command.c_str());
-    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_text_file(err);
-    const std::string frames = read_text_file(out);
+    const RunResult piped = test::run_command(cli + " phones --text 'Come here John.' --out - | " + cli + " stream");
+    ASSERT_EQ(piped.exit_code, 0) << piped.err;
+    const std::string& frames = piped.out;
     ASSERT_EQ(frames.rfind("time_s,jaw_rotation,", 0), 0u) << frames.substr(0, 200);
     // One frame per 1/60 s of the utterance: as many as the phones written to a file cover.
     const RunResult r = run_avsi("phones --text 'Come here John.' --out " + quote((dir / "p.tsv").string()));
@@ -74,9 +68,9 @@ TEST(PhonesCli, PipesIntoStream) {
     EXPECT_NEAR(static_cast<double>(lines - 1), end_s * 60.0, 2.0);
     // A header in the middle of the stream is still an error with the line number.
     write_text_file(dir / "bad.tsv", "start_s\tend_s\tphone\n0\t0.1\tsil\nstart_s\tend_s\tphone\n");
-    const int bad = std::system((cli + " stream <" + quote((dir / "bad.tsv").string()) + " >/dev/null 2>" + quote(err)).c_str());
-    EXPECT_TRUE(WIFEXITED(bad) && WEXITSTATUS(bad) == 1);
-    EXPECT_NE(read_text_file(err).find("<stdin>:3:"), std::string::npos) << read_text_file(err);
+    const RunResult bad = run_avsi("stream <" + quote((dir / "bad.tsv").string()));
+    EXPECT_EQ(bad.exit_code, 1);
+    EXPECT_NE(bad.err.find("<stdin>:3:"), std::string::npos) << bad.err;
 }
 
 // The Festival path from the command line: the phones of come/here/John,

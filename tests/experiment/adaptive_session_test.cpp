@@ -9,6 +9,8 @@
 
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "avsi/core/corpus.h"
 #include "avsi/core/error.h"
 #include "avsi/core/protocol.h"
@@ -20,13 +22,13 @@
 #include "avsi/core/files.h"
 #include "avsi/vocoder/masking.h"
 #include "avsi/vocoder/vocoder.h"
-#include "test_support.h"
+#include "support/temp_dir.h"
 
 namespace avsi::experiment {
 namespace {
 
 namespace fs = std::filesystem;
-using testing::temp_dir;
+using test::temp_dir;
 
 const fs::path kProtocol = fs::path(AVSI_TEST_DATA_DIR) / "adaptive" / "protocol.toml";
 

@@ -7,14 +7,15 @@
 #include <set>
 
 #include "avsi/core/error.h"
-#include "test_support.h"
+#include "support/generated_study.h"
+#include "support/temp_dir.h"
 
 namespace avsi::experiment {
 namespace {
 
-using testing::GeneratedStudy;
-using testing::temp_dir;
-using testing::write_study;
+using test::GeneratedStudy;
+using test::temp_dir;
+using test::write_study;
 
 struct Loaded {
     Protocol protocol;

@@ -7,7 +7,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/experiment/runner.h"
-#include "test_support.h"
+#include "support/temp_dir.h"
 
 namespace avsi::experiment {
 namespace {
@@ -90,7 +90,7 @@ TEST(TestPattern, EncodesTheFrameIndexAndClicksAtFrameOnsets) {
 // A stimulus folder must carry the builder's manifest; its entries are read
 // by path and a folder without one is refused with the command that makes it.
 TEST(StimulusManifest, ReadsEntriesAndRefusesAFolderWithoutOne) {
-    const auto dir = testing::temp_dir("manifest");
+    const auto dir = test::temp_dir("manifest");
     try {
         read_stimulus_manifest(dir);
         FAIL();

@@ -12,6 +12,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <fmt/format.h>
+
 #include "avsi/core/audio.h"
 #include "avsi/core/files.h"
 #include "avsi/core/json.h"
@@ -20,21 +22,23 @@
 #include "avsi/stimuli/video.h"
 #include "avsi/synth/cohen_massaro.h"
 #include "avsi/synth/mpeg4_cohen_massaro.h"
-#include "test_support.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
+#include "support/xvfb.h"
 
 namespace avsi::experiment {
 namespace {
 
 namespace fs = std::filesystem;
-using testing::run;
+using test::run_avsi_logged;
 
 const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "stimuli" / "build" / "protocol.toml";
 
 // One Xvfb server for the suite; DISPLAY points at it.
 class PlayE2E : public ::testing::Test {
 protected:
-    static void SetUpTestSuite() { s_xvfb = testing::start_xvfb(); }
-    static void TearDownTestSuite() { testing::stop_xvfb(s_xvfb); }
+    static void SetUpTestSuite() { s_xvfb = test::start_xvfb(); }
+    static void TearDownTestSuite() { test::stop_xvfb(s_xvfb); }
     void SetUp() override {
         if (s_xvfb <= 0) GTEST_SKIP() << "Xvfb is not available";
     }
@@ -96,7 +100,7 @@ const Reference& reference() {
 }
 
 TEST_F(PlayE2E, PlaysAStimulusFrameAccurateAtFullAndHalfSpeed) {
-    const fs::path dir = testing::temp_dir("play_speeds");
+    const fs::path dir = test::temp_dir("play_speeds");
     const Reference& ref = reference();
     const int frames = static_cast<int>(ref.trajectory.size());
     const double fps = ref.trajectory.fps;
@@ -113,7 +117,7 @@ TEST_F(PlayE2E, PlaysAStimulusFrameAccurateAtFullAndHalfSpeed) {
             args.push_back("--record");
             args.push_back((dir / "full.mp4").string());
         }
-        ASSERT_EQ(run(args, dir / (tag + ".log")), 0) << read_text_file(dir / (tag + ".log"));
+        ASSERT_EQ(run_avsi_logged(args, dir / (tag + ".log")), 0) << read_text_file(dir / (tag + ".log"));
         const auto rows = read_log(dir / (tag + ".tsv"));
         ASSERT_FALSE(rows.empty());
         int last = -1;
@@ -163,10 +167,10 @@ TEST_F(PlayE2E, PlaysAStimulusFrameAccurateAtFullAndHalfSpeed) {
 }
 
 TEST_F(PlayE2E, StepsFramesBothWaysAndAppliesTheOffset) {
-    const fs::path dir = testing::temp_dir("play_steps");
+    const fs::path dir = test::temp_dir("play_steps");
     write_text_file(dir / "steps.txt", "seek 10\nwait 1\nstep 1\nwait 1\nstep -3\nwait 1\noffset 100\nseek 12\nwait 1\n"
                                        "step 1\nwait 1\nplay\nwait 3\nquit\n");
-    ASSERT_EQ(run({"play", "--protocol", protocol.string(), "--sentence", "s1", "--condition", "rule", "--audio", "null",
+    ASSERT_EQ(run_avsi_logged({"play", "--protocol", protocol.string(), "--sentence", "s1", "--condition", "rule", "--audio", "null",
                    "--size", "640x400", "--script", (dir / "steps.txt").string(), "--log", (dir / "log.tsv").string()},
                   dir / "out.log"),
               0)
@@ -193,35 +197,35 @@ TEST_F(PlayE2E, StepsFramesBothWaysAndAppliesTheOffset) {
 }
 
 TEST_F(PlayE2E, RefusesBadInputsWithFileAndField) {
-    const fs::path dir = testing::temp_dir("play_bad");
+    const fs::path dir = test::temp_dir("play_bad");
     write_text_file(dir / "bad.txt", "play\nsped 0.5\n");
-    EXPECT_EQ(run({"play", "--protocol", protocol.string(), "--sentence", "s1", "--condition", "rule", "--audio", "null",
+    EXPECT_EQ(run_avsi_logged({"play", "--protocol", protocol.string(), "--sentence", "s1", "--condition", "rule", "--audio", "null",
                    "--script", (dir / "bad.txt").string()},
                   dir / "script.log"),
               1);
     EXPECT_NE(read_text_file(dir / "script.log").find("bad.txt:2:1: error: command"), std::string::npos)
         << read_text_file(dir / "script.log");
-    EXPECT_EQ(run({"play", "--protocol", protocol.string(), "--sentence", "s9", "--condition", "rule", "--audio", "null"},
+    EXPECT_EQ(run_avsi_logged({"play", "--protocol", protocol.string(), "--sentence", "s9", "--condition", "rule", "--audio", "null"},
                   dir / "sentence.log"),
               1);
     EXPECT_NE(read_text_file(dir / "sentence.log").find("error: id: expected a sentence id"), std::string::npos)
         << read_text_file(dir / "sentence.log");
     write_text_file(dir / "set.json", "{\"name\": \"x\", \"visemes\": [}\n");
-    EXPECT_EQ(run({"play", "--edit-visemes", (dir / "set.json").string(), "--audio", "null"}, dir / "set.log"), 1);
+    EXPECT_EQ(run_avsi_logged({"play", "--edit-visemes", (dir / "set.json").string(), "--audio", "null"}, dir / "set.log"), 1);
     EXPECT_NE(read_text_file(dir / "set.log").find("set.json:1:"), std::string::npos) << read_text_file(dir / "set.log");
-    EXPECT_EQ(run({"play", "--traj", (dir / "missing.csv").string(), "--audio", "null"}, dir / "missing.log"), 2);
+    EXPECT_EQ(run_avsi_logged({"play", "--traj", (dir / "missing.csv").string(), "--audio", "null"}, dir / "missing.log"), 2);
 }
 
 TEST_F(PlayE2E, PlaysABuiltStimulusWithItsWavAndRefusesAChangedOne) {
-    const fs::path dir = testing::temp_dir("play_built");
-    ASSERT_EQ(run({"build-stimuli", protocol.string(), "--out", (dir / "built").string()}, dir / "build.log"), 0)
+    const fs::path dir = test::temp_dir("play_built");
+    ASSERT_EQ(run_avsi_logged({"build-stimuli", protocol.string(), "--out", (dir / "built").string()}, dir / "build.log"), 0)
         << read_text_file(dir / "build.log");
     write_text_file(dir / "play.txt", "play\nwait-end\nquit\n");
     const std::vector<std::string> args = {"play", "--protocol", protocol.string(), "--stimuli", (dir / "built").string(),
                                            "--stimulus", "s2/rule.mp4", "--audio", "null", "--size", "640x400",
                                            "--script", (dir / "play.txt").string(), "--audio-out",
                                            (dir / "sent.wav").string()};
-    ASSERT_EQ(run(args, dir / "play.log"), 0) << read_text_file(dir / "play.log");
+    ASSERT_EQ(run_avsi_logged(args, dir / "play.log"), 0) << read_text_file(dir / "play.log");
     const Audio built = read_audio(dir / "built" / "s2" / "rule.wav");
     const Audio sent = read_audio(dir / "sent.wav");
     ASSERT_GE(sent.samples.size(), built.samples.size());
@@ -244,7 +248,7 @@ TEST_F(PlayE2E, PlaysABuiltStimulusWithItsWavAndRefusesAChangedOne) {
     Audio changed = built;
     changed.samples[100] += 0.25f;
     write_audio(dir / "built" / "s2" / "rule.wav", changed);
-    EXPECT_EQ(run(args, dir / "changed.log"), 1);
+    EXPECT_EQ(run_avsi_logged(args, dir / "changed.log"), 1);
     EXPECT_NE(read_text_file(dir / "changed.log").find("rule.wav: error: wav_sha256: expected"), std::string::npos)
         << read_text_file(dir / "changed.log");
 }
@@ -261,11 +265,11 @@ double share_of(const std::vector<synth::CmSegment>& segments, const std::vector
 }
 
 TEST_F(PlayE2E, EditorChangeIsWhatTheMpeg4ModelThenUses) {
-    const fs::path dir = testing::temp_dir("play_editor");
+    const fs::path dir = test::temp_dir("play_editor");
     const fs::path original = fs::path(AVSI_PROTOCOLS_DIR) / "visemes" / "mpeg4_14.json";
     fs::copy_file(original, dir / "set.json");
     write_text_file(dir / "edit.txt", "select p_b_m\nset jaw_rotation 0.35\nwait 1\nsave\nquit\n");
-    ASSERT_EQ(run({"play", "--edit-visemes", (dir / "set.json").string(), "--audio", "null", "--size", "800x560",
+    ASSERT_EQ(run_avsi_logged({"play", "--edit-visemes", (dir / "set.json").string(), "--audio", "null", "--size", "800x560",
                    "--script", (dir / "edit.txt").string()},
                   dir / "edit.log"),
               0)

@@ -16,8 +16,9 @@
 #include "avsi/experiment/player.h"
 #include "avsi/experiment/viseme_editor.h"
 #include "avsi/stimuli/head.h"
-#include "test_support.h"
-#include "../layers_protocol.h"
+#include "support/heads.h"
+#include "support/layers_protocol.h"
+#include "support/temp_dir.h"
 
 namespace avsi::experiment {
 namespace {
@@ -131,7 +132,7 @@ TEST(TimeStretch, KeepsThePitchAndTheExactLength) {
 }
 
 TEST(PlayScript, ReadsCommandsAndRefusesBadLinesWithFileAndLine) {
-    const fs::path dir = testing::temp_dir("play_script");
+    const fs::path dir = test::temp_dir("play_script");
     write_text_file(dir / "ok.txt", "# a comment\nspeed 0.5\nplay\n\nwait-end   # to the end\nstep -3\nquit\n");
     const auto events = read_play_script(dir / "ok.txt", false);
     ASSERT_EQ(events.size(), 5u);
@@ -169,7 +170,7 @@ fs::path copy_set(const fs::path& dir) {
 }
 
 TEST(VisemeEditor, SavesTheSetTheModelReadsAndRoundTrips) {
-    const fs::path dir = testing::temp_dir("viseme_roundtrip");
+    const fs::path dir = test::temp_dir("viseme_roundtrip");
     const fs::path path = copy_set(dir);
     VisemeEditor editor(path);
     EXPECT_FALSE(editor.modified());
@@ -183,7 +184,7 @@ TEST(VisemeEditor, SavesTheSetTheModelReadsAndRoundTrips) {
 }
 
 TEST(VisemeEditor, EditsUndoMappingAndDiffWithTheDisk) {
-    const fs::path dir = testing::temp_dir("viseme_edit");
+    const fs::path dir = test::temp_dir("viseme_edit");
     const fs::path path = copy_set(dir);
     VisemeEditor editor(path);
     const std::size_t bilabial = editor.index_of("p_b_m");
@@ -225,7 +226,7 @@ TEST(VisemeEditor, EditsUndoMappingAndDiffWithTheDisk) {
 }
 
 TEST(VisemeEditor, RefusesABadSetWithFileAndField) {
-    const fs::path dir = testing::temp_dir("viseme_bad");
+    const fs::path dir = test::temp_dir("viseme_bad");
     std::string text = read_text_file(fs::path(AVSI_PROTOCOLS_DIR) / "visemes" / "mpeg4_14.json");
     text.replace(text.find("\"width_mm\": "), 12, "\"width_mm\": -");
     write_text_file(dir / "bad.json", text);
@@ -246,12 +247,10 @@ TEST(VisemeEditor, RefusesABadSetWithFileAndField) {
 // brows, its mouth still the speech layer's; a plain condition of the same
 // protocol is speech and blinks only, frame for frame its trajectory.
 TEST(PlayMedia, AStimulusDefinitionPlaysItsConditionsLayers) {
-    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_play_layers");
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("play_layers");
     test::write_layers_protocol(dir / "p.toml", "play-layers",
                                 "[condition.layers]\nexpression = \"surprised\"\nhead_motion = \"idle\"\ngaze = true\n");
-    const stimuli::Head head = stimuli::load_default_head();
+    const stimuli::Head& head = test::default_head();
     auto played = [&](const std::string& condition) {
         PlaySource source;
         source.protocol_path = dir / "p.toml";

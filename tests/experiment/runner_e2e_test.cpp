@@ -30,23 +30,28 @@
 #include "avsi/stimuli/image_io.h"
 #include "avsi/stimuli/video.h"
 #include "avsi/vocoder/masking.h"
-#include "test_support.h"
+#include "support/generated_study.h"
+#include "support/run_avsi.h"
+#include "support/sqlite_count.h"
+#include "support/temp_dir.h"
+#include "support/xvfb.h"
 
 namespace avsi::experiment {
 namespace {
 
-using testing::GeneratedStudy;
-using testing::run;
-using testing::spawn;
-using testing::temp_dir;
-using testing::write_study;
+using test::count_rows;
+using test::GeneratedStudy;
+using test::run_avsi_logged;
+using test::start_avsi;
+using test::temp_dir;
+using test::write_study;
 namespace fs = std::filesystem;
 
 // One Xvfb server for the whole suite; DISPLAY points at it.
 class RunnerE2E : public ::testing::Test {
 protected:
-    static void SetUpTestSuite() { s_xvfb = testing::start_xvfb(); }
-    static void TearDownTestSuite() { testing::stop_xvfb(s_xvfb); }
+    static void SetUpTestSuite() { s_xvfb = test::start_xvfb(); }
+    static void TearDownTestSuite() { test::stop_xvfb(s_xvfb); }
     void SetUp() override {
         if (s_xvfb <= 0) GTEST_SKIP() << "Xvfb is not available";
     }
@@ -64,22 +69,6 @@ protected:
         return path;
     }
 
-    // Rows of a table so far, read without writing (0 before the database exists).
-    static int count_rows(const fs::path& db, const std::string& table) {
-        if (!fs::exists(db)) return 0;
-        sqlite3* handle = nullptr;
-        int n = 0;
-        if (sqlite3_open_v2(db.c_str(), &handle, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
-            sqlite3_busy_timeout(handle, 2000);
-            sqlite3_stmt* st = nullptr;
-            if (sqlite3_prepare_v2(handle, ("SELECT count(*) FROM " + table).c_str(), -1, &st, nullptr) == SQLITE_OK &&
-                sqlite3_step(st) == SQLITE_ROW)
-                n = sqlite3_column_int(st, 0);
-            sqlite3_finalize(st);
-        }
-        sqlite3_close(handle);
-        return n;
-    }
     // Responses committed so far.
     static int committed(const fs::path& db) { return count_rows(db, "responses"); }
 
@@ -90,7 +79,7 @@ protected:
     static void kill_at_presentations(const std::vector<std::string>& args, const fs::path& log, const fs::path& db,
                                       std::initializer_list<int> targets, int limit, int& kills) {
         for (const int target : targets) {
-            const pid_t pid = spawn(args, log);
+            const pid_t pid = start_avsi(args, log);
             const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
             while (count_rows(db, "adaptive_trials") < target && std::chrono::steady_clock::now() < give_up)
                 std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -114,9 +103,9 @@ TEST_F(RunnerE2E, ScriptedSessionsForTwoSubjectsCompleteAndExportEveryResponse) 
     const fs::path db = dir / "exp.sqlite";
     for (int subject : {1, 2}) {
         const auto script = write_script(dir / fmt::format("s{}.txt", subject), 10, subject);
-        ASSERT_EQ(run(run_args(protocol, subject, db, script), dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+        ASSERT_EQ(run_avsi_logged(run_args(protocol, subject, db, script), dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
     }
-    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    ASSERT_EQ(run_avsi_logged({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
     const CsvTable responses = read_csv(dir / "export" / "responses.csv");
     ASSERT_EQ(responses.rows.size(), 20u);
     for (std::size_t i = 0; i < responses.rows.size(); ++i) {
@@ -127,7 +116,7 @@ TEST_F(RunnerE2E, ScriptedSessionsForTwoSubjectsCompleteAndExportEveryResponse) 
         EXPECT_EQ(f[7], trial % 5 == 0 ? "" : fmt::format("answer {} {}", subject, trial));
     }
     // The dry run's scoring names the protocol's rule set (strict: no [scoring] table).
-    ASSERT_EQ(run({"score", "--protocol", protocol.string(), "--responses", (dir / "export" / "responses.csv").string(),
+    ASSERT_EQ(run_avsi_logged({"score", "--protocol", protocol.string(), "--responses", (dir / "export" / "responses.csv").string(),
                    "--out", (dir / "scores").string()},
                   dir / "log.txt"),
               0)
@@ -179,7 +168,7 @@ TEST_F(RunnerE2E, SigkillAtRandomPointsThenResumeLosesAndRepeatsNothing) {
         const bool kill_this = answered_before.size() + 5 <= static_cast<std::size_t>(trials);
         const int target = kill_this ? static_cast<int>(answered_before.size()) + 1 : trials + 1;
         const auto extra = std::chrono::milliseconds(rng.uniform_int(250));
-        const pid_t pid = spawn(args, dir / "log.txt");
+        const pid_t pid = start_avsi(args, dir / "log.txt");
         int status = 0;
         pid_t finished = 0;
         auto deadline = std::chrono::steady_clock::time_point::max();
@@ -212,7 +201,7 @@ TEST_F(RunnerE2E, SigkillAtRandomPointsThenResumeLosesAndRepeatsNothing) {
     }
     ASSERT_TRUE(done) << "the session never completed";
     EXPECT_GE(kills, 8);
-    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    ASSERT_EQ(run_avsi_logged({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
     const CsvTable responses = read_csv(dir / "export" / "responses.csv");
     ASSERT_EQ(responses.rows.size(), static_cast<std::size_t>(trials));
     std::set<int> positions;
@@ -252,7 +241,7 @@ TEST_F(RunnerE2E, ScreenshotsOfEveryScreenKind) {
     auto args = run_args(protocol, 1, dir / "shots.sqlite", script);
     args.push_back("--screenshots");
     args.push_back((dir / "png").string());
-    ASSERT_EQ(run(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+    ASSERT_EQ(run_avsi_logged(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
     std::set<std::string> kinds;
     for (const auto& entry : fs::directory_iterator(dir / "png")) {
         const std::string name = entry.path().filename().string();
@@ -296,7 +285,7 @@ TEST_F(RunnerE2E, BuiltStimulusSetPlaysEveryFrameOnTimeWithItsAudio) {
     const fs::path dir = temp_dir("e2e_built");
     const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "built" / "protocol.toml";
     const fs::path stimuli = dir / "stimuli";
-    ASSERT_EQ(run({"build-stimuli", protocol.string(), "--out", stimuli.string(), "--jobs", "2"}, dir / "build.txt"), 0)
+    ASSERT_EQ(run_avsi_logged({"build-stimuli", protocol.string(), "--out", stimuli.string(), "--jobs", "2"}, dir / "build.txt"), 0)
         << read_text_file(dir / "build.txt");
     const StimulusManifest manifest = read_stimulus_manifest(stimuli);
     // What the design shows: the 2 test sentences in both conditions, the
@@ -307,13 +296,13 @@ TEST_F(RunnerE2E, BuiltStimulusSetPlaysEveryFrameOnTimeWithItsAudio) {
     const std::vector<std::string> answers = {"sun warm", "she opened the door", "", "he bought bread"};
     write_text_file(dir / "script.txt", "sun warm\nshe opened the door\n-\nhe bought bread\n");
     const fs::path db = dir / "built.sqlite";
-    ASSERT_EQ(run({"run", protocol.string(), "--subject", "1", "--db", db.string(), "--stimuli", stimuli.string(),
+    ASSERT_EQ(run_avsi_logged({"run", protocol.string(), "--subject", "1", "--db", db.string(), "--stimuli", stimuli.string(),
                    "--audio", "null", "--windowed", "--size", "640x480", "--script", (dir / "script.txt").string(),
                    "--screenshots", (dir / "png").string(), "--audio-capture", (dir / "audio").string()},
                   dir / "log.txt"),
               0)
         << read_text_file(dir / "log.txt");
-    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    ASSERT_EQ(run_avsi_logged({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
 
     const CsvTable responses = read_csv(dir / "export" / "responses.csv");
     ASSERT_EQ(responses.rows.size(), answers.size());
@@ -422,7 +411,7 @@ TEST_F(RunnerE2E, PortAudioStreamSchedulesOnsetsOnTheDacClockAndLogsTheOffset) {
     const fs::path dir = temp_dir("e2e_portaudio");
     const std::string conf = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "asound-null.conf";
     ::setenv("ALSA_CONFIG_PATH", conf.c_str(), 1);
-    const int listed = run({"run", "--list-audio-devices"}, dir / "devices.txt");
+    const int listed = run_avsi_logged({"run", "--list-audio-devices"}, dir / "devices.txt");
     const std::string devices = read_text_file(dir / "devices.txt");
     if (listed != 0 || devices.find("0: default") == std::string::npos) {
         ::unsetenv("ALSA_CONFIG_PATH");
@@ -435,7 +424,7 @@ TEST_F(RunnerE2E, PortAudioStreamSchedulesOnsetsOnTheDacClockAndLogsTheOffset) {
     g.practice = 0;
     const fs::path protocol = write_study(dir, g);
     const auto script = write_script(dir / "script.txt", 2, 1);
-    const int code = run({"run", protocol.string(), "--subject", "1", "--db", (dir / "pa.sqlite").string(),
+    const int code = run_avsi_logged({"run", protocol.string(), "--subject", "1", "--db", (dir / "pa.sqlite").string(),
                           "--test-pattern", "--audio", "portaudio", "--audio-device", "default", "--windowed", "--size",
                           "320x240", "--script", script.string()},
                          dir / "log.txt");
@@ -452,7 +441,7 @@ TEST_F(RunnerE2E, PortAudioStreamSchedulesOnsetsOnTheDacClockAndLogsTheOffset) {
         EXPECT_TRUE(std::regex_search(log, line)) << log;
     }
     EXPECT_NE(log.find("timing: 2 presentations"), std::string::npos) << log;
-    ASSERT_EQ(run({"export", (dir / "pa.sqlite").string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    ASSERT_EQ(run_avsi_logged({"export", (dir / "pa.sqlite").string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
     const CsvTable timing = read_csv(dir / "export" / "timing.csv");
     ASSERT_EQ(timing.rows.size(), 2u);
     for (const auto& row : timing.rows) {
@@ -471,13 +460,13 @@ TEST_F(RunnerE2E, AStimulusChangedAfterTheBuildIsRefused) {
     const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "built" / "protocol.toml";
     const fs::path stimuli = dir / "stimuli";
     // Only the first sentence (w01), to keep the test short: the others are reported missing too.
-    ASSERT_EQ(run({"build-stimuli", protocol.string(), "--out", stimuli.string(), "--jobs", "2", "--max-sentences", "1"},
+    ASSERT_EQ(run_avsi_logged({"build-stimuli", protocol.string(), "--out", stimuli.string(), "--jobs", "2", "--max-sentences", "1"},
                   dir / "build.txt"),
               0)
         << read_text_file(dir / "build.txt");
     write_text_file(stimuli / "w01" / "audio-only.mp4", read_text_file(stimuli / "w01" / "audio-only.mp4") + "x");
     write_text_file(dir / "script.txt", "a\nb\nc\nd\n");
-    EXPECT_EQ(run({"run", protocol.string(), "--subject", "1", "--db", (dir / "db.sqlite").string(), "--stimuli",
+    EXPECT_EQ(run_avsi_logged({"run", protocol.string(), "--subject", "1", "--db", (dir / "db.sqlite").string(), "--stimuli",
                    stimuli.string(), "--audio", "null", "--windowed", "--script", (dir / "script.txt").string()},
                   dir / "log.txt"),
               1);
@@ -517,8 +506,8 @@ TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
     // the tracks), then a run to the end.
     int kills = 0;
     ASSERT_NO_FATAL_FAILURE(kill_at_presentations(args, dir / "log.txt", db, {6, 14}, 26, kills));
-    ASSERT_EQ(run(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
-    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    ASSERT_EQ(run_avsi_logged(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+    ASSERT_EQ(run_avsi_logged({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
 
     // Every planned trial answered once.
     const CsvTable responses = read_csv(dir / "export" / "responses.csv");
@@ -609,7 +598,7 @@ TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
     std::cerr << "[ info ] " << kills << " kills, " << t.rows.size() << " presentations matched to the session mixture\n";
 
     // The report on the exported tracks (one subject: no ANOVA, SRTs and plots).
-    ASSERT_EQ(run({"analyze", (dir / "export" / "adaptive_trials.csv").string(), "--protocol", protocol.string(),
+    ASSERT_EQ(run_avsi_logged({"analyze", (dir / "export" / "adaptive_trials.csv").string(), "--protocol", protocol.string(),
                    "--out", (dir / "report").string()},
                   dir / "analyze.txt"),
               0)
@@ -716,11 +705,11 @@ TEST_F(RunnerE2E, AdaptiveScoreCheckCorrectionsCountAndAreLogged) {
     }
     write_text_file(dir / "script.txt", script);
     const fs::path db = dir / "check.sqlite";
-    EXPECT_EQ(run(run_args(dir / "subject_mode.toml", 1, db, dir / "script.txt"), dir / "refused.txt"), 1);
+    EXPECT_EQ(run_avsi_logged(run_args(dir / "subject_mode.toml", 1, db, dir / "script.txt"), dir / "refused.txt"), 1);
     EXPECT_NE(read_text_file(dir / "refused.txt").find("adaptive.confirm_scores: expected session.response_mode"),
               std::string::npos)
         << read_text_file(dir / "refused.txt");
-    ASSERT_EQ(run(run_args(dir / "protocol.toml", 1, db, dir / "script.txt"), dir / "log.txt"), 0)
+    ASSERT_EQ(run_avsi_logged(run_args(dir / "protocol.toml", 1, db, dir / "script.txt"), dir / "log.txt"), 0)
         << read_text_file(dir / "log.txt");
     Store store(db);
     const auto rows = store.adaptive_trials(1);
@@ -745,28 +734,12 @@ TEST_F(RunnerE2E, AdaptiveScoreCheckCorrectionsCountAndAreLogged) {
         }
 }
 
-// Rows of a table, read without writing.
-std::size_t rows_of(const fs::path& db, const std::string& table) {
-    sqlite3* h = nullptr;
-    std::size_t n = 0;
-    if (sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
-        sqlite3_busy_timeout(h, 2000);
-        sqlite3_stmt* st = nullptr;
-        if (sqlite3_prepare_v2(h, ("SELECT count(*) FROM " + table).c_str(), -1, &st, nullptr) == SQLITE_OK &&
-            sqlite3_step(st) == SQLITE_ROW)
-            n = static_cast<std::size_t>(sqlite3_column_int(st, 0));
-        sqlite3_finalize(st);
-    }
-    sqlite3_close(h);
-    return n;
-}
-
 TEST_F(RunnerE2E, ASecondRunnerOnTheSameSubjectRefusesBeforeShowingAnything) {
     const fs::path dir = temp_dir("e2e_two_runners");
     const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "protocol.toml";
     const fs::path db = dir / "two.sqlite";
     const auto script = write_script(dir / "s.txt", 10, 1);
-    const pid_t first = spawn(run_args(protocol, 1, db, script), dir / "first.txt");
+    const pid_t first = start_avsi(run_args(protocol, 1, db, script), dir / "first.txt");
     // Wait until the first runner has committed a trial, then hold it still
     // (between transactions: it holds no SQLite lock) while the second starts.
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
@@ -788,14 +761,14 @@ TEST_F(RunnerE2E, ASecondRunnerOnTheSameSubjectRefusesBeforeShowingAnything) {
         ::kill(first, SIGCONT);
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
-    std::map<std::string, std::size_t> before;
-    for (const char* t : {"sessions", "responses", "presentations", "events", "runner_locks"}) before[t] = rows_of(db, t);
+    std::map<std::string, int> before;
+    for (const char* t : {"sessions", "responses", "presentations", "events", "runner_locks"}) before[t] = count_rows(db, t);
     auto second_args = run_args(protocol, 1, db, script);
     second_args.push_back("--screenshots");
     second_args.push_back((dir / "shots").string());
-    const int second = run(second_args, dir / "second.txt");
+    const int second = run_avsi_logged(second_args, dir / "second.txt");
     const std::string second_log = read_text_file(dir / "second.txt");
-    for (const auto& [table, n] : before) EXPECT_EQ(rows_of(db, table), n) << table << " changed";
+    for (const auto& [table, n] : before) EXPECT_EQ(count_rows(db, table), n) << table << " changed";
     ::kill(first, SIGCONT);
     int status = 0;
     ::waitpid(first, &status, 0);
@@ -809,7 +782,7 @@ TEST_F(RunnerE2E, ASecondRunnerOnTheSameSubjectRefusesBeforeShowingAnything) {
     // The first runner finished undisturbed, and released the lock.
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_text_file(dir / "first.txt");
     EXPECT_EQ(committed(db), 10);
-    EXPECT_EQ(rows_of(db, "runner_locks"), 0u);
+    EXPECT_EQ(count_rows(db, "runner_locks"), 0u);
 }
 
 TEST_F(RunnerE2E, AKillAfterTheLastTrialClosesTheSessionInsteadOfOpeningAnEmptyOne) {
@@ -817,7 +790,7 @@ TEST_F(RunnerE2E, AKillAfterTheLastTrialClosesTheSessionInsteadOfOpeningAnEmptyO
     const fs::path protocol = fs::path(AVSI_TEST_DATA_DIR) / "experiment" / "protocol.toml";
     const fs::path db = dir / "done.sqlite";
     const auto script = write_script(dir / "s.txt", 10, 1);
-    ASSERT_EQ(run(run_args(protocol, 1, db, script), dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+    ASSERT_EQ(run_avsi_logged(run_args(protocol, 1, db, script), dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
     // As if killed after its last commit: the session never closed, the lock stayed.
     sqlite3* h = nullptr;
     ASSERT_EQ(sqlite3_open(db.c_str(), &h), SQLITE_OK);
@@ -832,11 +805,11 @@ TEST_F(RunnerE2E, AKillAfterTheLastTrialClosesTheSessionInsteadOfOpeningAnEmptyO
                                          host, boot);
     ASSERT_EQ(sqlite3_exec(h, lock.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
     sqlite3_close(h);
-    const std::size_t sessions = rows_of(db, "sessions");
-    EXPECT_EQ(run(run_args(protocol, 1, db, script), dir / "again.txt"), 1);
+    const std::size_t sessions = count_rows(db, "sessions");
+    EXPECT_EQ(run_avsi_logged(run_args(protocol, 1, db, script), dir / "again.txt"), 1);
     const std::string log = read_text_file(dir / "again.txt");
     EXPECT_NE(log.find("subject 1 has answered all 10 planned trials; nothing to run"), std::string::npos) << log;
-    EXPECT_EQ(rows_of(db, "sessions"), sessions) << "a new session was opened";
+    EXPECT_EQ(count_rows(db, "sessions"), sessions) << "a new session was opened";
     Store store(db);
     const auto all = store.sessions(1);
     ASSERT_EQ(all.size(), 1u);
@@ -899,14 +872,14 @@ TEST_F(RunnerE2E, BandCountTrackPlaysTheLoggedVariantAndResumesMidTrack) {
     const fs::path db = dir / "bands.sqlite";
     std::vector<std::string> args = run_args(protocol, 1, db, dir / "script.txt");
     // Without the stimulus folder the variants cannot be found: refused before the session starts.
-    EXPECT_EQ(run(args, dir / "refused.txt"), 2) << read_text_file(dir / "refused.txt");
+    EXPECT_EQ(run_avsi_logged(args, dir / "refused.txt"), 2) << read_text_file(dir / "refused.txt");
     EXPECT_NE(read_text_file(dir / "refused.txt").find("--stimuli"), std::string::npos) << read_text_file(dir / "refused.txt");
     EXPECT_FALSE(fs::exists(db) && count_rows(db, "adaptive_trials") > 0);
     args.insert(args.end(), {"--stimuli", stimuli.string(), "--audio-capture", (dir / "audio").string()});
     int kills = 0;
     ASSERT_NO_FATAL_FAILURE(kill_at_presentations(args, dir / "log.txt", db, {6, 14}, 26, kills));
-    ASSERT_EQ(run(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
-    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    ASSERT_EQ(run_avsi_logged(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+    ASSERT_EQ(run_avsi_logged({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
     const CsvTable responses = read_csv(dir / "export" / "responses.csv");
     ASSERT_EQ(responses.rows.size(), plan.size());
 
@@ -959,7 +932,7 @@ TEST_F(RunnerE2E, BandCountTrackPlaysTheLoggedVariantAndResumesMidTrack) {
     std::cerr << "[ info ] " << kills << " kills, " << matched << " presentations matched to their variant\n";
 
     // The threshold on the log2(bands) scale (issue 39), with the bands beside it.
-    ASSERT_EQ(run({"analyze", (dir / "export" / "adaptive_trials.csv").string(), "--protocol", protocol.string(),
+    ASSERT_EQ(run_avsi_logged({"analyze", (dir / "export" / "adaptive_trials.csv").string(), "--protocol", protocol.string(),
                    "--out", (dir / "report").string()},
                   dir / "analyze.txt"),
               0)

@@ -10,15 +10,19 @@
 
 #include <functional>
 
+#include <fmt/format.h>
+
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
-#include "test_support.h"
+#include "support/sqlite_count.h"
+#include "support/temp_dir.h"
 
 namespace avsi::experiment {
 namespace {
 
-using testing::temp_dir;
+using test::count_rows;
+using test::temp_dir;
 
 std::vector<PlannedTrial> plan_for(int subject, int n) {
     std::vector<PlannedTrial> plan;
@@ -147,20 +151,6 @@ bool private_tmpfs(const std::filesystem::path& dir, const std::string& options)
     return ::mount("tmpfs", dir.c_str(), "tmpfs", 0, options.c_str()) == 0;
 }
 
-std::size_t count_rows(const std::filesystem::path& db, const std::string& table) {
-    sqlite3* h = nullptr;
-    std::size_t n = 0;
-    if (sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
-        sqlite3_stmt* st = nullptr;
-        if (sqlite3_prepare_v2(h, ("SELECT count(*) FROM " + table).c_str(), -1, &st, nullptr) == SQLITE_OK &&
-            sqlite3_step(st) == SQLITE_ROW)
-            n = static_cast<std::size_t>(sqlite3_column_int(st, 0));
-        sqlite3_finalize(st);
-    }
-    sqlite3_close(h);
-    return n;
-}
-
 TEST(StoreLock, ASecondProcessIsRefusedWhileTheFirstHoldsTheSubject) {
     const auto db = temp_dir("store_lock") / "l.sqlite";
     Store store(db);
@@ -201,11 +191,11 @@ TEST(StoreLock, ALockLeftByAKilledProcessIsBrokenByTheNext) {
                   return 0;
               }),
               0);
-    EXPECT_EQ(count_rows(db, "runner_locks"), 1u);
+    EXPECT_EQ(count_rows(db, "runner_locks"), 1);
     Store store(db);
     const std::string broken = store.lock_subject(4);
     EXPECT_NE(broken.find("no longer running) was broken"), std::string::npos) << broken;
-    EXPECT_EQ(count_rows(db, "runner_locks"), 1u);
+    EXPECT_EQ(count_rows(db, "runner_locks"), 1);
 }
 
 TEST(StoreLock, TheLockIsReleasedWhenTheStoreCloses) {
@@ -213,9 +203,9 @@ TEST(StoreLock, TheLockIsReleasedWhenTheStoreCloses) {
     {
         Store store(db);
         store.lock_subject(7);
-        EXPECT_EQ(count_rows(db, "runner_locks"), 1u);
+        EXPECT_EQ(count_rows(db, "runner_locks"), 1);
     }
-    EXPECT_EQ(count_rows(db, "runner_locks"), 0u);
+    EXPECT_EQ(count_rows(db, "runner_locks"), 0);
 }
 
 TEST(StoreFailures, AReadOnlyLocationIsNamedWhenOpening) {
@@ -281,9 +271,9 @@ TEST(StoreFailures, AFullDiskNamesTheDatabaseAndKeepsWhatWasCommitted) {
         // Everything committed before the disk filled is there.
         if (committed < 1) return 3;
         std::filesystem::remove(dir / "filler");
-        const std::size_t kept = count_rows(db, "responses");
-        std::fprintf(stderr, "kept %zu of %d\n", kept, committed);
-        return kept == static_cast<std::size_t>(committed) ? 0 : 4;
+        const int kept = count_rows(db, "responses");
+        std::fprintf(stderr, "kept %d of %d\n", kept, committed);
+        return kept == committed ? 0 : 4;
     });
     if (code == 77) GTEST_SKIP() << "cannot mount a small tmpfs here (needs root)";
     EXPECT_EQ(code, 0);

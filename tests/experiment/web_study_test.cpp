@@ -5,7 +5,6 @@
 // including the refusals (truncated, another study's, out of plan order,
 // wrong stimulus, contradicting a stored answer) that must leave the
 // database unchanged, and the migration of a schema-1 lab database.
-#include <sys/wait.h>
 #include <zip.h>
 
 #include <gtest/gtest.h>
@@ -18,6 +17,7 @@
 #include <regex>
 #include <set>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <unsupported/Eigen/FFT>
 
@@ -28,14 +28,15 @@
 #include "avsi/experiment/runner.h"
 #include "avsi/experiment/store.h"
 #include "avsi/experiment/web_study.h"
-#include "test_support.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace avsi::experiment {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-using testing::temp_dir;
+using test::temp_dir;
 
 const fs::path web_data = fs::path(AVSI_TEST_DATA_DIR) / "web";
 const fs::path web_protocol = web_data / "protocol.toml";
@@ -49,10 +50,12 @@ protected:
         // The stimuli are built once into the build folder and reused: build-stimuli
         // rebuilds nothing unchanged, and flock serialises the parallel test processes.
         s_stimuli = fs::path(AVSI_WEB_TEST_STIMULI);
-        const std::string command = fmt::format("flock '{}.lock' '{}' build-stimuli '{}' --out '{}' > '{}' 2>&1",
-                                                s_stimuli.string(), AVSI_CLI_PATH, web_protocol.string(),
-                                                s_stimuli.string(), (s_dir / "build.log").string());
-        ASSERT_EQ(std::system(command.c_str()), 0) << read_text_file(s_dir / "build.log");
+        using test::shell_quote;
+        const test::CliResult built =
+            test::run_command("flock " + shell_quote(s_stimuli.string() + ".lock") + " " + shell_quote(AVSI_CLI_PATH) +
+                              " build-stimuli " + shell_quote(web_protocol.string()) + " --out " +
+                              shell_quote(s_stimuli.string()));
+        ASSERT_EQ(built.exit_code, 0) << built.output();
         const Protocol p = load_protocol(web_protocol);
         write_lists_csv(s_dir / "lists.csv", make_design(p, read_corpus(p.corpus.sentences), 3));
     }

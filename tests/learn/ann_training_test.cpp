@@ -21,8 +21,8 @@ struct TinyData {
 const TinyData& tiny_data() {
     static const TinyData d = [] {
         TinyData out;
-        for (unsigned i = 0; i < 8; ++i) out.train.push_back(test::synthetic_utterance(100 + i, 10));
-        for (unsigned i = 0; i < 3; ++i) out.test.push_back(test::synthetic_utterance(200 + i, 10));
+        for (unsigned i = 0; i < 8; ++i) out.train.push_back(synth::test::synthetic_utterance(100 + i, 10));
+        for (unsigned i = 0; i < 3; ++i) out.test.push_back(synth::test::synthetic_utterance(200 + i, 10));
         return out;
     }();
     return d;
@@ -112,13 +112,13 @@ TEST(AnnModelFile, SaveLoadRoundTripGivesIdenticalOutput) {
     p.data = "synthetic";
     p.errors = {{"test_rmse_percent", r.networks[0].test_rmse_percent}};
     r.model->set_provenance(p);
-    const auto dir = test::temp_dir("ann_roundtrip");
+    const auto dir = synth::test::temp_dir("ann_roundtrip");
     save_model(*r.model, dir / "m.json");
     const auto loaded = load_model(dir / "m.json");
     ASSERT_EQ(loaded->kind(), "ann");
     EXPECT_EQ(loaded->to_json_text(), r.model->to_json_text());
     EXPECT_EQ(loaded->provenance().data, "synthetic");
-    const PhoneSequence phones = test::random_phones(9, 15);
+    const PhoneSequence phones = synth::test::random_phones(9, 15);
     const Trajectory a = r.model->synthesize(phones, 60.0);
     const Trajectory b = loaded->synthesize(phones, 60.0);
     ASSERT_EQ(a.size(), b.size());
@@ -126,13 +126,13 @@ TEST(AnnModelFile, SaveLoadRoundTripGivesIdenticalOutput) {
 }
 
 TEST(AnnModelFile, BadFilesNameTheField) {
-    const auto dir = test::temp_dir("ann_bad");
-    const AnnModel m = test::random_ann(AnnConfig{60.0, 1, 1, 2}, 3, 4);
+    const auto dir = synth::test::temp_dir("ann_bad");
+    const AnnModel m = synth::test::random_ann(AnnConfig{60.0, 1, 1, 2}, 3, 4);
     std::string text = m.to_json_text();
     // Truncate one weight blob: wrong size.
     const auto pos = text.find("\"c\": \"");
     ASSERT_NE(pos, std::string::npos);
-    test::write_file(dir / "short.json", text.substr(0, pos + 6) + "AAAA" + text.substr(text.find('"', pos + 6)));
+    synth::test::write_file(dir / "short.json", text.substr(0, pos + 6) + "AAAA" + text.substr(text.find('"', pos + 6)));
     try {
         load_model(dir / "short.json");
         FAIL() << "expected InputError";
@@ -141,7 +141,7 @@ TEST(AnnModelFile, BadFilesNameTheField) {
     }
     std::string bad_param = text;
     bad_param.replace(bad_param.find("jaw_rotation"), 12, "jaw_rotaton");
-    test::write_file(dir / "param.json", bad_param);
+    synth::test::write_file(dir / "param.json", bad_param);
     EXPECT_THROW(load_model(dir / "param.json"), InputError);
 }
 
@@ -161,7 +161,7 @@ TEST(AnnLookahead, SweepWritesOnePointPerLookAhead) {
         EXPECT_EQ(points[static_cast<std::size_t>(a)].look_ahead, a);
         EXPECT_EQ(points[static_cast<std::size_t>(a)].look_back, 4 - a);
     }
-    const auto dir = test::temp_dir("ann_sweep");
+    const auto dir = synth::test::temp_dir("ann_sweep");
     write_lookahead_csv(dir / "la.csv", points);
     write_lookahead_svg(dir / "la.svg", points);
     const std::string csv = read_text_file(dir / "la.csv");

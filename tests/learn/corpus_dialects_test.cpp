@@ -8,8 +8,6 @@
 // through `avsi train` / `avsi evaluate`, training only the parameters the
 // source can drive; a damaged copy of each is refused at file:line.
 #include <matio.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -37,6 +35,8 @@
 #include "avsi/learn/reference_speaker.h"
 #include "avsi/learn/sensor_mapping.h"
 #include "avsi/learn/training.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace avsi;
@@ -53,12 +53,7 @@ struct Cleanup {
     ~Cleanup() { fs::remove_all(dir); }
 };
 
-fs::path temp_dir(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_dialects_" + std::to_string(::getpid()) + "_" + name);
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+using test::temp_dir;
 
 // Five short utterances of phones in the project set (times in seconds).
 std::vector<PhoneSequence> utterance_phones() {
@@ -304,17 +299,6 @@ fs::path write_haskins_corpus(const std::string& name) {
 
 // ---------------------------------------------------------------- CLI
 
-struct CliRun {
-    int code = -1;
-    std::string output;
-};
-CliRun run_cli(const std::string& args, const fs::path& dir) {
-    const fs::path log = dir / "cli.log";
-    const std::string command = std::string(AVSI_CLI_PATH) + " " + args + " >" + log.string() + " 2>&1";
-    const int status = std::system(command.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text_file(log)};
-}
-
 // The per-parameter RMSE of one model over all non-silence frames, from evaluate's CSV.
 std::map<std::string, std::string> evaluated_rmse(const fs::path& csv, const std::string& model) {
     const CsvTable t = read_csv(csv);
@@ -425,14 +409,13 @@ TEST(MochaLayout, TrainAndEvaluateOnlyTheDrivableParameters) {
     const Cleanup cleanup{dir};
     const fs::path out = dir / "out";
     fs::create_directories(out);
-    CliRun r = run_cli("train --model cohen-massaro --corpus " + dir.string() + " --out " + (out / "cm.json").string() +
-                        " --max-iterations 8 --threads 2",
-                    out);
-    ASSERT_EQ(r.code, 0) << r.output;
-    EXPECT_NE(r.output.find("not measured, kept from the default model: mouth_corner_stretch_left, "
+    test::CliResult r = test::run_avsi({"train", "--model", "cohen-massaro", "--corpus", dir.string(), "--out",
+                                        (out / "cm.json").string(), "--max-iterations", "8", "--threads", "2"});
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    EXPECT_NE(r.output().find("not measured, kept from the default model: mouth_corner_stretch_left, "
                             "mouth_corner_stretch_right, jaw_shift"),
               std::string::npos)
-        << r.output;
+        << r.output();
     const auto model = nlohmann::json::parse(read_text_file(out / "cm.json"));
     EXPECT_NE(model.dump().find("Not measured, so kept from the initial model: mouth_corner_stretch_left"),
               std::string::npos);
@@ -447,10 +430,9 @@ TEST(MochaLayout, TrainAndEvaluateOnlyTheDrivableParameters) {
     const TrainingReport report = run_training(s);
     EXPECT_EQ(names_of(report.trained), names_of(drivable_parameters(*sensor_mapping_preset("mocha"))));
 
-    r = run_cli("evaluate --corpus " + dir.string() + " --models " + (out / "cm.json").string() + " --out " +
-                    (out / "table").string(),
-                out);
-    ASSERT_EQ(r.code, 0) << r.output;
+    r = test::run_avsi({"evaluate", "--corpus", dir.string(), "--models", (out / "cm.json").string(), "--out",
+                        (out / "table").string()});
+    ASSERT_EQ(r.exit_code, 0) << r.output();
     auto rmse = evaluated_rmse(out / "table.csv", "cm");
     ASSERT_FALSE(rmse.empty()) << read_text_file(out / "table.csv");
     for (const char* p : {"jaw_rotation", "lip_rounding", "upper_lip_raise", "lower_lip_depression", "jaw_thrust"})
@@ -515,18 +497,16 @@ TEST(HaskinsLayout, TrainAndEvaluateOnlyTheDrivableParameters) {
     const Cleanup cleanup{dir};
     const fs::path out = dir / "out";
     fs::create_directories(out);
-    CliRun r = run_cli("train --model cohen-massaro --corpus " + dir.string() + " --out " + (out / "cm.json").string() +
-                        " --max-iterations 8 --threads 2",
-                    out);
-    ASSERT_EQ(r.code, 0) << r.output;
-    EXPECT_NE(r.output.find("measures 9 of the 10 parameters"), std::string::npos) << r.output;
-    EXPECT_NE(r.output.find("kept from the default model: mouth_corner_stretch_right"), std::string::npos)
-        << r.output;
+    test::CliResult r = test::run_avsi({"train", "--model", "cohen-massaro", "--corpus", dir.string(), "--out",
+                                        (out / "cm.json").string(), "--max-iterations", "8", "--threads", "2"});
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    EXPECT_NE(r.output().find("measures 9 of the 10 parameters"), std::string::npos) << r.output();
+    EXPECT_NE(r.output().find("kept from the default model: mouth_corner_stretch_right"), std::string::npos)
+        << r.output();
 
-    r = run_cli("evaluate --corpus " + dir.string() + " --models " + (out / "cm.json").string() + " --out " +
-                    (out / "table").string(),
-                out);
-    ASSERT_EQ(r.code, 0) << r.output;
+    r = test::run_avsi({"evaluate", "--corpus", dir.string(), "--models", (out / "cm.json").string(), "--out",
+                        (out / "table").string()});
+    ASSERT_EQ(r.exit_code, 0) << r.output();
     const auto rmse = evaluated_rmse(out / "table.csv", "cm");
     for (const char* p : {"jaw_rotation", "jaw_shift", "mouth_corner_stretch_left"})
         EXPECT_TRUE(parse_double(rmse.at(p)).has_value()) << p << ": " << rmse.at(p);

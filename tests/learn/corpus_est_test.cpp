@@ -13,6 +13,7 @@
 #include "avsi/learn/est_track.h"
 #include "avsi/learn/evaluation.h"
 #include "avsi/learn/sensor_mapping.h"
+#include "support/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace avsi;
@@ -23,12 +24,7 @@ namespace {
 
 constexpr double pi = std::numbers::pi;
 
-fs::path temp_dir(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_est_test_" + name);
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+using test::temp_dir;
 
 // Known articulation: jaw opening (incisor gap, mm) and lower lip lowering
 // relative to the jaw (mm) at time t.

@@ -9,6 +9,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/learn/articulatory_corpus.h"
+#include "support/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace avsi;
@@ -17,12 +18,7 @@ using namespace avsi::learn;
 
 namespace {
 
-fs::path temp_dir(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("avsi_corpus_test_" + name);
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+using test::temp_dir;
 
 // A corpus of n utterances with two-column tracks and TSV labels.
 fs::path make_corpus(const std::string& name, int n, const std::string& extra_utterance_fields = "") {

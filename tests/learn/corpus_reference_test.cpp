@@ -2,7 +2,6 @@
 // variables (undershoot on short vowels, closure in every bilabial, the vowel
 // with its onset consonant, no command lead), seeded and reproducible corpus
 // generation.
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -13,6 +12,8 @@
 
 #include "avsi/core/files.h"
 #include "avsi/learn/reference_speaker.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace avsi;
@@ -115,8 +116,7 @@ TEST(ReferenceSpeaker, NoiseIsSeeded) {
 }
 
 TEST(ReferenceCorpus, WritesALoadableCorpus) {
-    const fs::path a = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_refcorpus_a");
-    fs::remove_all(a);
+    const fs::path a = test::temp_dir("refcorpus_a");
     ReferenceSpeakerSettings s;
     s.max_utterances = 4;
     EXPECT_EQ(write_reference_corpus(a, s), 4u);
@@ -134,12 +134,11 @@ TEST(ReferenceCorpus, WritesALoadableCorpus) {
 // process synthesised before, so reproducibility is a property of a fresh
 // `avsi corpus reference` run: two runs give byte-identical corpora.
 TEST(ReferenceCorpus, CliRunsAreByteIdentical) {
-    const fs::path base = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_refcorpus_cli");
-    fs::remove_all(base);
+    const fs::path base = test::temp_dir("refcorpus_cli");
     auto run = [&](const std::string& name, const std::string& seed) {
-        const std::string cmd = std::string(AVSI_CLI_PATH) + " corpus reference --count 3 --seed " + seed +
-                                " --out " + (base / name).string() + " 2>/dev/null";
-        EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+        const test::CliResult r =
+            test::run_avsi({"corpus", "reference", "--count", "3", "--seed", seed, "--out", (base / name).string()});
+        EXPECT_EQ(r.exit_code, 0) << r.err;
         return load_articulatory_corpus(base / name).hash;
     };
     const std::string a = run("a", "2004");

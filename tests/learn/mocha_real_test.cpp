@@ -3,7 +3,6 @@
 // read, mapped to the parameters with head-motion removal, trained on with
 // `avsi train` and scored with `avsi evaluate`, as docs/articulography.md
 // tells a lab holding the full database to do.
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -13,11 +12,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "../cli_run.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/files.h"
 #include "avsi/core/text.h"
 #include "avsi/learn/articulatory_corpus.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace avsi;
@@ -29,8 +29,6 @@ const fs::path mocha_dir = fs::path(AVSI_SHARED_DIR) / "testdata" / "ema" / "moc
 
 // A corpus of the one real utterance, as a lab writes one for the database.
 fs::path write_real_corpus(const fs::path& dir) {
-    fs::remove_all(dir);
-    fs::create_directories(dir);
     for (const char* f : {"fsew0_001.ema", "fsew0_001.lab"}) fs::copy_file(mocha_dir / f, dir / f);
     write_text_file(dir / "corpus.json", R"({"format": "avsi-articulatory-corpus", "version": 1, "name": "mocha-fsew0-sample",
  "sensor_mapping": {"preset": "mocha"},
@@ -42,7 +40,7 @@ fs::path write_real_corpus(const fs::path& dir) {
 
 TEST(MochaReal, TrainAndEvaluateOnARealUtterance) {
     if (!fs::exists(mocha_dir / "fsew0_001.ema")) GTEST_SKIP() << "no " << mocha_dir << " (../shared beside the checkout)";
-    const fs::path dir = write_real_corpus(fs::temp_directory_path() / ("avsi_mocha_real_" + std::to_string(::getpid())));
+    const fs::path dir = write_real_corpus(test::temp_dir("mocha_real"));
     const fs::path out = dir / "out";
     fs::create_directories(out);
 
@@ -65,19 +63,16 @@ TEST(MochaReal, TrainAndEvaluateOnARealUtterance) {
     EXPECT_LT(jaw_max, 1.5);
 
     // Trained: the Cohen-Massaro model on the utterance.
-    auto r = test::run_avsi("train --model cohen-massaro --corpus " + test::shell_quote(dir.string()) + " --out " +
-                                test::shell_quote((out / "cm.json").string()) + " --max-iterations 10 --threads 2",
-                            out);
+    auto r = test::run_avsi({"train", "--model", "cohen-massaro", "--corpus", dir.string(), "--out",
+                             (out / "cm.json").string(), "--max-iterations", "10", "--threads", "2"});
     ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
     const auto model = nlohmann::json::parse(read_text_file(out / "cm.json"));
     EXPECT_NE(model.dump().find("mocha-fsew0-sample"), std::string::npos) << "the provenance names the corpus";
 
     // Scored: Table 2 columns for the drivable parameters, no "synthetic" caveat.
-    r = test::run_avsi("evaluate --subset all --corpus " + test::shell_quote(dir.string()) + " --models " +
-                           test::shell_quote((out / "cm.json").string()) + " " +
-                           test::shell_quote((fs::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json").string()) +
-                           " --out " + test::shell_quote((out / "table").string()),
-                       out);
+    r = test::run_avsi({"evaluate", "--subset", "all", "--corpus", dir.string(), "--models", (out / "cm.json").string(),
+                        (fs::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json").string(), "--out",
+                        (out / "table").string()});
     ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
     EXPECT_EQ(r.out.find("This corpus is synthetic"), std::string::npos);
     const CsvTable t = read_csv(out / "table.csv");

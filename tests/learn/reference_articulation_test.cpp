@@ -2,7 +2,6 @@
 // brings the lower lip to the upper incisors for every labiodental, measured
 // on the built-in head (issue 17: the data-driven models can only close
 // what their training data closes).
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -13,20 +12,21 @@
 #include "avsi/learn/articulatory_corpus.h"
 #include "avsi/learn/reference_speaker.h"
 #include "avsi/stimuli/articulation.h"
+#include "support/heads.h"
+#include "support/temp_dir.h"
 
 namespace fs = std::filesystem;
 using namespace avsi;
 using namespace avsi::learn;
 
 TEST(ReferenceSpeaker, ClosesItsBilabialsAndReachesItsLabiodentalsOnTheBuiltInHead) {
-    const fs::path dir = fs::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_refcorpus_articulation");
-    fs::remove_all(dir);
+    const fs::path dir = test::temp_dir("refcorpus_articulation");
     ReferenceSpeakerSettings s;
     s.max_utterances = 60;
     write_reference_corpus(dir, s);
     const ArticulatoryCorpus corpus = load_articulatory_corpus(dir);
     EXPECT_TRUE(corpus.synthetic);
-    const stimuli::Head head = stimuli::load_default_head();
+    const stimuli::Head& head = test::default_head();
     const stimuli::ArticulationMeter meter(head);
     std::size_t bilabials = 0, closed = 0, labiodentals = 0, reached = 0, rounding = 0, rounding_ok = 0;
     std::string problems;
@@ -62,7 +62,7 @@ TEST(ReferenceSpeaker, ClosesItsBilabialsAndReachesItsLabiodentalsOnTheBuiltInHe
 // parameter unit) is the built-in head's, measured afresh here: each
 // column within 0.6 mm per unit, or 8 %, of what the head gives.
 TEST(ReferenceSpeaker, TaskGeometryIsTheBuiltInHeads) {
-    const stimuli::Head head = stimuli::load_default_head();
+    const stimuli::Head& head = test::default_head();
     const stimuli::ArticulationMeter meter(head);
     const TaskGeometry& g = builtin_head_task_geometry();
     auto measure = [&](const synth::Frame& f) {

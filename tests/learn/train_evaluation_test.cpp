@@ -1,6 +1,5 @@
 // Objective evaluation (Table 2 measures): RMSE as % of range and Pearson ρ,
 // per subset (non-silence, vowels, consonants), missing values left out.
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -9,6 +8,7 @@
 
 #include "avsi/core/files.h"
 #include "avsi/learn/evaluation.h"
+#include "support/temp_dir.h"
 
 using namespace avsi;
 using namespace avsi::synth;
@@ -97,8 +97,7 @@ TEST(Evaluation, TablesHaveEverySubsetAndModel) {
 }
 
 TEST(Evaluation, PlotIsAnSvgWithEveryCurve) {
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_eval_plot");
-    std::filesystem::remove_all(dir);
+    const auto dir = test::temp_dir("eval_plot");
     const CorpusUtterance u = utterance();
     write_trajectory_plot_svg(dir / "p.svg", u, Param::JawRotation,
                               {{"model-a", std::vector<double>(10, 0.2)}, {"model-b", std::vector<double>(10, 0.4)}});

@@ -12,6 +12,7 @@
 #include "avsi/learn/evaluation.h"
 #include "avsi/learn/training.h"
 #include "avsi/synth/cohen_massaro.h"
+#include "support/temp_dir.h"
 
 using namespace avsi;
 using namespace avsi::synth;
@@ -140,7 +141,7 @@ TEST(TrainRecovery, OhmanAndMpeg4TrainingLowerTheHeldOutError) {
         // protocols/models/make_defaults.py), not from the default file, which
         // is trained on the reference speaker and so moves with retraining.
         if (kind == "mpeg4-cohen-massaro") {
-            settings.init_model = std::filesystem::temp_directory_path() / "avsi_recovery_mpeg4_handset.json";
+            settings.init_model = test::temp_dir("recovery") / "mpeg4_handset.json";
             std::ofstream(settings.init_model)
                 << R"({"kind": "mpeg4-cohen-massaro", "version": 1, "provenance": {"method": "hand-set"}, "viseme_set": ")"
                 << (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "visemes" / "mpeg4_14.json").string()

@@ -18,7 +18,6 @@
 
 #include <fmt/format.h>
 
-#include "../cli_run.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/protocol.h"
@@ -30,6 +29,10 @@
 #include "avsi/synth/control_model.h"
 #include "avsi/synth/closure_constraint.h"
 #include "avsi/synth/target_hold.h"
+#include "support/heads.h"
+#include "support/run_avsi.h"
+#include "support/sentences.h"
+#include "support/temp_dir.h"
 
 namespace avsi::stimuli {
 namespace {
@@ -37,16 +40,9 @@ namespace {
 using synth::index;
 using synth::Param;
 
-const Head& head() {
-    static const Head h = load_default_head();
-    return h;
-}
+using test::default_head;
 
-std::filesystem::path temp_dir(const std::string& name) {
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_" + name);
-    std::filesystem::create_directories(dir);
-    return dir;
-}
+using test::temp_dir;
 
 // A small head made by the test: a flat 40 mm-wide mouth of 5 contour pairs
 // (upper at y = 0, lower at y = 0), corners at x = ±20, a lip point each,
@@ -148,7 +144,7 @@ TEST(Articulation, MeasureCommandRefusesAHeadWithoutLandmarksAndMeasuresOneWith)
                              test::shell_quote((dir / "head.obj").string()) + " --rig " +
                              test::shell_quote((dir / "head.rig.json").string()) + " --out " +
                              test::shell_quote((dir / "m.csv").string());
-    auto r = test::run_avsi(args, dir);
+    auto r = test::run_avsi(args);
     EXPECT_EQ(r.exit_code, 1) << r.err;
     EXPECT_NE(r.err.find("head.rig.json"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("articulation"), std::string::npos) << r.err;
@@ -156,7 +152,7 @@ TEST(Articulation, MeasureCommandRefusesAHeadWithoutLandmarksAndMeasuresOneWith)
     EXPECT_FALSE(std::filesystem::exists(dir / "m.csv"));
 
     write_small_head(dir, true);
-    r = test::run_avsi(args, dir);
+    r = test::run_avsi(args);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string csv = read_text_file(dir / "m.csv");
     EXPECT_EQ(csv.substr(0, csv.find('\n')), "time_s,aperture_mid_mm,aperture_min_mm,aperture_max_mm,aperture_all_min_mm,"
@@ -169,8 +165,8 @@ TEST(Articulation, MeasureCommandRefusesAHeadWithoutLandmarksAndMeasuresOneWith)
 TEST(Articulation, BuiltInHeadMeasuresMatchItsPosedMesh) {
     // The meter poses only the landmarks; pose_head poses every vertex. Both
     // must agree, lip contact included.
-    const ArticulationMeter meter(head());
-    const auto& L = *head().articulation;
+    const ArticulationMeter meter(default_head());
+    const auto& L = *default_head().articulation;
     Rng rng(17);
     for (int trial = 0; trial < 40; ++trial) {
         SCOPED_TRACE("seed 17, trial " + std::to_string(trial));
@@ -178,7 +174,7 @@ TEST(Articulation, BuiltInHeadMeasuresMatchItsPosedMesh) {
         for (const auto& info : synth::params())
             pose.params[index(info.param)] = info.min + rng.uniform() * info.range();
         PosedMesh posed;
-        pose_head(head(), pose, posed);
+        pose_head(default_head(), pose, posed);
         const auto m = meter.measure(pose);
         const std::size_t mid = L.upper_lip_contour.size() / 2;
         EXPECT_NEAR(m.aperture_mid_mm, posed.positions[L.upper_lip_contour[mid]].y - posed.positions[L.lower_lip_contour[mid]].y,
@@ -191,7 +187,7 @@ TEST(Articulation, BuiltInHeadMeasuresMatchItsPosedMesh) {
 TEST(Articulation, LipsNeverPassThroughEachOtherOnTheBuiltInHead) {
     // Any pose within the parameter ranges: the lip contact keeps every pair
     // of the inner-lip contours from crossing.
-    const ArticulationMeter meter(head());
+    const ArticulationMeter meter(default_head());
     Rng rng(2004);
     double lowest = 1e9;
     for (int trial = 0; trial < 2000; ++trial) {
@@ -209,7 +205,7 @@ TEST(Articulation, BilabialTargetsCloseTheLipsFromAnyLipContext) {
     // the targets fix: the lips meet (the rig's job: rounding, retraction
     // and corner gestures must not open a closure).
     const auto table = synth::read_rule_targets_tsv(synth::default_hold_targets_path());
-    const ArticulationMeter meter(head());
+    const ArticulationMeter meter(default_head());
     Rng rng(5);
     for (const char* phone : {"P", "B", "M"}) {
         const auto& target = table.at(phone);
@@ -230,30 +226,12 @@ TEST(Articulation, BilabialTargetsCloseTheLipsFromAnyLipContext) {
 
 // ---- Running speech -------------------------------------------------------
 
-std::vector<std::string> test_sentences() {
-    std::vector<std::string> out;
-    std::ifstream in(std::filesystem::path(AVSI_TEST_DATA_DIR) / "articulation" / "sentences.txt");
-    for (std::string line; std::getline(in, line);)
-        if (!trim(line).empty() && line[0] != '#') out.push_back(trim(line));
-    return out;
-}
+using test::test_sentences;
+using test::Utterance;
+using test::utterances;
 
-struct Utterance {
-    std::string text;
-    PhoneSequence phones;
-};
-
-// The sentences timed by espeak-ng (en-us), and by the default protocol's
-// voice (Festival's HTS voice): two synthesisers' durations.
-const std::vector<Utterance>& utterances() {
-    static const std::vector<Utterance> u = [] {
-        std::vector<Utterance> out;
-        for (const auto& s : test_sentences()) out.push_back({s, synthesize_speech(s).phones});
-        return out;
-    }();
-    return u;
-}
-
+// The sentences timed by espeak-ng (en-us, test::utterances), and by the
+// default protocol's voice (Festival's HTS voice): two synthesisers' durations.
 const std::vector<Utterance>& protocol_voice_utterances() {
     static const std::vector<Utterance> u = [] {
         const Protocol protocol = load_protocol(std::filesystem::path(AVSI_PROTOCOLS_DIR) / "beskow2004-en.toml");
@@ -311,7 +289,7 @@ synth::LipTaskFunction lip_tasks(const ArticulationMeter& meter) {
 // models, not constraints) and returns every failure (lips passing through
 // each other).
 std::vector<std::string> running_speech_failures(const std::vector<Utterance>& speech) {
-    const ArticulationMeter meter(head());
+    const ArticulationMeter meter(default_head());
     std::vector<std::string> failures;
     for (const auto& cm : default_models()) {
         for (double fps : {25.0, 30.0, 60.0}) {
@@ -360,7 +338,7 @@ TEST(ArticulationRunningSpeech, NoDefaultModelPassesTheLipsThroughEachOtherWithT
 // holds, at every frame rate. (Its own targets hold the lips through /p b m
 // f v/: that is the rule model as hand-set, not a policy applied to it.)
 TEST(ArticulationRunningSpeech, RuleModelMeetsEveryConstraintOnTheBuiltInHead) {
-    const ArticulationMeter meter(head());
+    const ArticulationMeter meter(default_head());
     const std::shared_ptr<const synth::ControlModel> rule =
         synth::load_model(std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json");
     for (double fps : {25.0, 30.0, 60.0}) {
@@ -385,7 +363,7 @@ TEST(ArticulationRunningSpeech, RuleModelMeetsEveryConstraintOnTheBuiltInHead) {
 // only in the /p b m f v/ segments' frames and within the fall-off (4σ) of
 // them; and every segment gets closure or contact, measured on the head.
 TEST(ArticulationRunningSpeech, ClosureConstraintChangesOnlyTheLipsAndOnlyAroundTheSegments) {
-    const ArticulationMeter meter(head());
+    const ArticulationMeter meter(default_head());
     const synth::ClosureSettings settings;
     std::set<std::size_t> moved;
     for (const auto& list : {synth::bilabial_task_params(), synth::labiodental_task_params()})
@@ -466,8 +444,8 @@ TEST(ArticulationRunningSpeech, TheMeasuredClosureIsWhatTheRenderedFrameShows) {
     // more than 2 mm apart; a frame of an open vowel in the same utterance
     // shows them (so the test can see them).
     RenderSettings rs;
-    OffscreenRenderer renderer(head(), rs);
-    const ArticulationMeter meter(head());
+    OffscreenRenderer renderer(default_head(), rs);
+    const ArticulationMeter meter(default_head());
     std::size_t closed_seen = 0, open_seen = 0;
     for (const auto& cm : default_models()) {
         for (std::size_t u = 0; u < 2; ++u) {
@@ -478,7 +456,7 @@ TEST(ArticulationRunningSpeech, TheMeasuredClosureIsWhatTheRenderedFrameShows) {
             for (const auto& s : summary.segments) {
                 if (s.kind != SegmentClass::Bilabial) continue;
                 pose.params = trajectory.frames[s.best_frame];
-                const std::size_t interior = interior_pixels(renderer.render(pose, RenderMode::Regions), head());
+                const std::size_t interior = interior_pixels(renderer.render(pose, RenderMode::Regions), default_head());
                 if (s.ok) {
                     ++closed_seen;
                     EXPECT_EQ(interior, 0u) << cm.name << ", \"" << utt.text << "\", " << s.phone << " at " << s.start_s
@@ -493,7 +471,7 @@ TEST(ArticulationRunningSpeech, TheMeasuredClosureIsWhatTheRenderedFrameShows) {
             for (std::size_t k = 1; k < trajectory.size(); ++k)
                 if (trajectory.value(k, Param::JawRotation) > trajectory.value(widest, Param::JawRotation)) widest = k;
             pose.params = trajectory.frames[widest];
-            EXPECT_GT(interior_pixels(renderer.render(pose, RenderMode::Regions), head()), 50u) << cm.name;
+            EXPECT_GT(interior_pixels(renderer.render(pose, RenderMode::Regions), default_head()), 50u) << cm.name;
         }
     }
     EXPECT_GT(closed_seen, 10u);

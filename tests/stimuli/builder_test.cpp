@@ -1,7 +1,6 @@
 // The stimulus-set builder on a minimal protocol: every stimulus decodes to
 // its manifest frame count, a rebuild renders nothing and gives the same
 // manifest hashes, and a fresh build elsewhere gives identical hashes.
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -20,13 +19,15 @@
 #include "avsi/stimuli/head.h"
 #include "avsi/stimuli/video.h"
 #include "avsi/vocoder/masking.h"
+#include "support/heads.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace avsi::stimuli {
 namespace {
 
 struct BuilderFixture : ::testing::Test {
-    std::filesystem::path dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_builder_test");
-    void SetUp() override { std::filesystem::remove_all(dir); }
+    std::filesystem::path dir = test::temp_dir("builder_test");
     void TearDown() override { std::filesystem::remove_all(dir); }
     BuildSettings settings(const std::string& name) {
         BuildSettings s;
@@ -69,10 +70,9 @@ TEST_F(BuilderFixture, BuildsEveryStimulusThenSkipsThemAndIsDeterministic) {
     // Two fresh builds by the command, each in its own process, and one more
     // in this process (after other speech) give identical files.
     for (const char* name : {"b", "c"}) {
-        const std::string command = std::string("'") + AVSI_CLI_PATH + "' build-stimuli '" +
-                                    settings(name).protocol_path.string() + "' --out '" + (dir / name).string() +
-                                    "' --jobs 2 > /dev/null 2>&1";
-        ASSERT_EQ(std::system(command.c_str()), 0) << command;
+        const test::CliResult r =
+            test::run_avsi({"build-stimuli", settings(name).protocol_path.string(), "--out", (dir / name).string(), "--jobs", "2"});
+        ASSERT_EQ(r.exit_code, 0) << r.output();
     }
     EXPECT_EQ(hashes(dir / "b" / "manifest.json"), hashes(dir / "c" / "manifest.json"));
     build_stimuli(settings("d"));
@@ -326,7 +326,7 @@ TEST_F(BuilderFixture, BuildsWithTheHeadTheProtocolNames) {
     EXPECT_NE(missing.find("nothing.rig.json"), std::string::npos) << missing;
 
     // A glTF head: the built-in one exported, named by head_gltf.
-    export_gltf_head(load_default_head(), dir / "lab" / "heads" / "head.glb");
+    export_gltf_head(test::default_head(), dir / "lab" / "heads" / "head.glb");
     write_text_file(dir / "lab" / "gltf.toml", text + "head_gltf = \"heads/head.glb\"\n");
     BuildSettings g = settings("gltf-head");
     g.protocol_path = dir / "lab" / "gltf.toml";

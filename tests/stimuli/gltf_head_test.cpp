@@ -14,7 +14,6 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
-#include "../cli_run.h"
 #include "avsi/core/error.h"
 #include "avsi/core/labels.h"
 #include "avsi/core/files.h"
@@ -23,6 +22,9 @@
 #include "avsi/stimuli/renderer.h"
 #include "avsi/synth/control_model.h"
 #include "avsi/synth/trajectory.h"
+#include "support/heads.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 
 namespace avsi::stimuli {
 namespace {
@@ -30,11 +32,7 @@ namespace {
 using synth::index;
 using synth::Param;
 
-std::filesystem::path temp_dir(const std::string& name) {
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_" + name);
-    std::filesystem::create_directories(dir);
-    return dir;
-}
+using test::temp_dir;
 
 tinygltf::Value value_of(const nlohmann::json& j) {
     if (j.is_object()) {
@@ -220,7 +218,7 @@ TEST(GltfHead, MappingWithAnUnknownParameterNamesItAndSuggests) {
 // where the rig rotates, and its normals come from the same positions).
 TEST(GltfHead, ExportedBuiltInHeadRendersLikeTheOriginal) {
     const auto dir = temp_dir("gltf_roundtrip");
-    const Head original = load_default_head();
+    const Head& original = test::default_head();
     export_gltf_head(original, dir / "head.glb");
     const Head loaded = load_gltf_head(dir / "head.glb");
     ASSERT_EQ(loaded.mesh.positions.size(), original.mesh.positions.size());
@@ -267,15 +265,14 @@ TEST(GltfHead, CommandLineRoundTripRendersTheSameFrames) {
     const auto model = synth::load_model(std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json");
     synth::write_trajectory_csv(dir / "t.csv", model->synthesize(read_phones(dir / "phones.tsv"), 30.0));
     using test::run_avsi, test::shell_quote;
-    auto r = run_avsi("export-head --out " + shell_quote((dir / "head.glb").string()), dir);
+    auto r = run_avsi("export-head --out " + shell_quote((dir / "head.glb").string()));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string common = " --traj " + shell_quote((dir / "t.csv").string()) + " --phones " +
                                shell_quote((dir / "phones.tsv").string()) + " --width 320 --height 240";
-    r = run_avsi("render" + common + " --out " + shell_quote((dir / "a").string() + "/"), dir);
+    r = run_avsi("render" + common + " --out " + shell_quote((dir / "a").string() + "/"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     r = run_avsi("render" + common + " --head " + shell_quote((dir / "head.glb").string()) + " --out " +
-                     shell_quote((dir / "b").string() + "/"),
-                 dir);
+                 shell_quote((dir / "b").string() + "/"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     std::vector<std::filesystem::path> frames;
     for (const auto& e : std::filesystem::directory_iterator(dir / "a")) frames.push_back(e.path().filename());

@@ -1,6 +1,5 @@
 // The built-in head: mesh size and regions, reproducible generation, the
 // FAPUs, rig loading errors, and what the rig transforms do.
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -11,6 +10,8 @@
 #include "avsi/core/files.h"
 #include "avsi/stimuli/head.h"
 #include "avsi/stimuli/head_builder.h"
+#include "support/heads.h"
+#include "support/temp_dir.h"
 
 namespace avsi::stimuli {
 namespace {
@@ -18,10 +19,7 @@ namespace {
 using synth::index;
 using synth::Param;
 
-const Head& head() {
-    static const Head h = load_default_head();
-    return h;
-}
+using test::default_head;
 
 float mean_y(const PosedMesh& posed, const Head& h, const std::string& group) {
     const int g = h.mesh.group_index(group);
@@ -34,10 +32,10 @@ float mean_y(const PosedMesh& posed, const Head& h, const std::string& group) {
 }
 
 TEST(Head, DefaultMeshHasTheFaceRegionsAndEnoughTriangles) {
-    EXPECT_GE(head().mesh.triangle_count(), 8000u);
+    EXPECT_GE(default_head().mesh.triangle_count(), 8000u);
     for (const char* g : {"skin", "upper_lip", "lower_lip", "upper_inner", "lower_inner", "upper_cavity", "lower_cavity",
                           "upper_teeth", "lower_teeth", "tongue", "eyes", "cornea", "brows", "lashes", "hair"})
-        EXPECT_GE(head().mesh.group_index(g), 0) << g;
+        EXPECT_GE(default_head().mesh.group_index(g), 0) << g;
     EXPECT_LT(std::filesystem::file_size(default_head_obj()), 5u * 1024 * 1024);
 }
 
@@ -48,7 +46,7 @@ TEST(Head, ToolRegeneratesTheCommittedHeadsByteIdentically) {
     const auto assets = std::filesystem::path(AVSI_SHARED_DIR) / "assets" / "makehuman";
     if (!std::filesystem::exists(assets / "mesh" / "base.obj"))
         GTEST_SKIP() << "no MakeHuman assets at " << assets << ": cannot check protocols/head/ against its source";
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_head_tool_test");
+    const auto dir = test::temp_dir("head_tool_test");
     for (const auto variant : {HeadVariant::Male, HeadVariant::Female, HeadVariant::DarkMale}) {
         HeadBuildSettings settings;
         settings.assets_dir = assets;
@@ -70,7 +68,7 @@ TEST(Head, ToolRegeneratesTheCommittedHeadsByteIdentically) {
 TEST(Head, ToolRefusesAMissingAssetsFolderNamingIt) {
     HeadBuildSettings settings;
     settings.assets_dir = "/nonexistent/makehuman";
-    settings.out_dir = std::filesystem::temp_directory_path();
+    settings.out_dir = test::temp_dir("head_tool_refuses");
     try {
         build_head(settings);
         FAIL() << "expected an InputError";
@@ -80,7 +78,7 @@ TEST(Head, ToolRefusesAMissingAssetsFolderNamingIt) {
 }
 
 TEST(Head, FapusAreAdultProportions) {
-    const Fapu f = fapu(head());
+    const Fapu f = fapu(default_head());
     EXPECT_NEAR(f.es, 62.0, 6.0);    // eye separation, mm
     EXPECT_NEAR(f.mw, 48.0, 6.0);    // mouth width
     EXPECT_NEAR(f.ens, 45.0, 8.0);   // eye to nose bottom
@@ -90,23 +88,23 @@ TEST(Head, FapusAreAdultProportions) {
 
 TEST(Head, RestPoseIsTheNeutralMesh) {
     PosedMesh posed;
-    pose_head(head(), Pose{}, posed);
-    ASSERT_EQ(posed.positions.size(), head().mesh.positions.size());
-    EXPECT_TRUE(std::equal(posed.positions.begin(), posed.positions.end(), head().mesh.positions.begin()));
+    pose_head(default_head(), Pose{}, posed);
+    ASSERT_EQ(posed.positions.size(), default_head().mesh.positions.size());
+    EXPECT_TRUE(std::equal(posed.positions.begin(), posed.positions.end(), default_head().mesh.positions.begin()));
 }
 
 TEST(Head, JawRotationLowersTheLowerTeethAndLipButNotTheUpperTeeth) {
     PosedMesh rest, open;
-    pose_head(head(), Pose{}, rest);
+    pose_head(default_head(), Pose{}, rest);
     Pose p;
     p.params[index(Param::JawRotation)] = 1.0;
-    pose_head(head(), p, open);
-    const float lower_drop = mean_y(rest, head(), "lower_teeth") - mean_y(open, head(), "lower_teeth");
+    pose_head(default_head(), p, open);
+    const float lower_drop = mean_y(rest, default_head(), "lower_teeth") - mean_y(open, default_head(), "lower_teeth");
     EXPECT_GT(lower_drop, 10.0f);  // the row's mean: ~20 mm at the incisors, less at the back
     EXPECT_LT(lower_drop, 25.0f);
-    EXPECT_FLOAT_EQ(mean_y(rest, head(), "upper_teeth"), mean_y(open, head(), "upper_teeth"));
+    EXPECT_FLOAT_EQ(mean_y(rest, default_head(), "upper_teeth"), mean_y(open, default_head(), "upper_teeth"));
     // The lower lip's mean over its whole width: the corners move little.
-    EXPECT_GT(mean_y(rest, head(), "lower_lip") - mean_y(open, head(), "lower_lip"), 8.0f);
+    EXPECT_GT(mean_y(rest, default_head(), "lower_lip") - mean_y(open, default_head(), "lower_lip"), 8.0f);
 }
 
 TEST(Head, RoundingNarrowsTheMouthAndSpreadingWidensIt) {
@@ -114,13 +112,13 @@ TEST(Head, RoundingNarrowsTheMouthAndSpreadingWidensIt) {
         Pose p;
         p.params[index(Param::LipRounding)] = rounding;
         PosedMesh posed;
-        pose_head(head(), p, posed);
-        const int g = head().mesh.group_index("upper_lip");
+        pose_head(default_head(), p, posed);
+        const int g = default_head().mesh.group_index("upper_lip");
         float lo = 1e9f, hi = -1e9f;
-        for (std::size_t t = 0; t < head().mesh.triangle_group.size(); ++t)
-            if (head().mesh.triangle_group[t] == g)
+        for (std::size_t t = 0; t < default_head().mesh.triangle_group.size(); ++t)
+            if (default_head().mesh.triangle_group[t] == g)
                 for (int k = 0; k < 3; ++k) {
-                    const float x = posed.positions[head().mesh.indices[3 * t + static_cast<std::size_t>(k)]].x;
+                    const float x = posed.positions[default_head().mesh.indices[3 * t + static_cast<std::size_t>(k)]].x;
                     lo = std::min(lo, x);
                     hi = std::max(hi, x);
                 }
@@ -131,7 +129,7 @@ TEST(Head, RoundingNarrowsTheMouthAndSpreadingWidensIt) {
 }
 
 TEST(Head, RigWithUnknownChannelNamesTheFieldAndSuggests) {
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_rig_test");
+    const auto dir = test::temp_dir("rig_test");
     write_text_file(dir / "bad.rig.json",
                     R"({"format": "avsi-rig", "landmarks": {}, "transforms": [
                         {"channel": "jaw_rotaton", "translate": [0, 1, 0]}]})");

@@ -27,15 +27,15 @@
 #include "avsi/stimuli/layers.h"
 #include "avsi/stimuli/renderer.h"
 #include "avsi/synth/control_model.h"
-#include "../layers_protocol.h"
+#include "support/heads.h"
+#include "support/layers_protocol.h"
+#include "support/sentences.h"
+#include "support/temp_dir.h"
 
 namespace avsi::stimuli {
 namespace {
 
-const Head& head() {
-    static const Head h = load_default_head();
-    return h;
-}
+using test::default_head;
 
 // A layer of `frames` frames that sets channel c to v in every frame.
 Layer constant(const std::string& name, LayerSet set, std::size_t c, double v, std::size_t frames = 1) {
@@ -158,7 +158,7 @@ TEST(LayerBlend, SpeechOnlyStackGivesTheRenderersPosesExactly) {
     const auto trajectory = model->synthesize(phones, 30.0);
     LayerSeeds seeds;
     seeds.blink = 99;
-    const Animation a = animate(head(), trajectory, &phones, LayerSettings::speech_only(), seeds);
+    const Animation a = animate(default_head(), trajectory, &phones, LayerSettings::speech_only(), seeds);
     BlinkSettings blinks;
     blinks.seed = 99;
     const auto blink = blink_track(trajectory.size(), 30.0, blinks);
@@ -179,15 +179,15 @@ TEST(LayerBlend, SpeechOnlyStackGivesTheRenderersPosesExactly) {
 
 double largest_displacement(const Pose& pose) {
     std::vector<glm::vec3> posed;
-    pose_positions(head(), pose, posed);
+    pose_positions(default_head(), pose, posed);
     double d = 0.0;
-    for (std::size_t i = 0; i < posed.size(); ++i) d = std::max(d, double(glm::length(posed[i] - head().mesh.positions[i])));
+    for (std::size_t i = 0; i < posed.size(); ++i) d = std::max(d, double(glm::length(posed[i] - default_head().mesh.positions[i])));
     return d;
 }
 
 TEST(FapPlayer, BrowCheekAndHeadFapsMoveTheHeadByTheirFapu) {
-    const FapPlayer player(head());
-    const Fapu f = fapu(head());
+    const FapPlayer player(default_head());
+    const Fapu f = fapu(default_head());
     synth::FapFrame fap;
     auto set = [&](int n, double v) {
         fap.mask[static_cast<std::size_t>(n - 1)] = true;
@@ -227,7 +227,7 @@ TEST(FapPlayer, NamedExpressionsComeFromTheDataFile) {
     const auto names = expression_names(default_expressions_file());
     for (const char* n : {"neutral", "happy", "sad", "surprised"})
         EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << n;
-    const FapPlayer player(head());
+    const FapPlayer player(default_head());
     const LayerFrame surprised = player.frame(named_expression(default_expressions_file(), "surprised"));
     EXPECT_GT(surprised.values[brow_inner_raise_channel], 0.3);
     EXPECT_GT(surprised.values[brow_outer_raise_channel], 0.3);
@@ -242,27 +242,7 @@ TEST(FapPlayer, NamedExpressionsComeFromTheDataFile) {
 
 // ---- Expressions + speech keep every bilabial closure ------------------------
 
-std::vector<std::string> test_sentences() {
-    std::vector<std::string> out;
-    std::ifstream in(std::filesystem::path(AVSI_TEST_DATA_DIR) / "articulation" / "sentences.txt");
-    for (std::string line; std::getline(in, line);)
-        if (!trim(line).empty() && line[0] != '#') out.push_back(trim(line));
-    return out;
-}
-
-struct Utterance {
-    std::string text;
-    PhoneSequence phones;
-};
-
-const std::vector<Utterance>& utterances() {
-    static const std::vector<Utterance> u = [] {
-        std::vector<Utterance> out;
-        for (const auto& s : test_sentences()) out.push_back({s, synthesize_speech(s).phones});
-        return out;
-    }();
-    return u;
-}
+using test::utterances;
 
 // The default protocol's model conditions (every model as trained or hand-set).
 std::vector<std::pair<std::string, std::shared_ptr<const synth::ControlModel>>> protocol_models() {
@@ -295,7 +275,7 @@ LayerSettings expressive(const std::string& expression, bool owns_mouth = true) 
 
 TEST(LayersArticulation, HappyAndSurprisedWithSpeechKeepEveryModelsBilabialClosures) {
     ASSERT_GE(utterances().size(), 20u);
-    const ArticulationMeter meter(head());
+    const ArticulationMeter meter(default_head());
     const auto models = protocol_models();
     ASSERT_GE(models.size(), 4u);
     for (const char* expression : {"happy", "surprised"}) {
@@ -305,7 +285,7 @@ TEST(LayersArticulation, HappyAndSurprisedWithSpeechKeepEveryModelsBilabialClosu
         for (const auto& [name, model] : models)
             for (const auto& u : utterances()) {
                 const auto trajectory = model->synthesize(u.phones, 30.0);
-                const Animation a = animate(head(), trajectory, &u.phones, layers);
+                const Animation a = animate(default_head(), trajectory, &u.phones, layers);
                 std::vector<ArticulationMeasures> measures;
                 for (const auto& pose : a.poses) measures.push_back(meter.measure(pose));
                 const auto layered = check_articulation(u.phones, 30.0, measures);
@@ -335,8 +315,8 @@ TEST(LayersArticulation, SharingTheMouthBlendsTheExpressionIntoTheSpeech) {
     const auto model = synth::load_model(std::filesystem::path(AVSI_PROTOCOLS_DIR) / "models" / "rule.json");
     const auto& u = utterances().front();
     const auto trajectory = model->synthesize(u.phones, 30.0);
-    const Animation owned = animate(head(), trajectory, &u.phones, expressive("happy", true));
-    const Animation shared = animate(head(), trajectory, &u.phones, expressive("happy", false));
+    const Animation owned = animate(default_head(), trajectory, &u.phones, expressive("happy", true));
+    const Animation shared = animate(default_head(), trajectory, &u.phones, expressive("happy", false));
     const auto stretch = index(synth::Param::MouthCornerStretchLeft);
     std::size_t moved = 0;
     for (std::size_t k = 0; k < trajectory.size(); ++k) {
@@ -346,11 +326,11 @@ TEST(LayersArticulation, SharingTheMouthBlendsTheExpressionIntoTheSpeech) {
     EXPECT_GT(moved, trajectory.size() * 9 / 10);
     // The surprised jaw, shared, on the rule model (printed: its bilabial
     // targets press the lips, so few open).
-    const ArticulationMeter meter(head());
+    const ArticulationMeter meter(default_head());
     std::size_t open = 0, total = 0;
     for (const auto& v : utterances()) {
         const auto t = model->synthesize(v.phones, 30.0);
-        const Animation a = animate(head(), t, &v.phones, expressive("surprised", false));
+        const Animation a = animate(default_head(), t, &v.phones, expressive("surprised", false));
         std::vector<ArticulationMeasures> measures;
         for (const auto& pose : a.poses) measures.push_back(meter.measure(pose));
         const auto s = check_articulation(v.phones, 30.0, measures);
@@ -498,7 +478,7 @@ TEST(LayersRender, HeadRotationAndExpressionsRenderAndTheRestFrameStaysCached) {
     RenderSettings rs;
     rs.width = 160;
     rs.height = 120;
-    OffscreenRenderer renderer(head(), rs);
+    OffscreenRenderer renderer(default_head(), rs);
     const Image rest = renderer.render(Pose{});
     Pose turned;
     turned.head_rotation = head_rotation_from_angles(0.0, glm::radians(8.0), 0.0);
@@ -514,19 +494,18 @@ TEST(LayersRender, HeadRotationAndExpressionsRenderAndTheRestFrameStaysCached) {
     EXPECT_EQ(again.rgb, rest.rgb);
     // The rotation is rigid about the neck pivot, which stays put.
     PosedMesh posed;
-    pose_head(head(), Pose{}, posed);
+    pose_head(default_head(), Pose{}, posed);
     PosedMesh rotated = posed;
-    apply_head_rotation(head(), turned.head_rotation, rotated);
+    apply_head_rotation(default_head(), turned.head_rotation, rotated);
     for (std::size_t i = 0; i < posed.positions.size(); i += 997)
-        EXPECT_NEAR(glm::distance(posed.positions[i], head().landmarks.neck_pivot),
-                    glm::distance(rotated.positions[i], head().landmarks.neck_pivot), 1e-3);
-    EXPECT_TRUE(head().landmarks.has_neck_pivot);
+        EXPECT_NEAR(glm::distance(posed.positions[i], default_head().landmarks.neck_pivot),
+                    glm::distance(rotated.positions[i], default_head().landmarks.neck_pivot), 1e-3);
+    EXPECT_TRUE(default_head().landmarks.has_neck_pivot);
 }
 
 TEST(LayersRender, AHeadWithoutTheExpressionChannelsLoadsRendersAndWarns) {
     // A lab's head: the built-in rig without the brow and cheek transforms.
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_layers_head");
-    std::filesystem::create_directories(dir);
+    const auto dir = test::temp_dir("layers_head");
     auto rig = nlohmann::json::parse(read_text_file(default_head_rig()));
     nlohmann::json kept = nlohmann::json::array();
     for (const auto& t : rig["transforms"]) {
@@ -565,11 +544,7 @@ Protocol protocol_with(const std::string& layers, const std::filesystem::path& p
 }
 
 struct LayersProtocol : ::testing::Test {
-    std::filesystem::path dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_layers_protocol");
-    void SetUp() override {
-        std::filesystem::remove_all(dir);
-        std::filesystem::create_directories(dir);
-    }
+    std::filesystem::path dir = test::temp_dir("layers_protocol");
     void TearDown() override { std::filesystem::remove_all(dir); }
     // The problems of the expressive condition's layers, one per line.
     std::string problems_of(const std::string& layers) {
@@ -615,7 +590,7 @@ head_motion = { quaternions = "nod.csv" }
     synth::Trajectory t;
     t.fps = 10.0;
     t.frames.assign(11, synth::Frame{});
-    const Animation a = animate(head(), t, nullptr, s);
+    const Animation a = animate(default_head(), t, nullptr, s);
     EXPECT_NEAR(glm::degrees(glm::angle(a.poses[5].head_rotation)), 5.0, 0.01);
     EXPECT_NEAR(glm::degrees(glm::angle(a.poses[10].head_rotation)), 10.0, 0.01);
     const auto record = nlohmann::json::parse(a.record_json);
@@ -651,7 +626,7 @@ TEST_F(LayersProtocol, BadSettingsNameTheFileLineAndField) {
     t.fps = 10.0;
     t.frames.assign(3, synth::Frame{});
     try {
-        animate(head(), t, nullptr, s);
+        animate(default_head(), t, nullptr, s);
         ADD_FAILURE() << "no error";
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("bad.csv:3:4: error: y: expected a number, got \"zero\""), std::string::npos)

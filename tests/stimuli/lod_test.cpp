@@ -6,7 +6,6 @@
 // frames of that sentence within a stated image difference; triangle
 // budgets (and impossible ones), the automatic choice, a lab's OBJ + rig and
 // glTF head, the render settings and the builder's manifest.
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -31,20 +30,19 @@
 #include "avsi/stimuli/lod.h"
 #include "avsi/stimuli/renderer.h"
 #include "avsi/synth/control_model.h"
+#include "support/heads.h"
+#include "support/temp_dir.h"
 
 namespace avsi::stimuli {
 namespace {
 
-const Head& head() {
-    static const Head h = load_default_head();
-    return h;
-}
+using test::default_head;
 
 // Levels 1-3 of the built-in head, made once.
 const LodResult& level(int k) {
     static const std::map<int, LodResult> levels = [] {
         std::map<int, LodResult> out;
-        for (int l = 0; l <= 3; ++l) out.emplace(l, head_at_level(head(), l));
+        for (int l = 0; l <= 3; ++l) out.emplace(l, head_at_level(default_head(), l));
         return out;
     }();
     return levels.at(k);
@@ -67,7 +65,7 @@ Tri tri(const std::vector<std::uint32_t>& idx, std::size_t t, const std::vector<
 // pairs of the full head's vertex indices: the holes in the surface.
 std::set<std::pair<std::uint32_t, std::uint32_t>> open_edges(const HeadMesh& mesh,
                                                              const std::vector<std::uint32_t>* source) {
-    const auto& full = head().mesh.positions;
+    const auto& full = default_head().mesh.positions;
     std::map<std::array<float, 3>, std::uint32_t> weld;
     for (std::uint32_t v = 0; v < full.size(); ++v) weld.emplace(std::array<float, 3>{full[v].x, full[v].y, full[v].z}, v);
     auto welded = [&](std::uint32_t v) {
@@ -142,14 +140,14 @@ const synth::Trajectory& sentence_trajectory() {
 }
 
 TEST(Lod, ThreeLevelsHaveFewerTrianglesEachAndKeepTheMouthAndEyes) {
-    const auto keep = lod_kept_triangles(head());
+    const auto keep = lod_kept_triangles(default_head());
     std::set<Tri> kept;
     for (std::size_t t = 0; t < keep.size(); ++t)
-        if (keep[t]) kept.insert(tri(head().mesh.indices, t, nullptr));
+        if (keep[t]) kept.insert(tri(default_head().mesh.indices, t, nullptr));
     ASSERT_GT(kept.size(), 1000u);
     // Every triangle of the lips, teeth, tongue, mouth cavity and eyes is kept.
     for (std::size_t t = 0; t < keep.size(); ++t) {
-        const auto& g = head().mesh.group_names[std::size_t(head().mesh.triangle_group[t])];
+        const auto& g = default_head().mesh.group_names[std::size_t(default_head().mesh.triangle_group[t])];
         if (g == "upper_lip" || g == "lower_lip" || g == "upper_teeth" || g == "lower_teeth" || g == "eyes" ||
             g == "cornea" || g == "tongue") {
             ASSERT_TRUE(keep[t]) << g;
@@ -159,9 +157,9 @@ TEST(Lod, ThreeLevelsHaveFewerTrianglesEachAndKeepTheMouthAndEyes) {
     EXPECT_FALSE(lod_keeps_group("hair"));
     EXPECT_TRUE(lod_keeps_group("Upper_Teeth"));
 
-    std::size_t previous = head().mesh.triangle_count();
+    std::size_t previous = default_head().mesh.triangle_count();
     EXPECT_EQ(level(0).triangles, previous);
-    const auto full_border = open_edges(head().mesh, nullptr);
+    const auto full_border = open_edges(default_head().mesh, nullptr);
     EXPECT_GT(full_border.size(), 100u);
     for (int l = 1; l <= 3; ++l) {
         SCOPED_TRACE(fmt::format("level {}", l));
@@ -172,7 +170,7 @@ TEST(Lod, ThreeLevelsHaveFewerTrianglesEachAndKeepTheMouthAndEyes) {
         EXPECT_LT(r.triangles, previous);
         // Each level takes away a fifth or more of what is left to simplify,
         // within its error bound.
-        const double rest = double(head().mesh.triangle_count() - r.kept_triangles);
+        const double rest = double(default_head().mesh.triangle_count() - r.kept_triangles);
         EXPECT_LE(double(r.triangles - r.kept_triangles), rest * std::pow(0.8, l));
         EXPECT_LE(r.error_mm, lod_level_max_error_mm(l) * 1.001);
         previous = r.triangles;
@@ -191,9 +189,9 @@ TEST(Lod, ThreeLevelsHaveFewerTrianglesEachAndKeepTheMouthAndEyes) {
         // Per-vertex attributes carried over; no unused vertex but the rig's indexed ones.
         ASSERT_EQ(r.head.mesh.uvs.size(), r.head.mesh.positions.size());
         for (std::size_t v = 0; v < r.source_vertex.size(); ++v) {
-            ASSERT_EQ(r.head.mesh.positions[v], head().mesh.positions[r.source_vertex[v]]);
-            ASSERT_EQ(r.head.mesh.colors[v], head().mesh.colors[r.source_vertex[v]]);
-            ASSERT_EQ(r.head.mesh.uvs[v], head().mesh.uvs[r.source_vertex[v]]);
+            ASSERT_EQ(r.head.mesh.positions[v], default_head().mesh.positions[r.source_vertex[v]]);
+            ASSERT_EQ(r.head.mesh.colors[v], default_head().mesh.colors[r.source_vertex[v]]);
+            ASSERT_EQ(r.head.mesh.uvs[v], default_head().mesh.uvs[r.source_vertex[v]]);
         }
         EXPECT_EQ(r.head.mesh.triangle_group.size(), r.triangles);
         EXPECT_GT(r.error_mm, 0.0);
@@ -204,9 +202,9 @@ TEST(Lod, RigAndLandmarksCarryOverSoEveryVertexPosesAsInTheFullHead) {
     for (int l = 1; l <= 3; ++l) {
         SCOPED_TRACE(fmt::format("level {}", l));
         const LodResult& r = level(l);
-        expect_rig_carried_over(head(), r, 12);
+        expect_rig_carried_over(default_head(), r, 12);
         // The landmarks name the same vertices.
-        const auto& a = *head().articulation;
+        const auto& a = *default_head().articulation;
         const auto& b = *r.head.articulation;
         ASSERT_EQ(a.upper_lip_contour.size(), b.upper_lip_contour.size());
         for (std::size_t i = 0; i < a.upper_lip_contour.size(); ++i) {
@@ -218,10 +216,10 @@ TEST(Lod, RigAndLandmarksCarryOverSoEveryVertexPosesAsInTheFullHead) {
         for (std::size_t i = 0; i < a.upper_incisor_edge.size(); ++i)
             EXPECT_EQ(r.source_vertex[b.upper_incisor_edge[i]], a.upper_incisor_edge[i]);
         // Every transform keeps its entries at the surviving vertices, no others.
-        ASSERT_EQ(r.head.transforms.size(), head().transforms.size());
+        ASSERT_EQ(r.head.transforms.size(), default_head().transforms.size());
         std::size_t entries = 0;
-        for (std::size_t t = 0; t < head().transforms.size(); ++t) {
-            const auto& ft = head().transforms[t];
+        for (std::size_t t = 0; t < default_head().transforms.size(); ++t) {
+            const auto& ft = default_head().transforms[t];
             const auto& lt = r.head.transforms[t];
             ASSERT_EQ(lt.vertices.size(), lt.weights.size());
             if (ft.kind == TransformKind::Blendshape) {
@@ -230,14 +228,14 @@ TEST(Lod, RigAndLandmarksCarryOverSoEveryVertexPosesAsInTheFullHead) {
             entries += lt.vertices.size();
         }
         EXPECT_GT(entries, 0u);
-        EXPECT_EQ(r.head.lip_contact->mesh.moved.size(), head().lip_contact->mesh.moved.size());
+        EXPECT_EQ(r.head.lip_contact->mesh.moved.size(), default_head().lip_contact->mesh.moved.size());
     }
 }
 
 TEST(Lod, ArticulationMeasuresOfRunningSpeechWithinAFifthOfAMillimetreAtEveryLevel) {
     const auto& trajectory = sentence_trajectory();
     ASSERT_GT(trajectory.size(), 30u);
-    const auto full = ArticulationMeter(head()).measure(trajectory);
+    const auto full = ArticulationMeter(default_head()).measure(trajectory);
     for (int l = 1; l <= 3; ++l) {
         const auto lod = ArticulationMeter(level(l).head).measure(trajectory);
         ASSERT_EQ(lod.size(), full.size());
@@ -281,7 +279,7 @@ std::pair<double, double> image_difference(const Image& a, const Image& b) {
 TEST(Lod, RenderedSentenceFramesStayWithinTheStatedImageDifference) {
     const auto& trajectory = sentence_trajectory();
     RenderSettings rs;  // 640 x 480, the stimulus resolution
-    OffscreenRenderer full(head(), rs);
+    OffscreenRenderer full(default_head(), rs);
     EXPECT_EQ(full.lod(), nullptr);
     std::vector<Pose> poses;
     for (std::size_t f = 0; f < trajectory.size(); f += 8) {
@@ -295,7 +293,7 @@ TEST(Lod, RenderedSentenceFramesStayWithinTheStatedImageDifference) {
     for (int l = 1; l <= 3; ++l) {
         RenderSettings lrs = rs;
         lrs.lod.level = l;
-        OffscreenRenderer renderer(head(), lrs);
+        OffscreenRenderer renderer(default_head(), lrs);
         ASSERT_NE(renderer.lod(), nullptr);
         EXPECT_EQ(renderer.head().mesh.triangle_count(), level(l).triangles);
         double mad = 0.0, worst_psnr = 99.0;
@@ -315,23 +313,23 @@ TEST(Lod, RenderedSentenceFramesStayWithinTheStatedImageDifference) {
 }
 
 TEST(Lod, TriangleBudgetIsMetOrRefusedWithTheSmallestThatWorks) {
-    const std::size_t full = head().mesh.triangle_count();
+    const std::size_t full = default_head().mesh.triangle_count();
     const LodResult& l1 = level(1);
     const std::size_t budget = (l1.triangles + level(2).triangles) / 2;
     // The finest level within the budget.
-    const LodResult r = head_within_budget(head(), budget);
+    const LodResult r = head_within_budget(default_head(), budget);
     EXPECT_LE(r.triangles, budget);
     EXPECT_EQ(r.level, 2);
     EXPECT_EQ(r.triangles, level(2).triangles);
-    EXPECT_EQ(head_within_budget(head(), l1.triangles).level, 1);
-    EXPECT_EQ(head_within_budget(head(), level(3).triangles).level, 3);
+    EXPECT_EQ(head_within_budget(default_head(), l1.triangles).level, 1);
+    EXPECT_EQ(head_within_budget(default_head(), level(3).triangles).level, 3);
     EXPECT_EQ(r.chosen_by, "max_triangles");
-    expect_rig_carried_over(head(), r, 2);
-    EXPECT_EQ(head_within_budget(head(), full).triangles, full);
-    EXPECT_EQ(head_within_budget(head(), full * 2).triangles, full);
+    expect_rig_carried_over(default_head(), r, 2);
+    EXPECT_EQ(head_within_budget(default_head(), full).triangles, full);
+    EXPECT_EQ(head_within_budget(default_head(), full * 2).triangles, full);
     // Below what the kept regions alone need: refused, naming the head's file and the smallest budget.
     try {
-        head_within_budget(head(), level(3).triangles - 1);
+        head_within_budget(default_head(), level(3).triangles - 1);
         FAIL() << "an impossible budget was accepted";
     } catch (const InputError& e) {
         const std::string what = e.what();
@@ -341,12 +339,12 @@ TEST(Lod, TriangleBudgetIsMetOrRefusedWithTheSmallestThatWorks) {
         EXPECT_NE(what.find("at least " + std::to_string(level(3).triangles) + " triangles"), std::string::npos) << what;
         EXPECT_NE(what.find(std::to_string(l1.kept_triangles) + " triangles"), std::string::npos) << what;
     }
-    EXPECT_THROW(head_at_level(head(), max_lod_level + 1), UsageError);
-    EXPECT_THROW(head_at_level(head(), -1), UsageError);
+    EXPECT_THROW(head_at_level(default_head(), max_lod_level + 1), UsageError);
+    EXPECT_THROW(head_at_level(default_head(), -1), UsageError);
     LodSettings both;
     both.level = 2;
     both.max_triangles = 20000;
-    EXPECT_THROW(level_of_detail(head(), both, 480, 340.0), UsageError);
+    EXPECT_THROW(level_of_detail(default_head(), both, 480, 340.0), UsageError);
     LodSettings parsed;
     parse_lod_level("3", "--lod", parsed);
     EXPECT_EQ(parsed.level, 3);
@@ -362,28 +360,27 @@ TEST(Lod, AutomaticLevelFollowsTheHeadsSizeOnScreen) {
     // A large frame shows the head at full detail; smaller ones coarser, never finer.
     int previous = -1;
     for (const int height : {4320, 480, 120, 48}) {
-        const LodResult r = level_of_detail(head(), lod, height, 340.0);
+        const LodResult r = level_of_detail(default_head(), lod, height, 340.0);
         const double px_per_mm = double(height) / 340.0;
         std::printf("frame height %d: head %.0f px high, level %d, error %.3f mm = %.2f px\n", height,
                     r.head_height_px, r.level, r.error_mm, r.error_mm * px_per_mm);
         EXPECT_EQ(r.chosen_by, "auto");
-        EXPECT_NEAR(r.head_height_px, head().landmarks.head_height * px_per_mm, 1e-3);
+        EXPECT_NEAR(r.head_height_px, default_head().landmarks.head_height * px_per_mm, 1e-3);
         EXPECT_LE(r.error_mm * px_per_mm, lod.max_error_px + 1e-9);
         EXPECT_GE(r.level, previous);
         previous = r.level;
     }
-    EXPECT_EQ(level_of_detail(head(), lod, 4320, 340.0).level, 0);
+    EXPECT_EQ(level_of_detail(default_head(), lod, 4320, 340.0).level, 0);
     EXPECT_EQ(previous, max_lod_level);
 }
 
 // A lab's heads: an OBJ + rig of its own and a glTF head (the built-in one
 // exported) simplify with their rigs carried over.
 TEST(Lod, WorksOnALabsObjAndGltfHeads) {
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_lod_lab");
-    std::filesystem::create_directories(dir);
+    const auto dir = test::temp_dir("lod_lab");
     const auto head_dir = default_head_obj().parent_path();
     const Head dark = load_head(head_dir / "head-dark.obj", head_dir / "head-dark.rig.json");
-    export_gltf_head(head(), dir / "head.glb");
+    export_gltf_head(default_head(), dir / "head.glb");
     const Head gltf = load_gltf_head(dir / "head.glb", default_blendshape_mapping());
     for (const Head* h : {&dark, &gltf}) {
         SCOPED_TRACE(h->obj_path.string());
@@ -401,8 +398,7 @@ TEST(Lod, WorksOnALabsObjAndGltfHeads) {
 // The builder draws the simplified head and records the level in the
 // manifest's render settings; a default build records none.
 TEST(Lod, BuilderRecordsTheLevelInTheManifest) {
-    const auto dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_lod_build");
-    std::filesystem::remove_all(dir);
+    const auto dir = test::temp_dir("lod_build");
     BuildSettings s;
     s.protocol_path = std::string(AVSI_TEST_DATA_DIR) + "/stimuli/build/protocol.toml";
     s.out_dir = dir / "full";
@@ -419,7 +415,7 @@ TEST(Lod, BuilderRecordsTheLevelInTheManifest) {
     EXPECT_EQ(j["level"], 3);
     EXPECT_EQ(j["chosen_by"], "level");
     EXPECT_EQ(j["triangles"], level(3).triangles);
-    EXPECT_EQ(j["full_triangles"], head().mesh.triangle_count());
+    EXPECT_EQ(j["full_triangles"], default_head().mesh.triangle_count());
     EXPECT_NE(j["simplifier"].get<std::string>().find("meshoptimizer"), std::string::npos);
     // Every input hash covers the setting (the stimuli are rebuilt when it changes).
     std::map<std::string, nlohmann::json> a, b;

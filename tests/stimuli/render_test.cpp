@@ -14,14 +14,12 @@
 #include "avsi/stimuli/contact_sheet.h"
 #include "avsi/stimuli/image_io.h"
 #include "avsi/stimuli/renderer.h"
+#include "support/heads.h"
 
 namespace avsi::stimuli {
 namespace {
 
-const Head& head() {
-    static const Head h = load_default_head();
-    return h;
-}
+using test::default_head;
 
 Pose target(const std::string& phone) {
     static const auto entries = read_sheet_targets(default_sheet_targets());
@@ -42,10 +40,10 @@ OffscreenRenderer& closeup() {
         // slightly down into the mouth as a conversation partner does; the
         // mouth-opening fractions below were calibrated from this viewpoint
         // (from the lips' own height /ɑ/ measures 0.22 instead of 0.29).
-        s.target = glm::vec3(0.0f, head().landmarks.mouth_middle.y + 33.5f, 0.0f);
+        s.target = glm::vec3(0.0f, default_head().landmarks.mouth_middle.y + 33.5f, 0.0f);
         return s;
     }();
-    static OffscreenRenderer r(head(), rs);
+    static OffscreenRenderer r(default_head(), rs);
     return r;
 }
 
@@ -60,8 +58,8 @@ MouthMeasure measure(const Image& regions) {
     // The lips' inner surfaces (upper_inner, lower_inner) are where they
     // meet: part of the lips, visible at rest.
     for (const char* g : {"upper_cavity", "lower_cavity", "upper_teeth", "lower_teeth", "tongue"})
-        opening.insert(head().mesh.group_index(g) + 1);
-    for (const char* g : {"upper_lip", "lower_lip"}) lips.insert(head().mesh.group_index(g) + 1);
+        opening.insert(default_head().mesh.group_index(g) + 1);
+    for (const char* g : {"upper_lip", "lower_lip"}) lips.insert(default_head().mesh.group_index(g) + 1);
     MouthMeasure m;
     int lo = regions.width, hi = -1;
     for (int y = 0; y < regions.height; ++y) {
@@ -96,7 +94,7 @@ TEST(Renderer, BilabialTargetShowsNoOralCavityBetweenTheLips) {
         const MouthMeasure m = measure(regions);
         std::map<std::string, int> seen;
         for (std::size_t i = 0; i < regions.rgb.size(); i += 3)
-            if (regions.rgb[i] > 0) ++seen[head().mesh.group_names[regions.rgb[i] - 1u]];
+            if (regions.rgb[i] > 0) ++seen[default_head().mesh.group_names[regions.rgb[i] - 1u]];
         std::string groups;
         for (const auto& [g, count] : seen) groups += " " + g + ":" + std::to_string(count);
         EXPECT_EQ(m.opening_pixels, 0) << groups;
@@ -122,7 +120,7 @@ TEST(Renderer, RoundedVowelIsNarrowerThanSpreadVowel) {
 
 TEST(Renderer, LabiodentalShowsUpperTeethAboveTheLowerLip) {
     const Image regions = closeup().render(target("F"), RenderMode::Regions);
-    const int upper_teeth = head().mesh.group_index("upper_teeth") + 1;
+    const int upper_teeth = default_head().mesh.group_index("upper_teeth") + 1;
     int n = 0;
     for (std::size_t i = 0; i < regions.rgb.size(); i += 3) n += regions.rgb[i] == upper_teeth;
     EXPECT_GT(n, 50);
@@ -131,7 +129,7 @@ TEST(Renderer, LabiodentalShowsUpperTeethAboveTheLowerLip) {
 // The rule layer's tongue tip (animation.h): through /θ ð t d n l/ it rises
 // to the upper teeth and alveolar ridge, which shows when the jaw is open.
 TEST(Renderer, TongueTipShowsForAlveolarsWhenTheMouthIsOpen) {
-    const int tongue = head().mesh.group_index("tongue") + 1;
+    const int tongue = default_head().mesh.group_index("tongue") + 1;
     // At the contact sheet's /θ/ (jaw 0.2, lips apart) the tip shows
     // between the teeth; lowered, the tongue hides behind them.
     auto tongue_pixels = [&](double tip) {
@@ -159,45 +157,45 @@ TEST(Renderer, TongueTipShowsForAlveolarsWhenTheMouthIsOpen) {
 // toward where the eyes look, and the eyeball turns rigidly about its
 // centre (so it stays in its socket).
 TEST(Renderer, GazeTurnsTheEyesAboutTheirCentres) {
-    const int eyes = head().mesh.group_index("eyes");
+    const int eyes = default_head().mesh.group_index("eyes");
     ASSERT_GE(eyes, 0);
     // The speaker's left eyeball: its front (the iris side) and the middle of its bounding box.
     // (the eyeball and its cornea shell together)
-    const int cornea = head().mesh.group_index("cornea");
+    const int cornea = default_head().mesh.group_index("cornea");
     std::vector<std::uint32_t> eye_vertices, ball_vertices;
-    for (std::size_t t = 0; t < head().mesh.triangle_group.size(); ++t)
-        if (head().mesh.triangle_group[t] == eyes || head().mesh.triangle_group[t] == cornea)
+    for (std::size_t t = 0; t < default_head().mesh.triangle_group.size(); ++t)
+        if (default_head().mesh.triangle_group[t] == eyes || default_head().mesh.triangle_group[t] == cornea)
             for (int k = 0; k < 3; ++k) {
-                const auto v = head().mesh.indices[3 * t + std::size_t(k)];
-                if (head().mesh.positions[v].x <= 0) continue;
+                const auto v = default_head().mesh.indices[3 * t + std::size_t(k)];
+                if (default_head().mesh.positions[v].x <= 0) continue;
                 ball_vertices.push_back(v);
-                if (head().mesh.triangle_group[t] == eyes) eye_vertices.push_back(v);
+                if (default_head().mesh.triangle_group[t] == eyes) eye_vertices.push_back(v);
             }
-    const float centre_z = head().landmarks.left_eye.z;
+    const float centre_z = default_head().landmarks.left_eye.z;
     auto front = [&](const PosedMesh& m) {
         glm::vec3 sum(0.0f);
         int n = 0;
         for (auto v : eye_vertices)
-            if (head().mesh.positions[v].z > centre_z + 6.0f) sum += m.positions[v], ++n;
+            if (default_head().mesh.positions[v].z > centre_z + 6.0f) sum += m.positions[v], ++n;
         return sum / float(std::max(n, 1));
     };
     // A rotation about the eye's centre (the left_eye landmark) keeps every
     // point's distance to it.
     auto worst_distance_change = [&](const PosedMesh& m) {
-        const glm::vec3 c = head().landmarks.left_eye;
+        const glm::vec3 c = default_head().landmarks.left_eye;
         float worst = 0.0f;
         for (auto v : ball_vertices)
-            worst = std::max(worst, std::abs(glm::length(m.positions[v] - c) - glm::length(head().mesh.positions[v] - c)));
+            worst = std::max(worst, std::abs(glm::length(m.positions[v] - c) - glm::length(default_head().mesh.positions[v] - c)));
         return worst;
     };
     PosedMesh rest, left, up;
-    pose_head(head(), Pose{}, rest);
+    pose_head(default_head(), Pose{}, rest);
     Pose p;
     p.gaze_left = 1.0;
-    pose_head(head(), p, left);
+    pose_head(default_head(), p, left);
     p.gaze_left = 0.0;
     p.gaze_up = 1.0;
-    pose_head(head(), p, up);
+    pose_head(default_head(), p, up);
     EXPECT_GT(front(left).x - front(rest).x, 2.0f);  // the front turns to the speaker's left
     EXPECT_GT(front(up).y - front(rest).y, 2.0f);
     EXPECT_LT(worst_distance_change(left), 0.05f);  // rigid, about the centre
@@ -211,7 +209,7 @@ TEST(Renderer, GazeTurnsTheEyesAboutTheirCentres) {
 TEST(Renderer, BrowsShowDarkerThanTheSkin) {
     const Image regions = closeup().render(Pose{}, RenderMode::Regions);
     const Image shaded = closeup().render(Pose{});
-    const int brows = head().mesh.group_index("brows") + 1, skin = head().mesh.group_index("skin") + 1;
+    const int brows = default_head().mesh.group_index("brows") + 1, skin = default_head().mesh.group_index("skin") + 1;
     double brow_sum = 0.0, skin_sum = 0.0;
     int brow_n = 0, skin_n = 0;
     for (int y = 0; y < regions.height; ++y)
@@ -233,8 +231,8 @@ TEST(Renderer, BlinkClosesTheEyes) {
     RenderSettings rs;
     rs.width = 320;
     rs.height = 240;
-    OffscreenRenderer r(head(), rs);
-    const int eyes = head().mesh.group_index("eyes") + 1;
+    OffscreenRenderer r(default_head(), rs);
+    const int eyes = default_head().mesh.group_index("eyes") + 1;
     auto eye_pixels = [&](double blink) {
         Pose p;
         p.blink = blink;
@@ -262,7 +260,7 @@ TEST(Renderer, StaticPartCacheGivesTheSamePictureAsDrawingEverything) {
         uncached.cache_static = false;
         RenderSettings cached = uncached;
         cached.cache_static = true;
-        OffscreenRenderer full(head(), uncached), fast(head(), cached);
+        OffscreenRenderer full(default_head(), uncached), fast(default_head(), cached);
         std::vector<Pose> poses;
         for (const char* phone : {"sil", "AA", "P", "UW", "F", "IY", "AA", "sil"}) poses.push_back(target(phone));
         poses[2].blink = 0.5;

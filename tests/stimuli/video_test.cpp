@@ -1,7 +1,6 @@
 // MP4 output: decodes with the same libraries to the trajectory's frame
 // count at its exact frame rate, audio as long as the video within one
 // frame, both starting at 0, and byte-identical when written twice.
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -14,6 +13,8 @@
 #include "avsi/core/files.h"
 #include "avsi/stimuli/animation.h"
 #include "avsi/stimuli/video.h"
+#include "support/heads.h"
+#include "support/temp_dir.h"
 
 namespace avsi::stimuli {
 namespace {
@@ -40,12 +41,12 @@ Audio tone(double duration_s, int rate) {
 }
 
 struct VideoFixture : ::testing::Test {
-    std::filesystem::path dir = std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_avsi_video_test");
+    std::filesystem::path dir = test::temp_dir("video_test");
     void TearDown() override { std::filesystem::remove_all(dir); }
 };
 
 TEST_F(VideoFixture, DecodesToTheTrajectoryFrameCountRateAndAudioDuration) {
-    static const Head head = load_default_head();
+    const Head& head = test::default_head();
     RenderSettings rs;
     rs.width = 320;
     rs.height = 240;
@@ -70,7 +71,7 @@ TEST_F(VideoFixture, DecodesToTheTrajectoryFrameCountRateAndAudioDuration) {
 }
 
 TEST_F(VideoFixture, SameInputGivesByteIdenticalFiles) {
-    static const Head head = load_default_head();
+    const Head& head = test::default_head();
     RenderSettings rs;
     rs.width = 320;
     rs.height = 240;
@@ -95,7 +96,7 @@ double mean_abs_difference(const Image& a, const Image& b) {
 // rounding differ. Swapped chroma planes or a full/limited range mix-up
 // would give errors of tens of levels on the skin.
 TEST_F(VideoFixture, DecodedFramesMatchTheRenderedColours) {
-    static const Head head = load_default_head();
+    const Head& head = test::default_head();
     RenderSettings rs;
     rs.width = 320;
     rs.height = 240;
@@ -127,7 +128,7 @@ TEST_F(VideoFixture, DecodedFramesMatchTheRenderedColours) {
 // encoding, each frame of a sequence decodes to the same picture as a
 // one-frame video of it (converted whole).
 TEST_F(VideoFixture, ConvertingOnlyChangedPixelsEqualsConvertingWholeFrames) {
-    static const Head head = load_default_head();
+    const Head& head = test::default_head();
     RenderSettings rs;
     rs.width = 320;
     rs.height = 240;

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "ann_test_util.h"
+#include "support/run_avsi.h"
 #include "avsi/core/error.h"
 #include "avsi/synth/ann.h"
 
@@ -221,11 +222,10 @@ TEST(AnnStreamCli, StdinPhonesGiveTheBatchFrames) {
     std::string in;
     for (const auto& p : phones) in += fmt::format("{:.6f} {:.6f} {}\n", p.start_s, p.end_s, p.symbol == "AA" ? "AA1" : p.symbol);
     test::write_file(dir / "in.txt", in);
-    const std::string cmd = fmt::format("{} stream --model {} < {} > {} 2>/dev/null", AVSI_CLI_PATH,
-                                        (dir / "m.json").string(), (dir / "in.txt").string(),
-                                        (dir / "out.csv").string());
-    ASSERT_EQ(std::system(cmd.c_str()), 0);
-    std::ifstream out(dir / "out.csv");
+    const avsi::test::CliResult r = avsi::test::run_avsi("stream --model " + avsi::test::shell_quote((dir / "m.json").string()) +
+                                                         " <" + avsi::test::shell_quote((dir / "in.txt").string()));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    std::istringstream out(r.out);
     std::string line;
     std::getline(out, line);
     EXPECT_EQ(line.rfind("time_s,jaw_rotation,", 0), 0u);

@@ -4,7 +4,6 @@
 // for k < ceil(duration·fps − 1e-9)), the FAP round trip, exit codes and
 // file:line errors for bad input.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,7 +16,7 @@
 #include "avsi/synth/control_model.h"
 #include "avsi/synth/fap.h"
 #include "avsi/synth/trajectory.h"
-#include "../cli_run.h"
+#include "support/run_avsi.h"
 #include "test_util.h"
 
 namespace avsi::synth {
@@ -33,8 +32,8 @@ using RunResult = avsi::test::CliResult;
 std::string quote(const fs::path& p) { return avsi::test::shell_quote(p.string()); }
 
 // Runs `avsi <args>` with stderr captured; stdout must stay empty.
-RunResult run_avsi(const fs::path& dir, const std::string& args) {
-    RunResult r = avsi::test::run_avsi(args, dir);
+RunResult run_quiet(const std::string& args) {
+    RunResult r = avsi::test::run_avsi(args);
     EXPECT_EQ(r.out, "") << args;
     return r;
 }
@@ -58,7 +57,7 @@ TEST_F(SynthCli, PhonesToCsvAtThreeFrameRatesMatchesTheLibrary) {
     for (const double fps : {25.0, 60.0, 90.0}) {
         SCOPED_TRACE(fps);
         const fs::path out = dir / "traj.csv";
-        const RunResult r = run_avsi(dir, "synth --model " + quote(models_dir / "cohen-massaro.json") +
+        const RunResult r = run_quiet("synth --model " + quote(models_dir / "cohen-massaro.json") +
                                               " --phones " + quote(phones_tsv) + " --fps " +
                                               std::to_string(static_cast<int>(fps)) + " --out " + quote(out));
         ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -77,14 +76,14 @@ TEST_F(SynthCli, PhonesToCsvAtThreeFrameRatesMatchesTheLibrary) {
 TEST_F(SynthCli, PhonesToFapAndBackThroughFap2traj) {
     const PhoneSequence phones = read_phones(phones_tsv);
     const fs::path fap = dir / "come.fap", back = dir / "back.csv";
-    RunResult r = run_avsi(dir, "synth --model " + quote(models_dir / "ohman.json") + " --phones " +
+    RunResult r = run_quiet("synth --model " + quote(models_dir / "ohman.json") + " --phones " +
                                     quote(phones_tsv) + " --fps 25 --out " + quote(fap));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const FapStream stream = read_fap(fap);
     EXPECT_EQ(stream.fps, 25.0);
     EXPECT_EQ(stream.frames.size(), frame_count(phones.back().end_s, 25.0));
 
-    r = run_avsi(dir, "fap2traj " + quote(fap) + " --out " + quote(back));
+    r = run_quiet("fap2traj " + quote(fap) + " --out " + quote(back));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const Trajectory traj = read_trajectory_csv(back);
     EXPECT_EQ(traj.fps, 25.0);
@@ -103,7 +102,7 @@ TEST_F(SynthCli, PhonesToFapAndBackThroughFap2traj) {
 TEST_F(SynthCli, GretaTargetAndFap2trajClamp) {
     const PhoneSequence phones = read_phones(phones_tsv);
     const fs::path greta = dir / "greta.fap";
-    RunResult r = run_avsi(dir, "synth --model " + quote(models_dir / "ohman.json") + " --phones " +
+    RunResult r = run_quiet("synth --model " + quote(models_dir / "ohman.json") + " --phones " +
                                     quote(phones_tsv) + " --out " + quote(greta) + " --target greta");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string text = read_text_file(greta);
@@ -113,12 +112,12 @@ TEST_F(SynthCli, GretaTargetAndFap2trajClamp) {
     EXPECT_EQ(std::count(mask.begin(), mask.end(), ' '), 69) << mask;  // 69 entries, each followed by a space
     const FapStream stream = read_fap(greta);
     EXPECT_EQ(stream.fps, 25.0);
-    r = run_avsi(dir, "synth --phones " + quote(phones_tsv) + " --out " + quote(dir / "g60.fap") +
+    r = run_quiet("synth --phones " + quote(phones_tsv) + " --out " + quote(dir / "g60.fap") +
                           " --target greta --fps 60");
     EXPECT_EQ(r.exit_code, 2);
     EXPECT_NE(r.err.find("Greta plays FAP files at 25 fps, got --fps 60"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(dir / "g60.fap"));
-    r = run_avsi(dir, "synth --phones " + quote(phones_tsv) + " --out " + quote(dir / "g.csv") + " --target greta");
+    r = run_quiet("synth --phones " + quote(phones_tsv) + " --out " + quote(dir / "g.csv") + " --target greta");
     EXPECT_EQ(r.exit_code, 2);
 
     // An Xface-style "joy" frame (only the corner FAPs set): the corners
@@ -131,12 +130,12 @@ TEST_F(SynthCli, GretaTargetAndFap2trajClamp) {
         joy.frames[1].values[static_cast<std::size_t>(fap - 1)] = fap == 12 || fap == 13 || fap > 58 ? 150.0 : 240.0;
     }
     write_fap(dir / "joy.fap", joy);
-    r = run_avsi(dir, "fap2traj " + quote(dir / "joy.fap") + " --out " + quote(dir / "joy.csv"));
+    r = run_quiet("fap2traj " + quote(dir / "joy.fap") + " --out " + quote(dir / "joy.csv"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.err.find("joy.fap: mouth_corner_stretch_left outside its range [-0.5, 1]"), std::string::npos)
         << r.err;
     EXPECT_GT(read_trajectory_csv(dir / "joy.csv").value(1, Param::MouthCornerStretchLeft), 1.0);
-    r = run_avsi(dir, "fap2traj " + quote(dir / "joy.fap") + " --out " + quote(dir / "joy_clamped.csv") + " --clamp");
+    r = run_quiet("fap2traj " + quote(dir / "joy.fap") + " --out " + quote(dir / "joy_clamped.csv") + " --clamp");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.err.find("clamped to the range"), std::string::npos) << r.err;
     EXPECT_EQ(read_trajectory_csv(dir / "joy_clamped.csv").value(1, Param::MouthCornerStretchLeft), 1.0);
@@ -145,12 +144,12 @@ TEST_F(SynthCli, GretaTargetAndFap2trajClamp) {
 TEST_F(SynthCli, TextToCsvAndFapFollowTheFrameRule) {
     // The phones espeak-ng gives for the text, from `avsi phones`, fix the
     // duration the trajectory must cover.
-    RunResult r = run_avsi(dir, "phones --text 'Come here John.' --out " + quote(dir / "p.tsv"));
+    RunResult r = run_quiet("phones --text 'Come here John.' --out " + quote(dir / "p.tsv"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const double duration_s = read_phones(dir / "p.tsv").back().end_s;
     ASSERT_GT(duration_s, 0.5);
 
-    r = run_avsi(dir, "synth --text 'Come here John.' --model " + quote(models_dir / "rule.json") +
+    r = run_quiet("synth --text 'Come here John.' --model " + quote(models_dir / "rule.json") +
                           " --fps 60 --wav " + quote(dir / "s.wav") + " --out " + quote(dir / "t.csv"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_TRUE(fs::exists(dir / "s.wav"));
@@ -158,7 +157,7 @@ TEST_F(SynthCli, TextToCsvAndFapFollowTheFrameRule) {
     EXPECT_EQ(traj.fps, 60.0);
     EXPECT_EQ(traj.size(), frame_count(duration_s, 60.0));
 
-    r = run_avsi(dir, "synth --text 'Come here John.' --fps 90 --format fap --out " + quote(dir / "t.txt"));
+    r = run_quiet("synth --text 'Come here John.' --fps 90 --format fap --out " + quote(dir / "t.txt"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const FapStream stream = read_fap(dir / "t.txt");
     EXPECT_EQ(stream.fps, 90.0);
@@ -169,24 +168,24 @@ TEST_F(SynthCli, TextToCsvAndFapFollowTheFrameRule) {
 // trajectory covers the phones Festival gives, and its audio is the same.
 // --voice is an espeak-ng voice, the same as --tts espeak:<voice>.
 TEST_F(SynthCli, TextWithAFestivalVoiceFollowsItsPhones) {
-    RunResult r = run_avsi(dir, "phones --text 'Come here John.' --tts festival:kal_diphone --wav " +
+    RunResult r = run_quiet("phones --text 'Come here John.' --tts festival:kal_diphone --wav " +
                                     quote(dir / "p.wav") + " --out " + quote(dir / "p.tsv"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const double duration_s = read_phones(dir / "p.tsv").back().end_s;
-    r = run_avsi(dir, "synth --text 'Come here John.' --tts festival:kal_diphone --wav " + quote(dir / "s.wav") +
+    r = run_quiet("synth --text 'Come here John.' --tts festival:kal_diphone --wav " + quote(dir / "s.wav") +
                           " --out " + quote(dir / "t.csv"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_EQ(read_text_file(dir / "s.wav"), read_text_file(dir / "p.wav"));
     EXPECT_EQ(read_trajectory_csv(dir / "t.csv").size(), frame_count(duration_s, 60.0));
 
-    r = run_avsi(dir, "synth --text 'Come here John.' --voice en-us --out " + quote(dir / "v.csv"));
+    r = run_quiet("synth --text 'Come here John.' --voice en-us --out " + quote(dir / "v.csv"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
-    r = run_avsi(dir, "synth --text 'Come here John.' --tts espeak:en-us --out " + quote(dir / "w.csv"));
+    r = run_quiet("synth --text 'Come here John.' --tts espeak:en-us --out " + quote(dir / "w.csv"));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_EQ(read_text_file(dir / "v.csv"), read_text_file(dir / "w.csv"));
-    EXPECT_EQ(run_avsi(dir, "synth --text hi --voice en --tts espeak:en --out x.csv").exit_code, 2);
+    EXPECT_EQ(run_quiet("synth --text hi --voice en --tts espeak:en --out x.csv").exit_code, 2);
     // A Festival voice given as --voice says what to give instead.
-    r = run_avsi(dir, "synth --text hi --voice festival:kal_diphone --out " + quote(dir / "x.csv"));
+    r = run_quiet("synth --text hi --voice festival:kal_diphone --out " + quote(dir / "x.csv"));
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_NE(r.err.find("give \"festival:kal_diphone\" alone (as --tts"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(dir / "x.csv"));
@@ -195,7 +194,7 @@ TEST_F(SynthCli, TextWithAFestivalVoiceFollowsItsPhones) {
 TEST_F(SynthCli, BadInputsGiveFileLineAndExitCode1) {
     // A phone line without its label (line 3 of the file).
     const fs::path bad_tsv = fs::path(AVSI_TEST_DATA_DIR) / "core" / "malformed.tsv";
-    RunResult r = run_avsi(dir, "synth --phones " + quote(bad_tsv) + " --out " + quote(dir / "x.csv"));
+    RunResult r = run_quiet("synth --phones " + quote(bad_tsv) + " --out " + quote(dir / "x.csv"));
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.rfind(bad_tsv.string() + ":3", 0), 0u) << r.err;
     EXPECT_FALSE(fs::exists(dir / "x.csv"));
@@ -205,7 +204,7 @@ TEST_F(SynthCli, BadInputsGiveFileLineAndExitCode1) {
     for (int i = 2; i < 68; ++i) mask += " 0";
     const fs::path bad_fap = dir / "bad.fap";
     test::write_file(bad_fap, "2.1 bad 25 1\n" + mask + "\n0 0 zero\n");
-    r = run_avsi(dir, "fap2traj " + quote(bad_fap) + " --out " + quote(dir / "y.csv"));
+    r = run_quiet("fap2traj " + quote(bad_fap) + " --out " + quote(dir / "y.csv"));
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.rfind(bad_fap.string() + ":3", 0), 0u) << r.err;
     EXPECT_FALSE(fs::exists(dir / "y.csv"));
@@ -213,7 +212,7 @@ TEST_F(SynthCli, BadInputsGiveFileLineAndExitCode1) {
     // A model file with a malformed JSON body names its line.
     const fs::path bad_model = dir / "bad.json";
     test::write_file(bad_model, "{\n  \"kind\": \"cohen-massaro\",\n  \"version\": 1,\n  oops\n}\n");
-    r = run_avsi(dir, "synth --model " + quote(bad_model) + " --phones " + quote(phones_tsv) + " --out " +
+    r = run_quiet("synth --model " + quote(bad_model) + " --phones " + quote(phones_tsv) + " --out " +
                           quote(dir / "z.csv"));
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.rfind(bad_model.string() + ":4", 0), 0u) << r.err;
@@ -224,13 +223,13 @@ TEST_F(SynthCli, BadInputsGiveFileLineAndExitCode1) {
                      "File type = \"ooTextFile\"\nObject class = \"TextGrid\"\n\nxmin = 0\nxmax = 1\n"
                      "tiers? <exists>\nsize = 1\nitem []:\n    item [1]:\n        class = \"IntervalTier\"\n"
                      "        name = \"phones\"\n        xmin = 0\n        xmax = 1\n        intervals: size = 0\n");
-    r = run_avsi(dir, "synth --phones " + quote(empty) + " --out " + quote(dir / "e.csv"));
+    r = run_quiet("synth --phones " + quote(empty) + " --out " + quote(dir / "e.csv"));
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.rfind(empty.string() + ": error: phones: expected timed phones, got none", 0), 0u) << r.err;
     EXPECT_EQ(r.err.find("<input>"), std::string::npos) << r.err;
 
     // Bad usage (both --phones and --text) is exit code 2.
-    r = run_avsi(dir, "synth --phones " + quote(phones_tsv) + " --text hi --out " + quote(dir / "w.csv"));
+    r = run_quiet("synth --phones " + quote(phones_tsv) + " --text hi --out " + quote(dir / "w.csv"));
     EXPECT_EQ(r.exit_code, 2);
 }
 

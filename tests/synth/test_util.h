@@ -1,7 +1,6 @@
-// Shared helpers for the synth tests: temporary folders and phone sequences.
+// Shared helpers for the synth tests (and learn's, which include them): phone
+// sequences; temporary folders are tests/support's.
 #pragma once
-
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -9,17 +8,11 @@
 #include <vector>
 
 #include "avsi/core/phones.h"
+#include "support/temp_dir.h"
 
 namespace avsi::synth::test {
 
-// A fresh temporary folder for one test.
-inline std::filesystem::path temp_dir(const std::string& name) {
-    const auto dir = std::filesystem::temp_directory_path() /
-                     ("avsi_synth_" + std::to_string(::getpid()) + "_" + name);
-    std::filesystem::remove_all(dir);
-    std::filesystem::create_directories(dir);
-    return dir;
-}
+using avsi::test::temp_dir;
 
 inline void write_file(const std::filesystem::path& path, const std::string& text) {
     std::ofstream(path) << text;

@@ -6,10 +6,6 @@
 // not of time (label slow: about a minute on the 2-core machine).
 #include <gtest/gtest.h>
 
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -18,6 +14,9 @@
 #include <vector>
 
 #include "avsi/core/audio_stream.h"
+#include "avsi/core/files.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
 #include "test_signals.h"
 
 namespace avsi::vocoder {
@@ -33,31 +32,9 @@ struct ProcessRun {
 
 // Runs avsi with `args`, stdout and stderr into `log`; the exit code and
 // the process's peak resident set size.
-ProcessRun run_avsi(const std::vector<std::string>& args, const fs::path& log) {
-    ProcessRun r;
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-        FILE* out = std::freopen(log.c_str(), "w", stdout);
-        if (!out || ::dup2(STDOUT_FILENO, STDERR_FILENO) < 0) ::_exit(127);
-        std::vector<char*> argv{const_cast<char*>(AVSI_CLI_PATH)};
-        for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-        argv.push_back(nullptr);
-        ::execv(AVSI_CLI_PATH, argv.data());
-        ::_exit(127);
-    }
-    int status = 0;
-    rusage usage{};
-    if (pid > 0 && ::wait4(pid, &status, 0, &usage) == pid) {
-        r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-        r.peak_rss_kib = usage.ru_maxrss;
-    }
-    std::FILE* f = std::fopen(log.c_str(), "r");
-    if (f) {
-        char buffer[4096];
-        while (std::fgets(buffer, sizeof buffer, f)) r.output += buffer;
-        std::fclose(f);
-    }
-    return r;
+ProcessRun run_measured(const std::vector<std::string>& args, const fs::path& log) {
+    const test::Finished f = test::wait_avsi(test::start_avsi(args, log));
+    return {f.exit_code, f.peak_rss_kib, read_text_file(log)};
 }
 
 // `seconds` of speech-like sound at `rate`: a 10 s piece repeated, written
@@ -79,8 +56,7 @@ constexpr long kBoundKib = 128 * 1024;
 
 TEST(LongFile, VocodeMixAndStoiOfAnHourStayUnder128MiB) {
     if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi not built: " << AVSI_CLI_PATH;
-    const fs::path dir = fs::temp_directory_path() / ("avsi-long-file-" + std::to_string(::getpid()));
-    fs::create_directories(dir);
+    const fs::path dir = test::temp_dir("long_file");
     // The files (about 0.5 GB) go whether the test passes or stops early.
     struct Cleanup {
         fs::path dir;
@@ -95,19 +71,19 @@ TEST(LongFile, VocodeMixAndStoiOfAnHourStayUnder128MiB) {
     const std::size_t frames = AudioFileReader(speech).frames();
     ASSERT_EQ(frames, 3600u * 22050u);
 
-    const ProcessRun vocoded = run_avsi({"vocode", speech.string(), (dir / "vocoded.wav").string()}, dir / "vocode.log");
+    const ProcessRun vocoded = run_measured({"vocode", speech.string(), (dir / "vocoded.wav").string()}, dir / "vocode.log");
     EXPECT_EQ(vocoded.exit_code, 0) << vocoded.output;
     EXPECT_LE(vocoded.peak_rss_kib, kBoundKib) << "avsi vocode of 1 hour";
     EXPECT_EQ(AudioFileReader(dir / "vocoded.wav").frames(), frames);
 
-    const ProcessRun mixed = run_avsi({"mix", speech.string(), (dir / "mixed.wav").string(), "--noise", noise.string(),
+    const ProcessRun mixed = run_measured({"mix", speech.string(), (dir / "mixed.wav").string(), "--noise", noise.string(),
                                 "--snr-db", "0", "--snr-reference", "active"},
                                dir / "mix.log");
     EXPECT_EQ(mixed.exit_code, 0) << mixed.output;
     EXPECT_LE(mixed.peak_rss_kib, kBoundKib) << "avsi mix of 1 hour";
     EXPECT_EQ(AudioFileReader(dir / "mixed.wav").frames(), frames);
 
-    const ProcessRun scored = run_avsi({"stoi", speech.string(), (dir / "vocoded.wav").string()}, dir / "stoi.log");
+    const ProcessRun scored = run_measured({"stoi", speech.string(), (dir / "vocoded.wav").string()}, dir / "stoi.log");
     EXPECT_EQ(scored.exit_code, 0) << scored.output;
     EXPECT_LE(scored.peak_rss_kib, kBoundKib) << "avsi stoi of 1 hour";
     const double d = std::atof(scored.output.c_str());
@@ -120,7 +96,7 @@ TEST(LongFile, VocodeMixAndStoiOfAnHourStayUnder128MiB) {
     fs::create_directories(batch_in);
     fs::create_hard_link(speech, batch_in / "a.wav");
     fs::create_hard_link(speech, batch_in / "b.wav");
-    const ProcessRun batch = run_avsi({"vocode", "--batch", batch_in.string(), batch_out.string(), "--noise",
+    const ProcessRun batch = run_measured({"vocode", "--batch", batch_in.string(), batch_out.string(), "--noise",
                                        noise.string(), "--snr-db", "5", "--threads", "2"},
                                       dir / "batch.log");
     EXPECT_EQ(batch.exit_code, 0) << batch.output;

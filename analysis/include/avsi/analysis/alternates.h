@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "avsi/core/corpus_tools.h"
+#include "avsi/core/keyword_proposals.h"
 
 namespace avsi::analysis {
 

@@ -1,15 +1,13 @@
 // Inflection, not stemming: the rule "inflection" of the loose and lenient
 // rule sets (scoring.h). Two words match when they are forms of one lemma
 // through a regular or a listed inflection:
-//   - regular: plural and third person -s (-es after s, x, z, ch, sh and
-//     after consonant + o; consonant + y -> -ies), past -ed (-d after e;
-//     consonant + y -> -ied), -ing (final e dropped except in -ee, -ye, -oe;
-//     -ie -> -ying); after a short vowel + consonant the final consonant may
-//     be doubled (stopped, travelling) or not (visited, traveling).
-//     Possessives are removed by normalisation (text_normalize.h) before.
-//     The base must be a WordNet noun or verb for -s and a verb for -ed and
-//     -ing (protocols/lemma_pos.tsv), and an -ed/-ing form that is itself a
-//     verb (feed, need, bed) is not a past or participle of anything;
+//   - regular: plural and third person -s, past -ed and -ing, spelled by
+//     core's English morphology (core/morphology.h: -es, -ies, -ied, -ying,
+//     a final e dropped, a final consonant doubled or not). Possessives are
+//     removed by normalisation (text_normalize.h) before. The base must be
+//     a WordNet noun or verb for -s and a verb for -ed and -ing
+//     (protocols/lemma_pos.tsv), and an -ed/-ing form that is itself a verb
+//     (feed, need, bed) is not a past or participle of anything;
 //   - listed: the irregular forms of protocols/inflections.csv (children ->
 //     child, rang -> ring, went -> go), from WordNet's exception lists;
 //   - not: forms listed there as words of their own are never inflections of
@@ -30,8 +28,6 @@
 
 namespace avsi::analysis {
 
-enum class Suffix { S, Ed, Ing };
-
 class Inflections {
 public:
     // Reads the inflection table (form,lemma,relation with relation irregular
@@ -40,10 +36,6 @@ public:
     static Inflections read(const std::filesystem::path& table, const std::filesystem::path& parts_of_speech);
     // The shipped protocols/inflections.csv and protocols/lemma_pos.tsv.
     static Inflections read_default();
-
-    // The regular spellings of `base` + suffix (one, or two when the final
-    // consonant may be doubled or not, or -o may take -s or -es).
-    static std::vector<std::string> regular_forms(const std::string& base, Suffix suffix);
 
     // Words (the corpus's) that may be the base of a regular inflection as a
     // noun or a verb when WordNet gives them no part of speech.

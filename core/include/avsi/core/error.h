@@ -9,6 +9,8 @@
 #include <string_view>
 #include <vector>
 
+#include "avsi/core/closest_match.h"  // did-you-mean hints beside the errors that give them
+
 namespace avsi {
 
 // Process exit codes shared by every command.
@@ -67,17 +69,6 @@ private:
 // The start of `text` for a message: at most `max_bytes` bytes (not cutting
 // a UTF-8 character), with "…" and the full length when cut.
 std::string excerpt(std::string_view text, std::size_t max_bytes = 60);
-
-// Words longer than this get no "did you mean" hint.
-inline constexpr std::size_t k_max_hint_length = 64;
-
-// The closest candidate to `word` by edit distance, or "" if none is close
-// enough to be a plausible typo (for "did you mean" hints) or `word` is
-// longer than k_max_hint_length.
-std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
-
-// Optimal-string-alignment (Damerau-Levenshtein) distance between two strings.
-std::size_t edit_distance(const std::string& a, const std::string& b);
 
 namespace detail {
 [[noreturn]] void assertion_failed(const char* expression, const char* file, int line);
