@@ -102,6 +102,55 @@ ImportOutcome import_sentences(const std::vector<std::string>& texts, const Impo
     return import_listed_sentences(sentences, s, words);
 }
 
+namespace {
+
+// The import's plain-text report: per sentence its keywords, syllables and
+// notes, then the totals and what the user has to check.
+void write_import_report(ImportOutcome& o, const std::vector<ListedSentence>& listed, const ImportSettings& s,
+                         bool count, std::size_t complete, std::size_t out_of_range) {
+    std::string& rep = o.report;
+    for (const auto& r : o.sentences) {
+        std::string kws;
+        for (const auto& k : r.sentence.keywords) kws += (kws.empty() ? "" : ";") + k.word;
+        rep += fmt::format("{} \"{}\"\n  keywords: {}{}\n", r.sentence.id, r.sentence.text, kws.empty() ? "(none)" : kws,
+                           r.complete ? "" : fmt::format("  <- only {} of {}: check by hand", r.sentence.keywords.size(),
+                                                         s.keywords));
+        if (count)
+            rep += fmt::format("  syllables: {}{}\n", r.syllables,
+                               r.syllables < s.min_syllables || r.syllables > s.max_syllables
+                                   ? fmt::format("  <- outside {}–{}", s.min_syllables, s.max_syllables)
+                                   : "");
+        for (const auto& n : r.notes) rep += "    " + n + "\n";
+    }
+    rep += fmt::format("\n{} sentences: {} with {} keywords, {} with fewer", o.sentences.size(), complete, s.keywords,
+                       o.sentences.size() - complete);
+    std::size_t none = o.sentences.size() - o.corpus.sentences.size();
+    if (none) rep += fmt::format(" ({} with none, left out of the corpus)", none);
+    if (count) rep += fmt::format(", {} outside {}–{} syllables", out_of_range, s.min_syllables, s.max_syllables);
+    rep += ".\n";
+    if (s.alternates) {
+        std::size_t proposed = 0;
+        for (const auto& r : o.sentences) proposed += !r.sentence.review.empty();
+        rep += fmt::format("Alternates proposed for {} sentences (inflections and spelling variants) are in the "
+                           "`review` column, not in the keywords: check each and move the ones to accept into "
+                           "`keywords` as keyword|alternate.\n",
+                           proposed);
+    } else {
+        rep += "No alternates are proposed; add accepted forms by hand as keyword|alternate.\n";
+    }
+    std::size_t numbered = 0;
+    std::set<std::string> lists;
+    for (const auto& l : listed) {
+        numbered += !l.numbering.empty();
+        if (!l.list.empty()) lists.insert(l.list);
+    }
+    if (numbered) rep += fmt::format("Numbering removed from {} lines.\n", numbered);
+    if (!lists.empty())
+        rep += fmt::format("List headings set the list column: {} list{}.\n", lists.size(), lists.size() == 1 ? "" : "s");
+}
+
+}  // namespace
+
 ImportOutcome import_listed_sentences(const std::vector<ListedSentence>& listed, const ImportSettings& s,
                                       const WordTable& words) {
     std::vector<std::string> texts;
@@ -198,45 +247,7 @@ ImportOutcome import_listed_sentences(const std::vector<ListedSentence>& listed,
     }
     progress.finish();
 
-    std::string& rep = o.report;
-    for (const auto& r : o.sentences) {
-        std::string kws;
-        for (const auto& k : r.sentence.keywords) kws += (kws.empty() ? "" : ";") + k.word;
-        rep += fmt::format("{} \"{}\"\n  keywords: {}{}\n", r.sentence.id, r.sentence.text, kws.empty() ? "(none)" : kws,
-                           r.complete ? "" : fmt::format("  <- only {} of {}: check by hand", r.sentence.keywords.size(),
-                                                         s.keywords));
-        if (count)
-            rep += fmt::format("  syllables: {}{}\n", r.syllables,
-                               r.syllables < s.min_syllables || r.syllables > s.max_syllables
-                                   ? fmt::format("  <- outside {}–{}", s.min_syllables, s.max_syllables)
-                                   : "");
-        for (const auto& n : r.notes) rep += "    " + n + "\n";
-    }
-    rep += fmt::format("\n{} sentences: {} with {} keywords, {} with fewer", o.sentences.size(), complete, s.keywords,
-                       o.sentences.size() - complete);
-    std::size_t none = o.sentences.size() - o.corpus.sentences.size();
-    if (none) rep += fmt::format(" ({} with none, left out of the corpus)", none);
-    if (count) rep += fmt::format(", {} outside {}–{} syllables", out_of_range, s.min_syllables, s.max_syllables);
-    rep += ".\n";
-    if (s.alternates) {
-        std::size_t proposed = 0;
-        for (const auto& r : o.sentences) proposed += !r.sentence.review.empty();
-        rep += fmt::format("Alternates proposed for {} sentences (inflections and spelling variants) are in the "
-                           "`review` column, not in the keywords: check each and move the ones to accept into "
-                           "`keywords` as keyword|alternate.\n",
-                           proposed);
-    } else {
-        rep += "No alternates are proposed; add accepted forms by hand as keyword|alternate.\n";
-    }
-    std::size_t numbered = 0;
-    std::set<std::string> lists;
-    for (const auto& l : listed) {
-        numbered += !l.numbering.empty();
-        if (!l.list.empty()) lists.insert(l.list);
-    }
-    if (numbered) rep += fmt::format("Numbering removed from {} lines.\n", numbered);
-    if (!lists.empty())
-        rep += fmt::format("List headings set the list column: {} list{}.\n", lists.size(), lists.size() == 1 ? "" : "s");
+    write_import_report(o, listed, s, count, complete, out_of_range);
     if (o.corpus.sentences.empty()) throw InputError("", 0, 0, "sentences", "expected sentences with content words, got none");
     return o;
 }

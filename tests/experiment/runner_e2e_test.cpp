@@ -632,8 +632,8 @@ TEST_F(RunnerE2E, AdaptiveNoiseAfterVocodingIsAtTheLoggedSnrInTheCapture) {
     const fs::path db = dir / "after.sqlite";
     std::vector<std::string> args = run_args(protocol, 1, db, dir / "script.txt");
     args.insert(args.end(), {"--audio-capture", (dir / "audio").string()});
-    ASSERT_EQ(run(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
-    ASSERT_EQ(run({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
+    ASSERT_EQ(run_avsi_logged(args, dir / "log.txt"), 0) << read_text_file(dir / "log.txt");
+    ASSERT_EQ(run_avsi_logged({"export", db.string(), "--out", (dir / "export").string()}, dir / "log.txt"), 0);
     const CsvTable t = read_csv(dir / "export" / "adaptive_trials.csv");
     const auto c_trial = t.require_column("trial"), c_attempt = t.require_column("attempt"),
                c_level = t.require_column("level_db"), c_gain = t.require_column("speech_gain_db"),
