@@ -152,7 +152,9 @@ struct Front {
     static constexpr std::size_t kLast = 5;  // frame n − 5 leaves step n
     Cascade<kBandSections, true> analysis;
     Cascade<kEnvelopeSections, false> envelope;
-    Lanes u[kLast];  // u[k]: what section k gave in the last step
+    // Zeroed: the skewed steps write u[k] before they read it (st.runs), which
+    // GCC cannot prove (-Wmaybe-uninitialized under -Werror in CI).
+    Lanes u[kLast]{};  // u[k]: what section k gave in the last step
     Lanes analysis_sq;
     double in_sq;
     bool input_energy;
@@ -231,7 +233,7 @@ struct Back {
     static constexpr std::size_t kLast = P + (R ? R - 1 : 0);  // frame n − kLast leaves step n
     static_assert(kBandSections > 1);  // so the re-filter's section 0 is never its last
     Cascade<kBandSections, true> prefilter, refilter;
-    Lanes pre[kBandSections];  // what prefilter section k gave in the last step
+    Lanes pre[kBandSections]{};  // what prefilter section k gave in the last step (zeroed as u above)
     Lanes re[kBandSections];   // the same for the re-filter
     Lanes out_sq;
     bool out_energy;
