@@ -524,7 +524,7 @@ TEST_F(RunnerE2E, AdaptiveSessionMixesAtTheLoggedSnrAndResumesMidTrack) {
     const auto c_trial = t.require_column("trial"), c_attempt = t.require_column("attempt"),
                c_track = t.require_column("track"), c_level = t.require_column("level_db"),
                c_next = t.require_column("next_level_db"), c_keywords = t.require_column("keywords"),
-               c_correct = t.require_column("correct"), c_gain = t.require_column("speech_gain_db"),
+               c_correct = t.require_column("correct"),
                c_presentation = t.require_column("presentation"), c_phase = t.require_column("phase");
     std::set<std::pair<int, int>> seen;
     std::map<std::string, std::vector<const CsvRow*>> tracks;
