@@ -1,6 +1,7 @@
 // The stimulus-set builder (see builder.h).
 #include "avsi/stimuli/builder.h"
 #include "avsi/stimuli/gltf_head.h"
+#include "build_shards.h"
 
 #include <algorithm>
 #include <atomic>
@@ -912,9 +913,19 @@ int worker_count(const BuildSettings& settings, std::size_t tasks) {
                                      static_cast<int>(tasks)));
 }
 
-// The jobs whose video must be (re)built: those the previous manifest does
-// not list with the same input hash and an intact video. The others take
-// their previous entry and count as skipped.
+// The plan's stimuli as the shard split and the merge see them (build_shards.h).
+std::vector<detail::PlannedStimulus> planned_stimuli(const Plan& plan) {
+    std::vector<detail::PlannedStimulus> planned;
+    for (const auto& job : plan.jobs)
+        planned.push_back({job.video.generic_string(), job.wav.generic_string(), job.input_hash,
+                           detail::expected_duration_s(*job.sentence, plan.protocol) * plan.fps});
+    return planned;
+}
+
+// The jobs whose video must be (re)built: those the previous manifest (and,
+// for a shard, its earlier shard manifest) does not list with the same input
+// hash and an intact video. The others take their previous entry and count
+// as skipped. A shard's build leaves the other shards' jobs alone.
 std::vector<std::size_t> jobs_to_build(Plan& plan, const BuildSettings& settings, BuildReport& report) {
     const auto manifest_path = settings.out_dir / "manifest.json";
     std::map<std::string, json> previous;
@@ -922,8 +933,14 @@ std::vector<std::size_t> jobs_to_build(Plan& plan, const BuildSettings& settings
         bool unreadable = false;
         previous = manifest_entries(manifest_path, unreadable);
         if (unreadable) log_warning("{}: unreadable manifest, rebuilding everything", manifest_path.string());
+        if (settings.shard.sharded())
+            for (auto& [path, entry] : detail::shard_entries(settings.out_dir, settings.shard))
+                previous.insert_or_assign(path, std::move(entry));
     }
-    report.total = plan.jobs.size();
+    const std::vector<bool> member = settings.shard.sharded()
+                                         ? detail::shard_members(planned_stimuli(plan), settings.shard)
+                                         : std::vector<bool>(plan.jobs.size(), true);
+    report.total = static_cast<std::size_t>(std::count(member.begin(), member.end(), true));
     report.not_needed = plan.not_needed;
     if (plan.not_needed)
         log_info("{} sentence × condition pairs the design never shows are not built (spare sentences, warm-up and "
@@ -931,6 +948,7 @@ std::vector<std::size_t> jobs_to_build(Plan& plan, const BuildSettings& settings
                  plan.not_needed);
     std::vector<std::size_t> todo;
     for (std::size_t i = 0; i < plan.jobs.size(); ++i) {
+        if (!member[i]) continue;
         auto& job = plan.jobs[i];
         const auto it = previous.find(job.video.generic_string());
         const auto video = settings.out_dir / job.video;
@@ -1249,22 +1267,58 @@ void write_manifest(const Plan& plan, const BuildSettings& settings,
     write_text_file(settings.out_dir / "methods.md", methods_text(plan, manifest, settings.out_dir));
 }
 
+// A shard's manifest: the entries of its jobs (shards.h).
+void write_shard_manifest(const Plan& plan, const BuildSettings& settings) {
+    const auto planned = planned_stimuli(plan);
+    const std::vector<bool> member = detail::shard_members(planned, settings.shard);
+    std::vector<json> entries;
+    for (std::size_t i = 0; i < plan.jobs.size(); ++i)
+        if (member[i]) entries.push_back(plan.jobs[i].entry);
+    detail::write_shard_manifest(settings.out_dir, settings.shard,
+                                 detail::plan_identity(settings.protocol_path, planned, builder_version), entries);
+}
+
+// `--merge`: every job's entry from the shard manifests, checked
+// (build_shards.h), then manifest.json, the QC page and methods.md as a
+// one-machine build writes them.
+BuildReport merge_shards(Plan& plan, const BuildSettings& settings) {
+    const auto planned = planned_stimuli(plan);
+    std::vector<json> entries = detail::merge_shard_entries(
+        settings.out_dir, detail::plan_identity(settings.protocol_path, planned, builder_version), planned);
+    BuildReport report;
+    report.total = plan.jobs.size();
+    report.skipped = plan.jobs.size();
+    report.not_needed = plan.not_needed;
+    for (std::size_t i = 0; i < plan.jobs.size(); ++i) plan.jobs[i].entry = std::move(entries[i]);
+    write_manifest(plan, settings, {});
+    log_info("build-stimuli: merged {} stimuli from the shards into {}", report.total,
+             (settings.out_dir / "manifest.json").string());
+    return report;
+}
+
 }  // namespace
 
 BuildReport build_stimuli(const BuildSettings& settings) {
     const auto start = std::chrono::steady_clock::now();
     Plan plan(settings);
     BuildReport report;
+    if (settings.merge) return merge_shards(plan, settings);
     const std::vector<std::size_t> todo = jobs_to_build(plan, settings, report);
     std::map<std::string, SentenceSpeech> speech;
     speak_sentences(plan, settings, todo, speech);
     report.frames_rendered = build_jobs(plan, settings, report, todo, speech);
-    write_manifest(plan, settings, speech);
+    if (settings.shard.sharded()) write_shard_manifest(plan, settings);
+    else write_manifest(plan, settings, speech);
     report.rendered = todo.size();
     report.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     log_info("build-stimuli: built {} stimuli ({} frames) in {:.1f} s, {} unchanged", report.rendered,
              report.frames_rendered, report.elapsed_s, report.skipped);
     return report;
+}
+
+ShardPlan plan_shards(const BuildSettings& settings, std::size_t shards) {
+    const Plan plan(settings);
+    return detail::shard_plan(planned_stimuli(plan), shards);
 }
 
 VerifyReport verify_stimuli(const BuildSettings& settings) {

@@ -24,6 +24,7 @@
 #include "avsi/core/audio.h"
 #include "avsi/core/phones.h"
 #include "avsi/core/protocol.h"
+#include "avsi/core/shards.h"
 #include "avsi/stimuli/animation.h"
 #include "avsi/stimuli/layers.h"
 #include "avsi/stimuli/lod.h"
@@ -48,6 +49,11 @@ struct BuildSettings {
     // Recorded in the manifest's render settings (and so in every input
     // hash) when not full detail.
     LodSettings lod;
+    // A cluster build (shards.h): only shard K of N, with its shard
+    // manifest instead of manifest.json; or, with `merge`, nothing built:
+    // the shards' manifests merged into manifest.json and the QC page.
+    ShardSpec shard;
+    bool merge = false;
 };
 
 struct BuildReport {
