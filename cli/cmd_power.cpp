@@ -7,6 +7,7 @@
 
 #include "avsi/analysis/power.h"
 #include "command.h"
+#include "shard_options.h"
 
 namespace avsi::cli {
 namespace {
@@ -16,9 +17,18 @@ struct PowerOptions {
     std::size_t sentences_per_cell = 15, keywords = 3, sims = 1000, threads = 0;
     double subject_sd = 0.5, sentence_sd = 0.5, alpha = 0.05, condition_sd = analysis::kConditionSdDefault;
     std::uint64_t seed = 1;
+    ShardSpec shard;
+    bool merge = false;
+    std::filesystem::path slurm_script, avsi;
+    SlurmSettings slurm;
 };
 
-int run_power(const PowerOptions& o) {
+// The options a Slurm array's tasks and merge repeat (all but --out, --threads and the Slurm ones).
+const std::vector<std::string> power_option_names = {
+    "--means", "--subjects", "--sentences-per-cell", "--keywords", "--subject-sd", "--sentence-sd",
+    "--condition-sd", "--sims", "--seed", "--contrast", "--alpha"};
+
+int run_power(const PowerOptions& o, const CLI::App& sub) {
     analysis::PowerSettings s;
     s.means_percent = analysis::parse_means(o.means);
     s.subject_counts = analysis::parse_subject_counts(o.subjects);
@@ -36,7 +46,16 @@ int run_power(const PowerOptions& o) {
         s.contrast_a = a;
         s.contrast_b = b;
     }
-    const auto result = analysis::simulate_power(s);
+    if (!o.slurm_script.empty())
+        return write_simulation_slurm_scripts(sub, "power", power_option_names, "--threads", o.out,
+                                              o.slurm_script, o.slurm, o.avsi);
+    if ((o.shard.sharded() || o.merge) && o.out.empty())
+        throw UsageError("--shard and --merge need --out: the folder of the shard files");
+    if (o.shard.sharded()) {
+        analysis::simulate_power_shard(s, o.shard, o.out);
+        return 0;
+    }
+    const auto result = o.merge ? analysis::merge_power_shards(s, o.out) : analysis::simulate_power(s);
     fmt::print("{}", analysis::power_table(result));
     if (!o.out.empty()) analysis::write_power_files(o.out, result);
     return 0;
@@ -73,7 +92,19 @@ const bool registered_power = register_command({
         sub.add_option("--alpha", o->alpha, "Significance level")->capture_default_str();
         sub.add_option("--threads", o->threads, "Worker threads (0: all cores)")->capture_default_str();
         sub.add_option("--out", o->out, "Folder for power.csv, power.json and power.txt (default: print only)");
-        return [o] { return run_power(*o); };
+        const auto parse_shard = add_shard_options(
+            sub, o->shard, o->merge,
+            "Simulate only shard K of N: for every subject count its contiguous share of the --sims experiments, "
+            "each with the seed it has in the whole run; writes --out/power.shard-K-of-N.csv",
+            "Simulate nothing; merge the shard files in --out into the table, power.csv, power.json and power.txt "
+            "the whole run gives, number for number (give the options the shards were run with)");
+        add_slurm_options(sub, o->slurm_script, o->slurm, o->avsi, "--shards tasks of --shard K/N, then --merge")
+            ->excludes(sub.get_option("--shard"))
+            ->excludes(sub.get_option("--merge"));
+        return [o, parse_shard, &sub] {
+            parse_shard();
+            return run_power(*o, sub);
+        };
     }});
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/protocol.h"
 #include "command.h"
+#include "shard_options.h"
 #include "one_of.h"
 
 namespace avsi::cli {
@@ -25,9 +26,18 @@ struct SimulateSrtOptions {
     bool include_unconverged = false;
     int keywords = 3, listeners = 1000;
     std::uint64_t seed = 1;
+    ShardSpec shard;
+    bool merge = false;
+    std::filesystem::path slurm_script, avsi;
+    SlurmSettings slurm;
 };
 
-int run_simulate_srt(const SimulateSrtOptions& o, bool procedure_given) {
+// The options a Slurm array's tasks and merge repeat (all but --out and the Slurm ones).
+const std::vector<std::string> srt_option_names = {
+    "--protocol", "--procedure", "--l50-db", "--slope", "--ceiling", "--assumed-slope", "--include-unconverged",
+    "--keywords", "--sentences", "--listeners", "--start-sd", "--seed"};
+
+int run_simulate_srt(const SimulateSrtOptions& o, bool procedure_given, const CLI::App& sub) {
     analysis::SrtSimulationSettings s;
     if (!o.protocol.empty()) {
         const Protocol protocol = load_protocol(o.protocol);
@@ -55,7 +65,16 @@ int run_simulate_srt(const SimulateSrtOptions& o, bool procedure_given) {
     s.listeners = o.listeners;
     s.seed = o.seed;
     s.start_offset_sd_db = o.start_sd_db;
-    const auto result = analysis::simulate_srt(s);
+    if (!o.slurm_script.empty())
+        return write_simulation_slurm_scripts(sub, "simulate-srt", srt_option_names, "", o.out,
+                                              o.slurm_script, o.slurm, o.avsi);
+    if ((o.shard.sharded() || o.merge) && o.out.empty())
+        throw UsageError("--shard and --merge need --out: the folder of the shard files");
+    if (o.shard.sharded()) {
+        analysis::simulate_srt_shard(s, o.shard, o.out);
+        return 0;
+    }
+    const auto result = o.merge ? analysis::merge_srt_shards(s, o.out) : analysis::simulate_srt(s);
     fmt::print("{}", analysis::srt_simulation_table(result));
     if (!o.out.empty()) {
         analysis::write_srt_simulation(o.out, result);
@@ -98,7 +117,19 @@ const bool registered_simulate_srt = register_command({
             ->capture_default_str();
         sub.add_option("--seed", o->seed, "Random seed")->capture_default_str();
         sub.add_option("--out", o->out, "Folder for srt_simulation.csv and srt_simulation.png (default: print only)");
-        return [o, procedure] { return run_simulate_srt(*o, procedure->count() > 0); };
+        const auto parse_shard = add_shard_options(
+            sub, o->shard, o->merge,
+            "Simulate only shard K of N: for every track length its contiguous share of the --listeners, each "
+            "with the seed it has in the whole run; writes --out/srt_simulation.shard-K-of-N.csv",
+            "Simulate nothing; merge the shard files in --out into the table, srt_simulation.csv and .png the "
+            "whole run gives, number for number (give the options the shards were run with)");
+        add_slurm_options(sub, o->slurm_script, o->slurm, o->avsi, "--shards tasks of --shard K/N, then --merge")
+            ->excludes(sub.get_option("--shard"))
+            ->excludes(sub.get_option("--merge"));
+        return [o, procedure, parse_shard, &sub] {
+            parse_shard();
+            return run_simulate_srt(*o, procedure->count() > 0, sub);
+        };
     }});
 
 }  // namespace

@@ -8,12 +8,16 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/log.h"
 #include "avsi/core/protocol.h"
+#include "avsi/core/rng.h"
+#include "simulation_shards.h"
 
 namespace avsi::analysis {
 
@@ -480,7 +484,10 @@ int simulate_response(const SimulatedListener& listener, double level_db, Rng& r
     return correct;
 }
 
-SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings) {
+namespace {
+
+// The checks of simulate_srt's settings (InputError naming the option, all at once).
+void validate_simulation(const SrtSimulationSettings& settings) {
     validate(settings.track, "simulate-srt");
     DiagnosticList problems;
     if (settings.listener.keywords < 1 || settings.listener.keywords > 20)
@@ -506,58 +513,180 @@ SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings) {
         problems.add("simulate-srt", 0, 0, "--start-sd",
                      fmt::format("expected an SD in [0, 30] dB, got {}", settings.start_offset_sd_db));
     problems.throw_if_any();
+}
 
+const std::array<SrtEstimator, 2> simulation_estimators = {SrtEstimator::MeanOfLevels, SrtEstimator::MaximumLikelihood};
+
+// One simulated listener's track of n sentences: its presentations, whether
+// it converged, and each estimator's estimate (none when not valid, or when
+// an unconverged track is left out).
+struct ListenerOutcome {
+    int presentations = 0;
+    bool converged = true;
+    std::array<std::optional<double>, 2> estimates;
+};
+
+ListenerOutcome simulate_listener(const SrtSimulationSettings& settings, int n, int listener) {
+    // One stream per (length, listener): a row does not depend on the other rows.
+    Rng rng(derive_seed(settings.seed, fmt::format("n{}/listener{}", n, listener)));
+    TrackSettings track = settings.track;
+    if (settings.start_offset_sd_db > 0)
+        track.start_db = std::clamp(track.start_db + rng.normal(0.0, settings.start_offset_sd_db), track.min_db,
+                                    track.max_db);
+    AdaptiveTrack t(track);
+    while (t.sentences() < n) t.record(settings.listener.keywords, simulate_response(settings.listener, t.level_db(), rng));
+    ListenerOutcome o;
+    o.presentations = static_cast<int>(t.steps().size());
+    o.converged = track_convergence(track, t.steps()).converged;
+    if (!o.converged && !settings.include_unconverged) return o;
+    for (std::size_t e = 0; e < simulation_estimators.size(); ++e) {
+        const SrtEstimate est = estimate_srt(track, t.steps(), simulation_estimators[e]);
+        if (est.valid) o.estimates[e] = est.srt_db;
+    }
+    return o;
+}
+
+// The rows of track length n (one per estimator) from every listener's outcome, in order.
+void add_simulation_rows(const SrtSimulationSettings& settings, double truth, int n,
+                         const std::vector<ListenerOutcome>& outcomes, SrtSimulationResult& result) {
+    std::vector<std::vector<double>> values(simulation_estimators.size());
+    double presentations = 0.0;
+    int unconverged = 0;
+    for (const auto& o : outcomes) {
+        presentations += static_cast<double>(o.presentations);
+        if (!o.converged) ++unconverged;
+        for (std::size_t e = 0; e < simulation_estimators.size(); ++e)
+            if (o.estimates[e]) values[e].push_back(*o.estimates[e]);
+    }
+    for (std::size_t e = 0; e < simulation_estimators.size(); ++e) {
+        SrtSimulationRow row;
+        row.sentences = n;
+        row.estimator = to_string(simulation_estimators[e]);
+        row.true_db = truth;
+        row.estimates = static_cast<int>(values[e].size());
+        row.unconverged = unconverged;
+        row.mean_presentations = presentations / settings.listeners;
+        if (!values[e].empty()) {
+            const double m = std::accumulate(values[e].begin(), values[e].end(), 0.0) / values[e].size();
+            double ss = 0.0, sq = 0.0;
+            for (double v : values[e]) {
+                ss += (v - m) * (v - m);
+                sq += (v - truth) * (v - truth);
+            }
+            row.mean_db = m;
+            row.bias_db = m - truth;
+            row.sd_db = values[e].size() > 1 ? std::sqrt(ss / (values[e].size() - 1)) : 0.0;
+            row.rmse_db = std::sqrt(sq / values[e].size());
+        }
+        result.rows.push_back(row);
+    }
+}
+
+double simulation_truth(const SrtSimulationSettings& settings) {
+    return procedure_threshold_db(settings.track, settings.listener).value_or(std::numeric_limits<double>::quiet_NaN());
+}
+
+// The settings a shard file records and the merge compares: all of them.
+nlohmann::json simulation_settings_json(const SrtSimulationSettings& s) {
+    const TrackSettings& t = s.track;
+    return {{"track", {{"procedure", to_string(t.procedure)}, {"start_db", t.start_db}, {"min_db", t.min_db},
+                       {"max_db", t.max_db}, {"large_step_db", t.large_step_db}, {"large_steps", t.large_steps},
+                       {"small_step_db", t.small_step_db}, {"repeat_first", t.repeat_first},
+                       {"max_first_repeats", t.max_first_repeats}, {"target", t.target},
+                       {"slope_per_db", t.slope_per_db}, {"f_start", t.f_start}, {"f_ratio", t.f_ratio},
+                       {"f_min", t.f_min}, {"srt_from", t.srt_from}, {"min_reversals", t.min_reversals},
+                       {"srt_include_next", t.srt_include_next}, {"estimator", to_string(t.estimator)}}},
+            {"listener", {{"l50_db", s.listener.l50_db}, {"slope_per_db", s.listener.slope_per_db},
+                          {"keywords", s.listener.keywords}, {"ceiling", s.listener.ceiling}}},
+            {"sentence_counts", s.sentence_counts},
+            {"listeners", s.listeners},
+            {"seed", s.seed},
+            {"start_offset_sd_db", s.start_offset_sd_db},
+            {"include_unconverged", s.include_unconverged}};
+}
+
+const detail::ShardKind& srt_shard_kind() {
+    static const detail::ShardKind kind{
+        "avsi-simulate-srt-shard", "srt_simulation",
+        {"sentences", "listener", "presentations", "converged", "mean_db", "ml_db"}, "avsi simulate-srt … --out DIR"};
+    return kind;
+}
+
+}  // namespace
+
+SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings) {
+    validate_simulation(settings);
     SrtSimulationResult result;
     result.settings = settings;
-    const double truth = procedure_threshold_db(settings.track, settings.listener)
-                             .value_or(std::numeric_limits<double>::quiet_NaN());
-    std::vector<SrtEstimator> estimators = {SrtEstimator::MeanOfLevels, SrtEstimator::MaximumLikelihood};
+    const double truth = simulation_truth(settings);
     for (int n : settings.sentence_counts) {
-        std::vector<std::vector<double>> values(estimators.size());
-        double presentations = 0.0;
-        int unconverged = 0;
-        for (int listener = 0; listener < settings.listeners; ++listener) {
-            // One stream per (length, listener): a row does not depend on the other rows.
-            Rng rng(derive_seed(settings.seed, fmt::format("n{}/listener{}", n, listener)));
-            TrackSettings track = settings.track;
-            if (settings.start_offset_sd_db > 0)
-                track.start_db = std::clamp(track.start_db + rng.normal(0.0, settings.start_offset_sd_db),
-                                            track.min_db, track.max_db);
-            AdaptiveTrack t(track);
-            while (t.sentences() < n) t.record(settings.listener.keywords, simulate_response(settings.listener, t.level_db(), rng));
-            presentations += static_cast<double>(t.steps().size());
-            if (!track_convergence(track, t.steps()).converged) {
-                ++unconverged;
-                if (!settings.include_unconverged) continue;
-            }
-            for (std::size_t e = 0; e < estimators.size(); ++e) {
-                const SrtEstimate est = estimate_srt(track, t.steps(), estimators[e]);
-                if (est.valid) values[e].push_back(est.srt_db);
-            }
-        }
-        for (std::size_t e = 0; e < estimators.size(); ++e) {
-            SrtSimulationRow row;
-            row.sentences = n;
-            row.estimator = to_string(estimators[e]);
-            row.true_db = truth;
-            row.estimates = static_cast<int>(values[e].size());
-            row.unconverged = unconverged;
-            row.mean_presentations = presentations / settings.listeners;
-            if (!values[e].empty()) {
-                const double m = std::accumulate(values[e].begin(), values[e].end(), 0.0) / values[e].size();
-                double ss = 0.0, sq = 0.0;
-                for (double v : values[e]) {
-                    ss += (v - m) * (v - m);
-                    sq += (v - truth) * (v - truth);
-                }
-                row.mean_db = m;
-                row.bias_db = m - truth;
-                row.sd_db = values[e].size() > 1 ? std::sqrt(ss / (values[e].size() - 1)) : 0.0;
-                row.rmse_db = std::sqrt(sq / values[e].size());
-            }
-            result.rows.push_back(row);
-        }
+        std::vector<ListenerOutcome> outcomes;
+        for (int listener = 0; listener < settings.listeners; ++listener)
+            outcomes.push_back(simulate_listener(settings, n, listener));
+        add_simulation_rows(settings, truth, n, outcomes, result);
     }
+    return result;
+}
+
+void simulate_srt_shard(const SrtSimulationSettings& settings, ShardSpec shard, const std::filesystem::path& out_dir) {
+    validate_simulation(settings);
+    const auto [first, last] = shard_range(static_cast<std::size_t>(settings.listeners), shard);
+    const auto number = [](const std::optional<double>& v) { return v ? fmt::format("{}", *v) : std::string("NA"); };
+    std::string rows;
+    for (int n : settings.sentence_counts)
+        for (std::size_t listener = first; listener < last; ++listener) {
+            const ListenerOutcome o = simulate_listener(settings, n, static_cast<int>(listener));
+            rows += fmt::format("{},{},{},{:d},{},{}\n", n, listener, o.presentations, o.converged,
+                                number(o.estimates[0]), number(o.estimates[1]));
+        }
+    detail::write_shard_file(out_dir, srt_shard_kind(), shard, simulation_settings_json(settings), rows);
+    log_info("simulate-srt: shard {} wrote listeners {}..{} of {} per track length to {}", shard.text(), first, last,
+             settings.listeners, detail::shard_file_path(out_dir, srt_shard_kind(), shard).string());
+}
+
+SrtSimulationResult merge_srt_shards(const SrtSimulationSettings& settings, const std::filesystem::path& out_dir) {
+    validate_simulation(settings);
+    const std::size_t total = static_cast<std::size_t>(settings.listeners);
+    const auto& counts = settings.sentence_counts;
+    std::vector<std::vector<ListenerOutcome>> outcomes(counts.size());
+    std::size_t at = 0, listener = 0;  // the next row expected: track length `at`, listener `listener`
+    const auto row = [&](ShardSpec shard, const detail::ShardRow& r) {
+        const auto [first, last] = shard_range(total, shard);
+        if (at >= counts.size() || first == last)
+            r.fail(0, fmt::format("expected the end of shard {}, got another row", shard.text()));
+        const long long n = r.integer(0), i = r.integer(1);
+        if (n != counts[at] || i != static_cast<long long>(listener))
+            r.fail(n != counts[at] ? 0 : 1,
+                   fmt::format("expected sentences {} listener {} (shard {} holds listeners {}..{} of each track "
+                               "length), got sentences {} listener {}",
+                               counts[at], listener, shard.text(), first, last - 1, n, i));
+        ListenerOutcome o;
+        const long long p = r.integer(2), c = r.integer(3);
+        if (p < n || p > 100000) r.fail(2, fmt::format("expected a count of presentations in [{}, 100000], got {}", n, p));
+        if (c != 0 && c != 1) r.fail(3, fmt::format("expected 0 or 1, got {}", c));
+        o.presentations = static_cast<int>(p);
+        o.converged = c == 1;
+        for (std::size_t e = 0; e < 2; ++e)
+            if (!r.is_na(4 + e)) o.estimates[e] = r.number(4 + e);
+        outcomes[at].push_back(o);
+        if (++listener == last) listener = first, ++at;
+    };
+    const auto end = [&](ShardSpec shard, const std::function<void(const std::string&)>& fail) {
+        const auto [first, last] = shard_range(total, shard);
+        if (at < counts.size() && first < last)
+            fail(fmt::format("cut short: shard {} ends before sentences {} listener {} (it holds listeners {}..{} "
+                             "for each track length: {})",
+                             shard.text(), counts[at], listener, first, last - 1, fmt::join(counts, ", ")));
+        at = 0;
+        listener = shard_range(total, ShardSpec{shard.index + 1, shard.count}).first;
+    };
+    const std::size_t shards =
+        detail::read_shard_files(out_dir, srt_shard_kind(), simulation_settings_json(settings), row, end);
+    SrtSimulationResult result;
+    result.settings = settings;
+    const double truth = simulation_truth(settings);
+    for (std::size_t j = 0; j < counts.size(); ++j) add_simulation_rows(settings, truth, counts[j], outcomes[j], result);
+    log_info("simulate-srt: merged {} shards in {}", shards, out_dir.string());
     return result;
 }
 

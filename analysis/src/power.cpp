@@ -17,6 +17,7 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/core/rng.h"
+#include "simulation_shards.h"
 
 namespace avsi::analysis {
 
@@ -148,7 +149,11 @@ std::pair<std::size_t, std::size_t> parse_contrast(const std::string& text, std:
     return {a, b};
 }
 
-PowerResult simulate_power(const PowerSettings& settings) {
+namespace {
+
+// The settings validated (InputError naming the option), the contrast's
+// default (last minus first) filled in.
+PowerSettings checked_settings(const PowerSettings& settings) {
     PowerSettings s = settings;
     const std::size_t k = s.means_percent.size();
     DiagnosticList problems;
@@ -175,48 +180,159 @@ PowerResult simulate_power(const PowerSettings& settings) {
         s.contrast_a = k - 1;
         s.contrast_b = 0;
     }
+    return s;
+}
 
-    PowerResult result;
-    result.settings = s;
-    result.contrast = fmt::format("c{} - c{}", s.contrast_a + 1, s.contrast_b + 1);
+// The outcomes of the simulated experiments [first, last) with n subjects,
+// each from its own seed (so any split of the experiments gives the same
+// outcomes), on the settings' threads.
+std::vector<SimOutcome> simulate_outcomes(const PowerSettings& s, std::size_t n, std::size_t first, std::size_t last,
+                                          Progress& progress) {
     const std::size_t threads =
         std::max<std::size_t>(1, s.threads ? s.threads : std::size_t(std::thread::hardware_concurrency()));
     const Rng root(s.seed);
-    Progress progress("power simulation", s.subject_counts.size() * s.simulations);
-    for (std::size_t n : s.subject_counts) {
-        std::vector<SimOutcome> outcomes(s.simulations);
-        std::atomic<std::size_t> next{0};
-        auto worker = [&] {
-            for (std::size_t sim = next++; sim < s.simulations; sim = next++) {
-                outcomes[sim] = simulate_one(s, n, s.contrast_a, s.contrast_b,
-                                             root.derive(fmt::format("subjects{}/sim{}", n, sim)));
-                progress.advance();
-            }
-        };
-        std::vector<std::thread> pool;
-        for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(worker);
-        worker();
-        for (auto& t : pool) t.join();
-
-        PowerPoint point;
-        point.subjects = n;
-        point.simulations = s.simulations;
-        for (const auto& o : outcomes) {
-            point.power_anova += o.anova ? 1.0 : 0.0;
-            point.power_anova_gg += o.anova_gg ? 1.0 : 0.0;
-            point.power_contrast += o.contrast ? 1.0 : 0.0;
-            point.mean_percent += o.mean_percent;
+    std::vector<SimOutcome> outcomes(last - first);
+    std::atomic<std::size_t> next{first};
+    auto worker = [&] {
+        for (std::size_t sim = next++; sim < last; sim = next++) {
+            outcomes[sim - first] = simulate_one(s, n, s.contrast_a, s.contrast_b,
+                                                 root.derive(fmt::format("subjects{}/sim{}", n, sim)));
+            progress.advance();
         }
-        const double sims = double(s.simulations);
-        point.power_anova /= sims;
-        point.power_anova_gg /= sims;
-        point.power_contrast /= sims;
-        point.mean_percent /= sims;
-        point.mc_se_anova = std::sqrt(point.power_anova * (1.0 - point.power_anova) / sims);
-        point.mc_se_contrast = std::sqrt(point.power_contrast * (1.0 - point.power_contrast) / sims);
-        result.points.push_back(point);
+    };
+    std::vector<std::thread> pool;
+    for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(worker);
+    worker();
+    for (auto& t : pool) t.join();
+    return outcomes;
+}
+
+// The power at n subjects from every experiment's outcome, in order.
+PowerPoint summarize(std::size_t n, const std::vector<SimOutcome>& outcomes) {
+    PowerPoint point;
+    point.subjects = n;
+    point.simulations = outcomes.size();
+    for (const auto& o : outcomes) {
+        point.power_anova += o.anova ? 1.0 : 0.0;
+        point.power_anova_gg += o.anova_gg ? 1.0 : 0.0;
+        point.power_contrast += o.contrast ? 1.0 : 0.0;
+        point.mean_percent += o.mean_percent;
+    }
+    const double sims = double(outcomes.size());
+    point.power_anova /= sims;
+    point.power_anova_gg /= sims;
+    point.power_contrast /= sims;
+    point.mean_percent /= sims;
+    point.mc_se_anova = std::sqrt(point.power_anova * (1.0 - point.power_anova) / sims);
+    point.mc_se_contrast = std::sqrt(point.power_contrast * (1.0 - point.power_contrast) / sims);
+    return point;
+}
+
+PowerResult result_header(const PowerSettings& s) {
+    PowerResult result;
+    result.settings = s;
+    result.contrast = fmt::format("c{} - c{}", s.contrast_a + 1, s.contrast_b + 1);
+    return result;
+}
+
+// The settings a shard file records and the merge compares: every one the
+// results depend on (not the thread count).
+nlohmann::json settings_json(const PowerSettings& s) {
+    return {{"means_percent", s.means_percent},   {"subject_counts", s.subject_counts},
+            {"sentences_per_cell", s.sentences_per_cell}, {"keywords_per_sentence", s.keywords_per_sentence},
+            {"subject_sd", s.subject_sd},         {"sentence_sd", s.sentence_sd},
+            {"condition_sd", s.condition_sd},     {"simulations", s.simulations},
+            {"seed", s.seed},                     {"contrast", {s.contrast_a + 1, s.contrast_b + 1}},
+            {"alpha", s.alpha}};
+}
+
+const detail::ShardKind& power_shard_kind() {
+    static const detail::ShardKind kind{"avsi-power-shard", "power",
+                                        {"subjects", "simulation", "anova", "anova_gg", "contrast", "mean_percent"},
+                                        "avsi power … --out DIR"};
+    return kind;
+}
+
+}  // namespace
+
+PowerResult simulate_power(const PowerSettings& settings) {
+    const PowerSettings s = checked_settings(settings);
+    PowerResult result = result_header(s);
+    Progress progress("power simulation", s.subject_counts.size() * s.simulations);
+    for (std::size_t n : s.subject_counts)
+        result.points.push_back(summarize(n, simulate_outcomes(s, n, 0, s.simulations, progress)));
+    progress.finish();
+    return result;
+}
+
+void simulate_power_shard(const PowerSettings& settings, ShardSpec shard, const std::filesystem::path& out_dir) {
+    const PowerSettings s = checked_settings(settings);
+    const auto [first, last] = shard_range(s.simulations, shard);
+    Progress progress("power simulation, shard " + shard.text(), s.subject_counts.size() * (last - first));
+    std::string rows;
+    for (std::size_t n : s.subject_counts) {
+        const std::vector<SimOutcome> outcomes = simulate_outcomes(s, n, first, last, progress);
+        for (std::size_t i = 0; i < outcomes.size(); ++i) {
+            const SimOutcome& o = outcomes[i];
+            rows += fmt::format("{},{},{:d},{:d},{:d},{}\n", n, first + i, o.anova, o.anova_gg, o.contrast,
+                                o.mean_percent);
+        }
     }
     progress.finish();
+    detail::write_shard_file(out_dir, power_shard_kind(), shard, settings_json(s), rows);
+    log_info("power: shard {} wrote experiments {}..{} of {} per subject count to {}", shard.text(), first, last,
+             s.simulations, detail::shard_file_path(out_dir, power_shard_kind(), shard).string());
+}
+
+PowerResult merge_power_shards(const PowerSettings& settings, const std::filesystem::path& out_dir) {
+    const PowerSettings s = checked_settings(settings);
+    std::vector<std::vector<SimOutcome>> outcomes(s.subject_counts.size());
+    std::size_t at = 0, count = 0, sim = 0;  // the next row expected: subject count `at`, experiment `sim`
+    const auto row = [&](ShardSpec shard, const detail::ShardRow& r) {
+        const auto [first, last] = shard_range(s.simulations, shard);
+        if (at >= s.subject_counts.size() || first == last)
+            r.fail(0, fmt::format("expected the end of shard {}, got another row", shard.text()));
+        const long long n = r.integer(0), i = r.integer(1);
+        if (n != static_cast<long long>(s.subject_counts[at]) || i != static_cast<long long>(sim))
+            r.fail(n != static_cast<long long>(s.subject_counts[at]) ? 0 : 1,
+                   fmt::format("expected subjects {} simulation {} (shard {} holds simulations {}..{} of each "
+                               "subject count), got subjects {} simulation {}",
+                               s.subject_counts[at], sim, shard.text(), first, last - 1, n, i));
+        SimOutcome o;
+        const auto flag = [&](std::size_t column) {
+            const long long v = r.integer(column);
+            if (v != 0 && v != 1) r.fail(column, fmt::format("expected 0 or 1, got {}", v));
+            return v == 1;
+        };
+        o.anova = flag(2);
+        o.anova_gg = flag(3);
+        o.contrast = flag(4);
+        o.mean_percent = r.number(5);
+        if (!(o.mean_percent >= 0.0 && o.mean_percent <= 100.0))
+            r.fail(5, fmt::format("expected a percentage in [0, 100], got {}", o.mean_percent));
+        outcomes[at].push_back(o);
+        if (++sim == last) {
+            sim = first, ++at;
+        }
+        ++count;
+    };
+    const auto end = [&](ShardSpec shard, const std::function<void(const std::string&)>& fail) {
+        const auto [first, last] = shard_range(s.simulations, shard);
+        if (at < s.subject_counts.size() && first < last)
+            fail(fmt::format("cut short: shard {} ends before subjects {} simulation {} (it holds simulations "
+                             "{}..{} for each subject count: {})",
+                             shard.text(), s.subject_counts[at], sim, first, last - 1,
+                             fmt::join(s.subject_counts, ", ")));
+        const auto next = shard_range(s.simulations, ShardSpec{shard.index + 1, shard.count});
+        at = 0;
+        sim = next.first;
+    };
+    sim = 0;
+    const std::size_t shards = detail::read_shard_files(out_dir, power_shard_kind(), settings_json(s), row, end);
+    PowerResult result = result_header(s);
+    for (std::size_t j = 0; j < s.subject_counts.size(); ++j)
+        result.points.push_back(summarize(s.subject_counts[j], outcomes[j]));
+    log_info("power: merged {} simulated experiments from {} shards in {}", count, shards, out_dir.string());
     return result;
 }
 

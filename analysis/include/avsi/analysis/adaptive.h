@@ -54,6 +54,7 @@
 #include "avsi/core/adaptive_protocol.h"
 #include "avsi/core/config.h"
 #include "avsi/core/rng.h"
+#include "avsi/core/shards.h"
 
 namespace avsi {
 struct Protocol;
@@ -266,6 +267,16 @@ struct SrtSimulationResult {
 
 // Runs the simulation (deterministic for a seed). Throws InputError for bad settings.
 SrtSimulationResult simulate_srt(const SrtSimulationSettings& settings);
+// A cluster run (docs/cluster.md): shard K of N simulates, for every track
+// length, its contiguous share of the listeners (shard_range), each from the
+// seed it has in the whole run, and writes their tracks' outcomes to
+// <out_dir>/srt_simulation.shard-K-of-N.csv. Validates as simulate_srt.
+void simulate_srt_shard(const SrtSimulationSettings& settings, ShardSpec shard, const std::filesystem::path& out_dir);
+// The merge: the shard files in `out_dir` summarised into the result
+// simulate_srt(settings) gives, number for number; InputError naming a
+// shard that is missing, stale, foreign, claims another's listeners or is
+// cut short.
+SrtSimulationResult merge_srt_shards(const SrtSimulationSettings& settings, const std::filesystem::path& out_dir);
 // A plain-text table headed "SRT by simulation".
 std::string srt_simulation_table(const SrtSimulationResult& result);
 // srt_simulation.csv and srt_simulation.png (SD and bias by sentence count) into `out_dir`.

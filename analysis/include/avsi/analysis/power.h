@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+#include "avsi/core/shards.h"
+
 namespace avsi::analysis {
 
 // The default subject × condition SD (logit): MacLeod & Summerfield's 6-15 dB
@@ -71,6 +73,19 @@ struct PowerResult {
 // simulation in parallel. Results depend only on the settings and the seed,
 // not on the number of threads.
 PowerResult simulate_power(const PowerSettings& settings);
+
+// A cluster run (docs/cluster.md): shard K of N simulates, for every
+// subject count, its contiguous share of the experiments (shard_range), each
+// from the seed it has in the whole run, and writes their outcomes to
+// <out_dir>/power.shard-K-of-N.csv. Validates as simulate_power.
+void simulate_power_shard(const PowerSettings& settings, ShardSpec shard, const std::filesystem::path& out_dir);
+
+// The merge: the shard files in `out_dir` summarised into the result
+// simulate_power(settings) gives, number for number. Every shard of the
+// split must be there, made by this avsi with these settings (the thread
+// count aside), each holding its own experiments: InputError naming the one
+// missing, stale, foreign, claiming another's experiments or cut short.
+PowerResult merge_power_shards(const PowerSettings& settings, const std::filesystem::path& out_dir);
 
 // "10..40" (step 5), "10..40:2" or "10,20,30". Throws InputError naming --subjects.
 std::vector<std::size_t> parse_subject_counts(const std::string& text);
