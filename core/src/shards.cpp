@@ -194,7 +194,7 @@ SlurmScripts write_slurm_scripts(const std::filesystem::path& path, const SlurmJ
                              out.submit.string(), command_line(job.task, s)));
     std::string merge_commands;
     for (const auto& command : job.merge) merge_commands += command_line(command, s) + "\n";
-    write_script(out.merge, fmt::format("#!/bin/bash\n# {}: the merge of the {} shards of {}.\n"
+    write_script(out.merge, fmt::format("#!/bin/bash\n# {}.\n# The merge of the {} shards of {}, once every task has succeeded.\n"
                                         "# Submitted by {} with --dependency=afterok:<array job id>.\n"
                                         "#SBATCH --job-name={}-merge\n{}#SBATCH --output={}/%x-%j.log\n"
                                         "set -euo pipefail\n{}",
@@ -207,7 +207,7 @@ SlurmScripts write_slurm_scripts(const std::filesystem::path& path, const SlurmJ
                              "array=$(sbatch --parsable \"$@\" {})\narray=${{array%%;*}}\n"
                              "merge=$(sbatch --parsable \"$@\" --dependency=afterok:\"$array\" {})\n"
                              "merge=${{merge%%;*}}\n"
-                             "echo \"array job $array: {} tasks ({})\"\n"
+                             "echo \"array job $array: {} tasks, logs in {}\"\n"
                              "echo \"merge job $merge: starts when every task of $array has succeeded\"\n"
                              "echo \"follow with: squeue -j $array,$merge (afterwards: sacct -j $array,$merge)\"\n",
                              out.array.filename().string(), s.shards, out.merge.filename().string(),

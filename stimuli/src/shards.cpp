@@ -114,6 +114,8 @@ void write_shard_manifest(const std::filesystem::path& out_dir, ShardSpec shard,
                            {"avsi", id.avsi},
                            {"stimuli", entries}};
     write_text_file(shard_manifest_path(out_dir, shard), manifest.dump(2) + "\n");
+    log_info("build-stimuli: shard {}: {} stimuli listed in {}; once every shard is built, --merge writes the manifest",
+             shard.text(), entries.size(), shard_manifest_path(out_dir, shard).string());
 }
 
 namespace {

@@ -587,4 +587,78 @@ wav_cases = {
 for name, content in wav_cases.items():
     write("wav", name, content)
 
+# ------------------------------------------------------------------ simulation shard (through avsi power --merge)
+# A one-shard split of `avsi power --means 60,70 --subjects 4 --sims 3 --seed 1`
+# as `--shard 0/1` writes it (the rows made up: the merge checks their form
+# and ranges, not the simulation), each case one change.
+import re
+AVSI_VERSION = re.search(r"project\(avsi VERSION (\S+)", (DATA.parent.parent / "CMakeLists.txt").read_text()).group(1)
+power_settings = {"alpha": 0.05, "condition_sd": 0.95, "contrast": [2, 1], "keywords_per_sentence": 3,
+                  "means_percent": [60.0, 70.0], "seed": 1, "sentence_sd": 0.5, "sentences_per_cell": 15,
+                  "simulations": 3, "subject_counts": [4], "subject_sd": 0.5}
+command("power_shard", """
+name power.shard-0-of-1.csv
+args power --means 60,70 --subjects 4 --sims 3 --seed 1 --merge --out {dir}
+""")
+def power_shard(first="# avsi-power-shard 0/1", version=AVSI_VERSION, settings=None, columns=None, rows=None):
+    lines = [first, "# avsi " + version,
+             "# settings " + json.dumps(power_settings if settings is None else settings, separators=(",", ":"), sort_keys=True),
+             columns or "subjects,simulation,anova,anova_gg,contrast,mean_percent"]
+    lines += rows if rows is not None else ["4,0,1,0,1,62.5", "4,1,0,0,0,58.333333333333336", "4,2,1,1,1,66.66666666666667"]
+    return "\n".join(lines) + "\n"
+power_shard_cases = {
+    "empty": "",
+    "not_a_shard": "subjects,simulation,anova,anova_gg,contrast,mean_percent\n4,0,1,0,1,62.5\n",
+    "claims_other_shard": power_shard(first="# avsi-power-shard 1/2"),
+    "other_version": power_shard(version="0.0.1"),
+    "settings_truncated": power_shard().replace('"subject_sd":0.5}', '"subject_sd":'),
+    "other_seed": power_shard(settings=dict(power_settings, seed=2)),
+    "other_columns": power_shard(columns="subjects,simulation,anova,contrast,mean_percent"),
+    "cut_short": power_shard(rows=["4,0,1,0,1,62.5", "4,1,0,0,0,58.333333333333336"]),
+    "extra_row": power_shard(rows=["4,0,1,0,1,62.5", "4,1,0,0,0,58.3", "4,2,1,1,1,66.7", "4,3,1,1,1,66.7"]),
+    "wrong_replicate": power_shard(rows=["4,0,1,0,1,62.5", "4,2,0,0,0,58.3", "4,1,1,1,1,66.7"]),
+    "extra_field": power_shard(rows=["4,0,1,0,1,62.5,9", "4,1,0,0,0,58.3", "4,2,1,1,1,66.7"]),
+    "flag_2": power_shard(rows=["4,0,2,0,1,62.5", "4,1,0,0,0,58.3", "4,2,1,1,1,66.7"]),
+    "mean_nan": power_shard(rows=["4,0,1,0,1,nan", "4,1,0,0,0,58.3", "4,2,1,1,1,66.7"]),
+    "mean_1e999": power_shard(rows=["4,0,1,0,1,1e999", "4,1,0,0,0,58.3", "4,2,1,1,1,66.7"]),
+    "mean_150": power_shard(rows=["4,0,1,0,1,150", "4,1,0,0,0,58.3", "4,2,1,1,1,66.7"]),
+    "long_line": power_shard(rows=["4,0,1,0,1," + "6" * (100 << 10)]),
+}
+for name, text in power_shard_cases.items():
+    write("power_shard", name + ".csv", text)
+
+# ------------------------------------------------------------------ stimulus shard manifest (through build-stimuli --merge)
+# A one-shard split of ../experiment/protocol.toml; the header as
+# `build-stimuli --shard 0/1` writes it, each case one change (the
+# inputs hash cannot be made here, so a well-formed shard stops at it).
+import hashlib
+protocol_sha = hashlib.sha256((DATA / "experiment" / "protocol.toml").read_bytes()).hexdigest()
+shard_manifest = {"format": "avsi-stimuli-shard", "version": 1, "shard": 0, "shards": 1, "protocol": "protocol.toml",
+                  "protocol_sha256": protocol_sha, "inputs_sha256": "0" * 64, "builder": "avsi-stimuli-build-4",
+                  "avsi": AVSI_VERSION, "stimuli": []}
+command("stimuli_shard", """
+copy {data}/experiment/protocol.toml
+copy {data}/experiment/corpus.csv
+name shards/shard-0-of-1.json
+args build-stimuli {dir}/protocol.toml --out {dir} --merge
+""")
+def shard_with(**changes):
+    m = dict(shard_manifest)
+    m.update(changes)
+    return json.dumps(m, indent=2)
+stimuli_shard_cases = {
+    "empty": "",
+    "truncated": shard_with()[:80],
+    "deep_nesting": '{"format": "avsi-stimuli-shard", "stimuli": ' + NESTED + "}",
+    "number_overflow": shard_with().replace('"version": 1', '"version": 1e999'),
+    "wrong_format": shard_with(format="avsi-stimuli-manifest"),
+    "version_2": shard_with(version=2),
+    "claims_other_shard": shard_with(shard=1, shards=2),
+    "foreign_protocol": shard_with(protocol_sha256="f" * 64),
+    "other_avsi": shard_with(avsi="0.0.1"),
+    "inputs_changed": shard_with(),
+}
+for name, text in stimuli_shard_cases.items():
+    write("stimuli_shard", name + ".json", text)
+
 print("written")
