@@ -640,8 +640,9 @@ void simulate_srt_shard(const SrtSimulationSettings& settings, ShardSpec shard, 
                                 number(o.estimates[0]), number(o.estimates[1]));
         }
     detail::write_shard_file(out_dir, srt_shard_kind(), shard, simulation_settings_json(settings), rows);
-    log_info("simulate-srt: shard {} wrote listeners {}..{} of {} per track length to {}", shard.text(), first, last,
-             settings.listeners, detail::shard_file_path(out_dir, srt_shard_kind(), shard).string());
+    log_info("simulate-srt: shard {} wrote {} of the {} listeners of each track length to {}", shard.text(),
+             first < last ? fmt::format("listeners {}..{}", first, last - 1) : std::string("none"), settings.listeners,
+             detail::shard_file_path(out_dir, srt_shard_kind(), shard).string());
 }
 
 SrtSimulationResult merge_srt_shards(const SrtSimulationSettings& settings, const std::filesystem::path& out_dir) {

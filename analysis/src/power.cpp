@@ -280,8 +280,9 @@ void simulate_power_shard(const PowerSettings& settings, ShardSpec shard, const 
     }
     progress.finish();
     detail::write_shard_file(out_dir, power_shard_kind(), shard, settings_json(s), rows);
-    log_info("power: shard {} wrote experiments {}..{} of {} per subject count to {}", shard.text(), first, last,
-             s.simulations, detail::shard_file_path(out_dir, power_shard_kind(), shard).string());
+    log_info("power: shard {} wrote {} of the {} experiments of each subject count to {}", shard.text(),
+             first < last ? fmt::format("experiments {}..{}", first, last - 1) : std::string("none"), s.simulations,
+             detail::shard_file_path(out_dir, power_shard_kind(), shard).string());
 }
 
 PowerResult merge_power_shards(const PowerSettings& settings, const std::filesystem::path& out_dir) {

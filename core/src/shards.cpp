@@ -61,6 +61,34 @@ std::vector<std::size_t> assign_shards(const std::vector<double>& weights, std::
     return shard_of;
 }
 
+std::vector<std::size_t> assign_grouped_shards(const std::vector<double>& weights,
+                                               const std::vector<std::size_t>& group_of, std::size_t shards) {
+    AVSI_ASSERT(group_of.size() == weights.size());
+    const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
+    const double whole_up_to = total / double(std::max<std::size_t>(shards, 1)) / 4.0;
+    std::map<std::size_t, double> group_weight;
+    for (std::size_t i = 0; i < weights.size(); ++i) group_weight[group_of[i]] += weights[i];
+    // The units: a light group as one, each item of a heavy group alone.
+    std::vector<std::size_t> unit_of(weights.size());
+    std::vector<double> unit_weight;
+    std::map<std::size_t, std::size_t> unit_of_group;
+    for (std::size_t i = 0; i < weights.size(); ++i) {
+        if (group_weight[group_of[i]] <= whole_up_to) {
+            const auto [it, added] = unit_of_group.emplace(group_of[i], unit_weight.size());
+            if (added) unit_weight.push_back(0.0);
+            unit_of[i] = it->second;
+            unit_weight[it->second] += weights[i];
+        } else {
+            unit_of[i] = unit_weight.size();
+            unit_weight.push_back(weights[i]);
+        }
+    }
+    const std::vector<std::size_t> shard_of_unit = assign_shards(unit_weight, shards);
+    std::vector<std::size_t> shard_of(weights.size());
+    for (std::size_t i = 0; i < weights.size(); ++i) shard_of[i] = shard_of_unit[unit_of[i]];
+    return shard_of;
+}
+
 ShardFiles find_shard_files(const std::filesystem::path& dir, const std::string& prefix, const std::string& suffix,
                             const std::string& rerun) {
     const std::regex name("^" + std::regex_replace(prefix, std::regex(R"([.^$|()\[\]{}*+?\\])"), R"(\$&)") +

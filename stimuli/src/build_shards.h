@@ -22,6 +22,7 @@ namespace avsi::stimuli::detail {
 
 // One stimulus of the plan, as the split and the merge see it.
 struct PlannedStimulus {
+    std::string sentence;          // its sentence's id (the sentence's stimuli share its speech)
     std::string path;              // <sentence>/<condition>.mp4 within the set
     std::string wav;               // its audio, within the set
     std::string input_hash;        // the manifest's input_sha256
@@ -46,7 +47,9 @@ PlanIdentity plan_identity(const std::filesystem::path& protocol_path, const std
 // project's voices), since the speech is not made before the build.
 double expected_duration_s(const Sentence& sentence, const Protocol& protocol);
 
-// Whether each stimulus is in `shard` (the split by expected frames).
+// Whether each stimulus is in `shard`: the split by expected frames, a
+// sentence's stimuli together unless they weigh more than a quarter of a
+// shard's share (assign_grouped_shards).
 std::vector<bool> shard_members(const std::vector<PlannedStimulus>& stimuli, ShardSpec shard);
 
 // The split's totals (plan_shards).

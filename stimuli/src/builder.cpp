@@ -916,9 +916,13 @@ int worker_count(const BuildSettings& settings, std::size_t tasks) {
 // The plan's stimuli as the shard split and the merge see them (build_shards.h).
 std::vector<detail::PlannedStimulus> planned_stimuli(const Plan& plan) {
     std::vector<detail::PlannedStimulus> planned;
-    for (const auto& job : plan.jobs)
-        planned.push_back({job.video.generic_string(), job.wav.generic_string(), job.input_hash,
-                           detail::expected_duration_s(*job.sentence, plan.protocol) * plan.fps});
+    std::map<std::string, double> duration_s;  // per sentence (a recording's labels are read once)
+    for (const auto& job : plan.jobs) {
+        auto [it, added] = duration_s.emplace(job.sentence->id, 0.0);
+        if (added) it->second = detail::expected_duration_s(*job.sentence, plan.protocol);
+        planned.push_back({job.sentence->id, job.video.generic_string(), job.wav.generic_string(), job.input_hash,
+                           it->second * plan.fps});
+    }
     return planned;
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <map>
 #include <set>
 
 #include <fmt/format.h>
@@ -62,28 +63,43 @@ double expected_duration_s(const Sentence& sentence, const Protocol& protocol) {
     return 0.5 + static_cast<double>(letters) / 14.0;
 }
 
-std::vector<bool> shard_members(const std::vector<PlannedStimulus>& stimuli, ShardSpec shard) {
+namespace {
+
+// The shard of each stimulus among `shards`.
+std::vector<std::size_t> shard_of(const std::vector<PlannedStimulus>& stimuli, std::size_t shards) {
     std::vector<double> weights;
-    for (const auto& s : stimuli) weights.push_back(s.expected_frames);
-    const std::vector<std::size_t> shard_of = assign_shards(weights, shard.count);
+    std::vector<std::size_t> sentence_of;
+    std::map<std::string, std::size_t> sentence_index;
+    for (const auto& s : stimuli) {
+        weights.push_back(s.expected_frames);
+        sentence_of.push_back(sentence_index.emplace(s.sentence, sentence_index.size()).first->second);
+    }
+    return assign_grouped_shards(weights, sentence_of, shards);
+}
+
+}  // namespace
+
+std::vector<bool> shard_members(const std::vector<PlannedStimulus>& stimuli, ShardSpec shard) {
+    const std::vector<std::size_t> shards = shard_of(stimuli, shard.count);
     std::vector<bool> member(stimuli.size());
-    for (std::size_t i = 0; i < stimuli.size(); ++i) member[i] = shard_of[i] == shard.index;
+    for (std::size_t i = 0; i < stimuli.size(); ++i) member[i] = shards[i] == shard.index;
     return member;
 }
 
 ShardPlan shard_plan(const std::vector<PlannedStimulus>& stimuli, std::size_t shards) {
-    std::vector<double> weights;
-    for (const auto& s : stimuli) weights.push_back(s.expected_frames);
-    const std::vector<std::size_t> shard_of = assign_shards(weights, shards);
+    const std::vector<std::size_t> shard = shard_of(stimuli, shards);
     ShardPlan plan;
     plan.stimuli = stimuli.size();
     plan.stimuli_per_shard.assign(shards, 0);
     plan.expected_frames_per_shard.assign(shards, 0.0);
+    std::vector<std::set<std::string>> sentences(shards);
     for (std::size_t i = 0; i < stimuli.size(); ++i) {
-        plan.expected_frames += weights[i];
-        ++plan.stimuli_per_shard[shard_of[i]];
-        plan.expected_frames_per_shard[shard_of[i]] += weights[i];
+        plan.expected_frames += stimuli[i].expected_frames;
+        ++plan.stimuli_per_shard[shard[i]];
+        plan.expected_frames_per_shard[shard[i]] += stimuli[i].expected_frames;
+        sentences[shard[i]].insert(stimuli[i].sentence);
     }
+    for (const auto& s : sentences) plan.sentences_per_shard.push_back(s.size());
     return plan;
 }
 
@@ -260,9 +276,12 @@ SlurmScripts write_build_slurm_scripts(const BuildSettings& settings, const Slur
     job.merge = {command({"--merge", "--jobs", "{cpus}"}), command({"--verify", "--jobs", "{cpus}"})};
     const SlurmScripts scripts = write_slurm_scripts(path, job, slurm);
     const auto most = std::max_element(split.expected_frames_per_shard.begin(), split.expected_frames_per_shard.end());
-    log_info("build-stimuli: {} stimuli, about {:.0f} frames, in {} shards of about {:.0f} frames (the largest {:.0f})",
+    std::size_t speech = 0;
+    for (const std::size_t n : split.sentences_per_shard) speech += n;
+    log_info("build-stimuli: {} stimuli, about {:.0f} frames, in {} shards of about {:.0f} frames (the largest {:.0f}); "
+             "{} sentences' speech made over all shards",
              split.stimuli, split.expected_frames, slurm.shards, split.expected_frames / double(slurm.shards),
-             most == split.expected_frames_per_shard.end() ? 0.0 : *most);
+             most == split.expected_frames_per_shard.end() ? 0.0 : *most, speech);
     return scripts;
 }
 

@@ -85,6 +85,31 @@ TEST(Shards, SplitsTheLongestFirstToTheLeastLoaded) {
     }
 }
 
+// Worked by hand: total 16 over 2 shards, a quarter of a share is 2. The
+// group of the two 4s (8) is split; the pairs of 1s (2 each) stay whole:
+// units 4, 4, 2, 2, 2, 2 → shards 0, 1, 0, 1, 0, 1.
+TEST(Shards, KeepsLightGroupsTogetherAndSplitsHeavyOnes) {
+    EXPECT_EQ(assign_grouped_shards({4, 4, 1, 1, 1, 1, 1, 1, 1, 1}, {0, 0, 1, 1, 2, 2, 3, 3, 4, 4}, 2),
+              (std::vector<std::size_t>{0, 1, 0, 0, 1, 1, 0, 0, 1, 1}));
+    // Many light groups (sentences of 6 stimuli over 8 shards): each group in
+    // one shard, every shard within a quarter of the mean.
+    std::vector<double> weights;
+    std::vector<std::size_t> groups;
+    for (std::size_t g = 0; g < 200; ++g)
+        for (int c = 0; c < 6; ++c) {
+            weights.push_back(40.0 + double((g * 37) % 90));
+            groups.push_back(g);
+        }
+    const auto shard_of = assign_grouped_shards(weights, groups, 8);
+    std::vector<double> load(8, 0.0);
+    for (std::size_t i = 0; i < weights.size(); ++i) {
+        load[shard_of[i]] += weights[i];
+        EXPECT_EQ(shard_of[i], shard_of[i - i % 6]) << "group " << groups[i] << " split";
+    }
+    const double mean = std::accumulate(load.begin(), load.end(), 0.0) / 8.0;
+    EXPECT_LE(*std::max_element(load.begin(), load.end()), 1.25 * mean);
+}
+
 TEST(Shards, FindsTheShardFilesAndNamesAMissingOne) {
     const auto dir = test::temp_dir("shard_files");
     const auto error = [&] {

@@ -141,9 +141,10 @@ public:
         }
     }
 
-    // A command line with SLURM_CONF pointing at this cluster.
+    // A command line with SLURM_CONF pointing at this cluster, ended after
+    // 60 s (a client waiting for a controller that stopped answering).
     test::CliResult run(const std::string& command) const {
-        return test::run_command("SLURM_CONF=" + test::shell_quote(conf().string()) + " " + command);
+        return test::run_command("SLURM_CONF=" + test::shell_quote(conf().string()) + " timeout 60 " + command);
     }
     fs::path conf() const { return m_dir / "slurm.conf"; }
     fs::path log(const std::string& daemon) const { return m_dir / "log" / (daemon + ".log"); }

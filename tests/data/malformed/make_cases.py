@@ -632,9 +632,10 @@ for name, text in power_shard_cases.items():
 # `build-stimuli --shard 0/1` writes it, each case one change (the
 # inputs hash cannot be made here, so a well-formed shard stops at it).
 import hashlib
+BUILDER_VERSION = re.search(r'builder_version = "([^"]+)"', (DATA.parent.parent / "stimuli" / "src" / "builder.cpp").read_text()).group(1)
 protocol_sha = hashlib.sha256((DATA / "experiment" / "protocol.toml").read_bytes()).hexdigest()
 shard_manifest = {"format": "avsi-stimuli-shard", "version": 1, "shard": 0, "shards": 1, "protocol": "protocol.toml",
-                  "protocol_sha256": protocol_sha, "inputs_sha256": "0" * 64, "builder": "avsi-stimuli-build-4",
+                  "protocol_sha256": protocol_sha, "inputs_sha256": "0" * 64, "builder": BUILDER_VERSION,
                   "avsi": AVSI_VERSION, "stimuli": []}
 command("stimuli_shard", """
 copy {data}/experiment/protocol.toml

@@ -47,6 +47,15 @@ std::pair<std::size_t, std::size_t> shard_range(std::size_t total, ShardSpec sha
 // best possible split. Deterministic: depends only on the weights.
 std::vector<std::size_t> assign_shards(const std::vector<double>& weights, std::size_t shards);
 
+// The same for items whose group shares work (a sentence's stimuli share
+// its speech and vocoding, made once per shard): a group weighing at most a
+// quarter of a shard's share (total / shards / 4) goes to one shard whole;
+// the items of a heavier group go one by one, for balance. Then
+// assign_shards over those units, in order of their first item; so no shard
+// exceeds the mean by more than a quarter of it or the heaviest item.
+std::vector<std::size_t> assign_grouped_shards(const std::vector<double>& weights,
+                                               const std::vector<std::size_t>& group_of, std::size_t shards);
+
 // The shard files of one split in a folder, files[K] for shard K of N: the
 // files named <prefix>shard-K-of-N<suffix>.
 struct ShardFiles {

@@ -3,8 +3,10 @@
 // `build-stimuli P --out DIR --shard K/N` (BuildSettings::shard) builds shard
 // K of N: the protocol's stimuli are split by their expected frame count
 // (each sentence's expected duration × fps; the longest first to the least
-// loaded shard, shards.h in core), the same split on every node. It writes
-// the shard's stimuli into DIR as a one-machine build does and
+// loaded shard, shards.h in core; a sentence's stimuli together, sharing
+// its speech, unless they weigh more than a quarter of a shard's share),
+// the same split on every node. It writes the shard's stimuli into DIR as
+// a one-machine build does and
 // DIR/shards/shard-K-of-N.json: the protocol's SHA-256, the SHA-256 of every
 // stimulus's inputs, the builder and avsi versions, and the shard's manifest
 // entries. A re-run rebuilds only what is missing or out of date (the input
@@ -37,6 +39,7 @@ struct ShardPlan {
     double expected_frames = 0.0;
     std::vector<std::size_t> stimuli_per_shard;
     std::vector<double> expected_frames_per_shard;
+    std::vector<std::size_t> sentences_per_shard;  // whose speech each shard makes
 };
 
 // The split of `settings`' stimuli into `shards` shards (loads the protocol,
