@@ -18,6 +18,16 @@ Used by bench/bench_whole_process.sh as the baseline avsi is timed against;
 `--check AVSI_OUTPUT.wav` compares the two outputs' band levels instead of
 writing (the carriers differ, so the samples do not; the overall level can
 differ by the anti-clipping scale, the same for every band).
+
+`ci_vocode` is the cochlear-implant simulation of `avsi vocode` (the steps
+of vocoder/include/avsi/vocoder/ci_simulation.h) written again from those
+equations: pulse-train and Poisson pulse carriers (each sample holding its
+overlap with a rectangular pulse), carrier bands shifted along Greenwood's
+map, synthesis filters of their own order, n-of-m selection per frame and
+current spread in dB/octave or dB/mm. `Xoshiro` is avsi's seeded generator
+(core/src/rng.cpp: xoshiro256** seeded by SplitMix64, streams derived by
+FNV-1a), so the Poisson pulse times are avsi's too.
+tests/vocoder/ci_reference_test.py holds avsi to it.
 """
 import argparse
 import sys
@@ -77,6 +87,181 @@ def vocode(x, rate, bands=3, low_hz=100.0, high_hz=5000.0, order=4, envelope_cut
     if peak > 1.0:
         out *= 0.999 / peak
     return out
+
+
+# ------------------------------------------------------------- CI simulation
+
+MASK64 = (1 << 64) - 1
+
+
+def _splitmix64(x):
+    x = (x + 0x9E3779B97F4A7C15) & MASK64
+    z = x
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & MASK64
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & MASK64
+    return x, z ^ (z >> 31)
+
+
+def _rotl(x, k):
+    return ((x << k) | (x >> (64 - k))) & MASK64
+
+
+class Xoshiro:
+    """xoshiro256** seeded through SplitMix64, as avsi::Rng."""
+
+    def __init__(self, seed):
+        self.state = []
+        x = seed & MASK64
+        for _ in range(4):
+            x, z = _splitmix64(x)
+            self.state.append(z)
+
+    @staticmethod
+    def derived(seed, name):
+        h = 0xcbf29ce484222325
+        for c in name.encode():
+            h ^= c
+            h = (h * 0x100000001b3) & MASK64
+        _, z = _splitmix64(seed ^ h)
+        return Xoshiro(z)
+
+    def next_u64(self):
+        s = self.state
+        result = (_rotl((s[1] * 5) & MASK64, 7) * 9) & MASK64
+        t = (s[1] << 17) & MASK64
+        s[2] ^= s[0]
+        s[3] ^= s[1]
+        s[1] ^= s[2]
+        s[0] ^= s[3]
+        s[2] ^= t
+        s[3] = _rotl(s[3], 45)
+        return result
+
+    def uniform(self):
+        return (self.next_u64() >> 11) * 2.0 ** -53
+
+
+def shifted_edges(edges, shift_mm):
+    return greenwood_hz(greenwood_position(np.asarray(edges)) + shift_mm / 35.0)
+
+
+def add_pulse(c, start, width):
+    end = start + width
+    n = int(max(0.0, np.floor(start)))
+    while n < c.size and n < end:
+        c[n] += max(0.0, min(end, n + 1.0) - max(start, float(n)))
+        n += 1
+
+
+def pulse_carrier(frames, rate, band, bands, pulse_rate, width_us, phase="interleaved", poisson=False, seed=1,
+                  channel=0):
+    c = np.zeros(frames)
+    period = rate / pulse_rate
+    width = width_us * 1e-6 * rate
+    if poisson:
+        stream = Xoshiro.derived(seed, f"channel{channel}/band{band}/poisson")
+        t = 0.0
+        while True:
+            t += -np.log(1.0 - stream.uniform()) * period
+            if not t < frames:
+                return c
+            add_pulse(c, t, width)
+    offset = band / bands if phase == "interleaved" else 0.0
+    k = 0
+    while (k + offset) * period < frames:
+        add_pulse(c, (k + offset) * period, width)
+        k += 1
+    return c
+
+
+def run_filter(sos, x, zero_phase):
+    y = signal.sosfilt(sos, x)
+    return signal.sosfilt(sos, y[::-1])[::-1] if zero_phase else y
+
+
+def spread_weights(centres, mode, slope_db):
+    centres = np.asarray(centres)
+    if mode == "none":
+        return np.eye(len(centres))
+    if mode == "db-per-mm":
+        x = greenwood_position(centres) * 35.0
+        distance = np.abs(x[None, :] - x[:, None])
+    else:
+        distance = np.abs(np.log2(centres[None, :] / centres[:, None]))
+    return 10.0 ** (-slope_db * distance / 20.0)
+
+
+def select_n_of_m(analysis, n, rate, frame_rate):
+    """The n bands of largest energy per frame f = floor(i * frame_rate / rate), ties to the lower band."""
+    m, samples = analysis.shape
+    frame_of = np.floor(np.arange(samples) * frame_rate / rate).astype(int)
+    frames = frame_of[-1] + 1
+    energy = np.zeros((frames, m))
+    for b in range(m):
+        np.add.at(energy[:, b], frame_of, analysis[b] ** 2)
+    keep = np.zeros((frames, m), dtype=bool)
+    for f in range(frames):
+        order = sorted(range(m), key=lambda b: (-energy[f, b], b))
+        keep[f, order[:n]] = True
+    return keep, frame_of
+
+
+def ci_vocode(x, rate, bands=8, low_hz=100.0, high_hz=5000.0, order=4, synthesis_order=0, envelope_cutoff_hz=160.0,
+              envelope_order=4, carrier="pulse-train", pulse_rate=100.0, pulse_width_us=100.0,
+              pulse_phase="interleaved", spread="none", spread_slope_db=8.0, shift_mm=0.0, n_of_m=0,
+              frame_rate=250.0, zero_phase=False, seed=1, keep_bands=False):
+    """The CI simulation's steps 1–9 (half-wave envelopes, re-filtered carriers, band and output RMS matched)."""
+    edges = band_edges(bands, low_hz, high_hz)
+    carrier_edges = shifted_edges(edges, shift_mm) if shift_mm else edges
+    synthesis_order = synthesis_order or order
+    lowpass = signal.butter(envelope_order, envelope_cutoff_hz, btype="lowpass", fs=rate, output="sos")
+    analysis, envelopes, carriers, synth, own, gains = [], [], [], [], [], []
+    for b in range(bands):
+        sos = signal.butter(order, [edges[b], edges[b + 1]], btype="bandpass", fs=rate, output="sos")
+        synth.append(signal.butter(synthesis_order, [carrier_edges[b], carrier_edges[b + 1]], btype="bandpass",
+                                   fs=rate, output="sos"))
+        a = run_filter(sos, x, zero_phase)
+        envelopes.append(np.maximum(run_filter(lowpass, np.maximum(a, 0.0), zero_phase), 0.0))
+        if carrier == "sine":
+            centre = np.sqrt(carrier_edges[b] * carrier_edges[b + 1])
+            carriers.append(np.sin(2 * np.pi * centre * np.arange(x.size) / rate))
+        else:
+            carriers.append(pulse_carrier(x.size, rate, b, bands, pulse_rate, pulse_width_us, pulse_phase,
+                                          carrier == "poisson", seed))
+        y = run_filter(synth[b], envelopes[b] * carriers[b], zero_phase)
+        rms_a, rms_y = np.sqrt(np.mean(a ** 2)), np.sqrt(np.mean(y ** 2))
+        own.append(rms_y)
+        gains.append(rms_a / rms_y if rms_y > 0 else 1.0)
+        analysis.append(a)
+    centres = np.sqrt(carrier_edges[:-1] * carrier_edges[1:])
+    w = spread_weights(centres, spread, spread_slope_db)
+    ratio = np.eye(bands)
+    for b in range(bands):
+        for k in range(bands):
+            if b != k and w[b, k] >= 1e-6:
+                level = np.sqrt(np.mean(run_filter(synth[k], envelopes[b] * carriers[k], zero_phase) ** 2))
+                ratio[b, k] = own[b] / level if level > 0 else 0.0
+    selection = None
+    if n_of_m:
+        keep, frame_of = select_n_of_m(np.array(analysis), n_of_m, rate, frame_rate)
+        selection = keep
+        for b in range(bands):
+            envelopes[b] = envelopes[b] * keep[frame_of, b]
+    out = np.zeros_like(x)
+    band_outputs = []
+    for k in range(bands):
+        mixed = sum(w[b, k] * gains[b] * ratio[b, k] * envelopes[b] for b in range(bands) if w[b, k] >= 1e-6)
+        z = run_filter(synth[k], mixed * carriers[k], zero_phase)
+        band_outputs.append(z)
+        out += z
+    rms_x, rms_y = np.sqrt(np.mean(x ** 2)), np.sqrt(np.mean(out ** 2))
+    if rms_y > 0:
+        out *= rms_x / rms_y
+        band_outputs = [z * rms_x / rms_y for z in band_outputs]
+    peak = np.max(np.abs(out)) if out.size else 0.0
+    if peak > 1.0:
+        out *= 0.999 / peak
+    return (out, band_outputs, selection) if keep_bands else out
 
 
 def main():

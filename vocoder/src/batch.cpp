@@ -74,7 +74,10 @@ Audio process_audio(const Audio& input, const ProcessSettings& s, const LongTerm
     if (s.vocode) {
         VocoderResult vocoded = vocode(audio, s.vocoder);
         audio = std::move(vocoded.audio);
-        if (report) report->vocoder_limit_gain_db = vocoded.limit_gain_db;
+        if (report) {
+            report->vocoder_limit_gain_db = vocoded.limit_gain_db;
+            report->selection = std::move(vocoded.selection);
+        }
     }
     if (noisy && s.noise.stage == NoiseStage::AfterVocoding && s.vocode) {
         MixResult mixed = add_noise(audio, s.noise, ltas, noise_samples, noise_seed);
@@ -124,7 +127,9 @@ void process_file_streaming(const fs::path& input, const fs::path& output, const
     if (s.vocode) {
         detail::StreamLimits limits;
         limits.threads = threads;
-        report.vocoder_limit_gain_db = detail::vocode_stream(*source, out, s.vocoder, limits).limit_gain_db;
+        VocoderReport vocoded = detail::vocode_stream(*source, out, s.vocoder, limits);
+        report.vocoder_limit_gain_db = vocoded.limit_gain_db;
+        report.selection = std::move(vocoded.selection);
     } else {
         std::vector<float> block(8192 * static_cast<std::size_t>(in.channels()));
         source->seek(0);

@@ -190,6 +190,12 @@ void ChannelPipeline::make_carrier(double* carrier, std::size_t first, std::size
         case CarrierType::Sine:
             make_sine_carriers(carrier, first, frames, centres_hz, lane_begin, lane_end, stride);
             break;
+        case CarrierType::PulseTrain:
+        case CarrierType::PoissonPulses:
+        case CarrierType::Pshc:
+            // uses_ci_simulation: every entry point runs ci_simulation.cpp instead.
+            AVSI_ASSERT(false);  // pulse carriers run on the CI path (ci_simulation.cpp)
+            break;
     }
 }
 

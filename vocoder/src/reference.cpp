@@ -37,18 +37,12 @@
 #include "avsi/core/rng.h"
 #include "avsi/vocoder/filters.h"
 #include "avsi/vocoder/hilbert.h"
+#include "avsi/vocoder/ci_simulation.h"
+#include "reference_steps.h"
 
 namespace avsi::vocoder {
 
-namespace {
-
-using Signal = std::vector<double>;
-
-// One analysis band: its filter and what is reported about it.
-struct Band {
-    Sos band_pass;
-    BandInfo info;
-};
+namespace detail::reference {
 
 std::vector<Band> design_bands(const VocoderSettings& s, double rate) {
     const std::vector<double> edges = band_edges_hz(s);
@@ -177,6 +171,11 @@ Signal make_carrier(const Band& band, std::size_t b, std::size_t frames, double 
         case CarrierType::Noise: c = noise_carrier(s.seed, channel, b, frames); break;
         case CarrierType::Sine: c = sine_carrier(band.info.centre_hz, rate, frames); break;
         case CarrierType::LowNoise: c = low_noise_carrier(noise_carrier(s.seed, channel, b, frames), band, s); break;
+        case CarrierType::PulseTrain:
+        case CarrierType::PoissonPulses:
+        case CarrierType::Pshc:  // uses_ci_simulation: these run on the CI path (ci_simulation.cpp)
+            AVSI_ASSERT(false);
+            break;
     }
     if (s.prefilter_carrier) c = run_filter(band.band_pass, c, s.zero_phase);
     return c;
@@ -244,6 +243,12 @@ void match_output_level(ChannelResult& result, const Signal& x, const VocoderSet
     result.output_gain_db = in_sq > 0.0 ? gain_db(gain) : -INFINITY;
 }
 
+}  // namespace detail::reference
+
+namespace {
+
+using namespace detail::reference;
+
 // The anti-clipping scale of the whole output: 0.999 / peak when the peak
 // exceeds 1, else 1; reported in `result` and logged.
 double limit_scale(const std::vector<ChannelResult>& channels, VocoderResult& result) {
@@ -264,6 +269,8 @@ double limit_scale(const std::vector<ChannelResult>& channels, VocoderResult& re
 
 ChannelResult vocode_channel_reference(std::span<const double> samples, double rate, const VocoderSettings& s,
                                        int channel, bool keep_band_signals) {
+    using namespace detail::reference;
+    if (uses_ci_simulation(s)) return detail::vocode_channel_ci(samples, rate, s, channel, keep_band_signals);
     validate_settings(s, rate);
     const Signal x(samples.begin(), samples.end());
     const std::vector<Band> bands = design_bands(s, rate);
@@ -305,6 +312,7 @@ VocoderResult vocode_reference(const Audio& input, const VocoderSettings& s) {
     }
     result.bands = channels[0].bands;
     result.output_gain_db = channels[0].output_gain_db;
+    result.selection = channels[0].selection;
     const double scale = limit_scale(channels, result);
     const std::size_t frames = input.frames();
     const std::size_t nc = static_cast<std::size_t>(input.channels);

@@ -26,6 +26,7 @@
 
 #include "avsi/core/log.h"
 #include "avsi/vocoder/filters.h"
+#include "avsi/vocoder/reference.h"
 #include "channel_engine.h"
 #include "channel_pipeline.h"
 #include "pair_worker.h"
@@ -388,6 +389,33 @@ void replay_channel(ChannelEngine& engine, std::span<const double> x, std::size_
     result.band_signals = std::move(band_signals);
 }
 
+// The cochlear-implant simulation (ci_simulation.h) runs on the whole
+// signal: the source read into memory, vocoded, written to the sink.
+VocoderReport vocode_whole_signal(AudioSource& input, AudioSink& output, const VocoderSettings& s) {
+    Audio audio;
+    audio.sample_rate_hz = input.sample_rate_hz();
+    audio.channels = input.channels();
+    audio.samples.resize(input.frames() * static_cast<std::size_t>(audio.channels));
+    input.seek(0);
+    std::size_t read = 0;
+    while (read < input.frames()) {
+        const std::size_t got = input.read(audio.samples.data() + read * static_cast<std::size_t>(audio.channels),
+                                           input.frames() - read);
+        if (got == 0) break;
+        read += got;
+    }
+    audio.samples.resize(read * static_cast<std::size_t>(audio.channels));
+    const VocoderResult result = vocode_reference(audio, s);
+    output.write(result.audio.samples.data(), result.audio.frames());
+    VocoderReport report;
+    report.bands = result.bands;
+    report.output_gain_db = result.output_gain_db;
+    report.peak_before_limit = result.peak_before_limit;
+    report.limit_gain_db = result.limit_gain_db;
+    report.selection = result.selection;
+    return report;
+}
+
 void match_output_rms(ChannelResult& result, double in_sq, const VocoderSettings& s) {
     double out_sq = 0.0;
     for (double v : result.samples) out_sq += v * v;
@@ -401,6 +429,7 @@ void match_output_rms(ChannelResult& result, double in_sq, const VocoderSettings
 
 ChannelResult vocode_channel_in_blocks(std::span<const double> x, double rate, const VocoderSettings& s,
                                        int channel, bool keep_band_signals, std::size_t block_frames) {
+    if (uses_ci_simulation(s)) return vocode_channel_reference(x, rate, s, channel, keep_band_signals);
     validate_settings(s, rate);
     const std::size_t frames = x.size();
     const BandSetup setup = band_setup(s, rate);
@@ -423,6 +452,7 @@ VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const Vocoder
                             const StreamLimits& limits) {
     check_source(input);
     validate_settings(s, input.sample_rate_hz());
+    if (uses_ci_simulation(s)) return vocode_whole_signal(input, output, s);
     const BandSetup setup = band_setup(s, input.sample_rate_hz());
     VocoderReport report;
     report.bands = setup.bands;
@@ -466,6 +496,7 @@ VocoderResult vocode(const Audio& input, const VocoderSettings& settings) {
     result.output_gain_db = report.output_gain_db;
     result.peak_before_limit = report.peak_before_limit;
     result.limit_gain_db = report.limit_gain_db;
+    result.selection = std::move(report.selection);
     return result;
 }
 

@@ -39,6 +39,7 @@ struct FileReport {
     double duration_s = 0.0;
     double vocoder_limit_gain_db = 0.0;  // < 0 when the vocoder output was scaled down
     double mix_limit_gain_db = 0.0;      // < 0 when the mixture was scaled down
+    ChannelSelection selection = {};     // n-of-m: the bands kept per frame
 };
 
 // Every *.wav (case-insensitive) directly in `folder`, sorted by name.

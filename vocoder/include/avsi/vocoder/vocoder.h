@@ -7,7 +7,10 @@
 // "How to vocode", JASA 155) is a field of VocoderSettings and is written out
 // by describe(). vocode(), vocode_stream() and vocode_channel() are the fast
 // path; reference.h has the same vocoder written as its equations (the same
-// output bit for bit).
+// output bit for bit). As a cochlear-implant simulation (pulse-train and
+// Poisson pulse carriers, current spread, synthesis filters of their own
+// order, an insertion-depth shift, n-of-m selection: ci_simulation.h) every
+// entry point runs one whole-signal path instead.
 //
 // Usage:
 //   avsi::vocoder::VocoderSettings settings;       // the study: 3 bands, 100–5000 Hz
@@ -44,9 +47,27 @@ enum class EnvelopeMethod {
 
 // What the envelope modulates.
 enum class CarrierType {
-    Noise,     // white noise, a seeded stream per band
-    Sine,      // a sine at the band's geometric centre frequency, zero phase
-    LowNoise   // noise with a flattened Hilbert envelope (Pumplin 1985; Kohlrausch et al. 1997)
+    Noise,          // white noise, a seeded stream per band
+    Sine,           // a sine at the band's geometric centre frequency, zero phase
+    LowNoise,       // noise with a flattened Hilbert envelope (Pumplin 1985; Kohlrausch et al. 1997)
+    PulseTrain,     // rectangular pulses at pulse_rate_hz, phases per pulse_phase (ci_simulation.h)
+    PoissonPulses,  // rectangular pulses at Poisson times of mean rate pulse_rate_hz, a seeded stream per band
+    Pshc            // pulse-spreading harmonic complex (Hilkhuysen & Macherey 2014): refused, see validate_settings
+};
+
+// When each channel's pulses start within a pulse period.
+enum class PulsePhase {
+    Interleaved,  // channel b (from the lowest) at b/bands of the period, as CIs stimulate (no two at once)
+    Simultaneous  // every channel at the start of the period
+};
+
+// How far a channel's envelope reaches the other channels' carrier bands
+// (current spread; SPIRAL, Grange et al. 2017): an exponential decay with
+// the distance between carrier band centres.
+enum class CurrentSpread {
+    None,         // each envelope drives its own carrier band only
+    DbPerOctave,  // spread_slope_db per octave of centre-frequency distance
+    DbPerMm       // spread_slope_db per mm of cochlear place (Greenwood 1990, 35 mm cochlea)
 };
 
 struct VocoderSettings {
@@ -71,7 +92,25 @@ struct VocoderSettings {
     bool match_band_rms = true;     // each output band gets the RMS of its analysis band
     bool match_output_rms = true;   // the summed output gets the RMS of the input
     std::uint64_t seed = 1;         // carrier noise seed; output = f(input, settings, seed)
+
+    // Cochlear-implant simulation (ci_simulation.h; any of these set runs
+    // the one-thread whole-signal path, the settings above keep the fast one).
+    double pulse_rate_hz = 100.0;        // pulses per second in each channel (pulse-train, poisson)
+    double pulse_width_us = 100.0;       // width of each rectangular pulse
+    PulsePhase pulse_phase = PulsePhase::Interleaved;  // pulse-train only
+    CurrentSpread current_spread = CurrentSpread::None;
+    double spread_slope_db = 8.0;        // decay per octave or per mm of the spread, > 0
+    int synthesis_filter_order = 0;      // prototype order of the synthesis (carrier) filters; 0: filter_order
+    double insertion_shift_mm = 0.0;     // carrier bands this many mm basal of the analysis bands (Greenwood)
+    int n_of_m = 0;                      // channels kept per frame, the n of largest energy; 0: all
+    double selection_frame_rate_hz = 250.0;  // frames per second of the n-of-m selection
 };
+
+// Whether the settings use a cochlear-implant simulation stage (pulse
+// carriers, current spread, its own synthesis order, an insertion shift,
+// n-of-m): then every entry point runs the whole-signal path of
+// ci_simulation.h.
+bool uses_ci_simulation(const VocoderSettings& settings);
 
 // Checks every field against itself and against `sample_rate_hz` (0: skip
 // the checks that need a rate) and throws InputError listing every problem,
@@ -95,7 +134,15 @@ struct BandInfo {
     double centre_hz = 0.0;      // geometric centre, sqrt(low·high)
     double analysis_rms = 0.0;   // RMS of the input after the analysis filter
     double output_rms = 0.0;     // RMS of this band's output before the overall gain
+    // The carrier (synthesis) band: the analysis band unless shifted.
+    double carrier_low_hz = 0.0;
+    double carrier_high_hz = 0.0;
+    double carrier_centre_hz = 0.0;
 };
+
+// The n-of-m selection: for each frame of selection_frame_rate_hz, a bit
+// per band (bit b: band b kept), for the first channel; empty without n-of-m.
+using ChannelSelection = std::vector<std::uint64_t>;
 
 struct VocoderResult {
     Audio audio;                 // same rate, channels and length as the input
@@ -103,6 +150,7 @@ struct VocoderResult {
     double output_gain_db = 0.0; // overall gain applied to match the input RMS
     double peak_before_limit = 0.0;  // largest |sample| before the anti-clipping scale
     double limit_gain_db = 0.0;  // < 0 when the output was scaled down to keep |x| ≤ 1
+    ChannelSelection selection = {};  // n-of-m: the bands kept per frame
 };
 
 // Vocodes `input` (any rate; each channel separately, with its own carrier
@@ -117,6 +165,7 @@ struct VocoderReport {
     double output_gain_db = 0.0;
     double peak_before_limit = 0.0;
     double limit_gain_db = 0.0;
+    ChannelSelection selection = {};   // n-of-m: the bands kept per frame
 };
 
 // vocode() from a source to a sink, block by block, the same output sample
@@ -137,6 +186,7 @@ struct ChannelResult {
     double output_gain_db = 0.0;   // overall gain applied to match the input RMS
     // Each band's output before the overall gain, when asked for.
     std::vector<std::vector<double>> band_signals;
+    ChannelSelection selection = {};    // n-of-m: the bands kept per frame
 };
 
 // Vocodes one channel of samples at `sample_rate_hz`; `channel` selects the
@@ -180,8 +230,20 @@ std::string describe(const VocoderSettings& settings, double sample_rate_hz);
 std::string to_string(BandSpacing spacing);
 std::string to_string(EnvelopeMethod method);
 std::string to_string(CarrierType carrier);
+std::string to_string(PulsePhase phase);
+std::string to_string(CurrentSpread spread);
 BandSpacing parse_band_spacing(const std::string& text, const std::string& field = "spacing");
 EnvelopeMethod parse_envelope_method(const std::string& text, const std::string& field = "envelope");
 CarrierType parse_carrier_type(const std::string& text, const std::string& field = "carrier");
+PulsePhase parse_pulse_phase(const std::string& text, const std::string& field = "pulse_phase");
+CurrentSpread parse_current_spread(const std::string& text, const std::string& field = "current_spread");
+
+// The carrier band edges in Hz: band_edges_hz shifted basally by
+// insertion_shift_mm, x' = x + shift / 35 mm, F = greenwood_hz(x').
+std::vector<double> carrier_edges_hz(const VocoderSettings& settings);
+
+// The n-of-m selection as CSV: frame,start_s,bands (the kept bands'
+// indices, from 0, separated by spaces), one line per frame.
+std::string selection_csv(const ChannelSelection& selection, double frame_rate_hz);
 
 }  // namespace avsi::vocoder
