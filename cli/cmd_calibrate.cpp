@@ -11,6 +11,7 @@
 #include "avsi/core/log.h"
 #include "avsi/vocoder/batch.h"
 #include "avsi/vocoder/calibrate.h"
+#include "ci_options.h"
 #include "command.h"
 #include "one_of.h"
 #include "vocoder_choices.h"
@@ -25,12 +26,14 @@ struct CalibrateOptions {
     CalibrationSettings c;
     std::string spacing = "greenwood", envelope = "rectify", carrier = "noise";
     bool stoi = false;
+    CiOptionNames ci;
 };
 
 int run_calibrate(CalibrateOptions o) {
     o.c.base.spacing = parse_band_spacing(o.spacing, "--spacing");
     o.c.base.envelope = parse_envelope_method(o.envelope, "--envelope");
     o.c.base.carrier = parse_carrier_type(o.carrier, "--carrier");
+    apply_ci_options(o.ci, o.c.base);
     o.c.extended = !o.stoi;
     std::vector<Audio> corpus;
     for (const auto& f : list_wav_files(o.corpus)) corpus.push_back(read_audio(f));
@@ -67,9 +70,10 @@ const bool registered_calibrate = register_command({
         sub.add_option("--envelope", o->envelope, "Envelope: rectify, full-wave or hilbert")
             ->capture_default_str()
             ->check(one_of(envelope_method_names()));
-        sub.add_option("--carrier", o->carrier, "Carrier: noise, sine or low-noise")
+        sub.add_option("--carrier", o->carrier, "Carrier: noise, sine, low-noise, pulse-train or poisson")
             ->capture_default_str()
             ->check(one_of(carrier_type_names()));
+        add_ci_options(sub, o->c.base, o->ci);
         sub.add_option("--seed", o->c.base.seed, "Carrier noise seed")->capture_default_str();
         sub.add_option("--threads", o->c.threads, "Threads (0: all cores)")->capture_default_str();
         sub.add_option("--out", o->out, "Also write the table to this text file");

@@ -10,8 +10,10 @@
 #include "avsi/core/audio.h"
 #include "avsi/core/audio_stream.h"
 #include "avsi/core/error.h"
+#include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/vocoder/batch.h"
+#include "ci_options.h"
 #include "command.h"
 #include "one_of.h"
 #include "vocoder_choices.h"
@@ -35,6 +37,8 @@ struct VocodeOptions {
     bool report = false;
     unsigned threads = 0;
     std::string channels = "mono";
+    CiOptionNames ci;
+    std::string selection_log;
 };
 
 int run_vocode(const VocodeOptions& o, const CLI::App& sub) {
@@ -45,6 +49,9 @@ int run_vocode(const VocodeOptions& o, const CLI::App& sub) {
     s.vocoder.envelope = parse_envelope_method(o.envelope, "--envelope");
     s.vocoder.carrier = parse_carrier_type(o.carrier, "--carrier");
     s.vocoder.refilter_carrier = !o.no_refilter;
+    apply_ci_options(o.ci, s.vocoder);
+    if (!o.selection_log.empty() && (s.vocoder.n_of_m == 0 || o.batch))
+        throw UsageError("--selection-log needs --n-of-m and one input file");
     if (!o.edges_hz.empty()) {
         for (const char* opt : {"--bands", "--low-hz", "--high-hz", "--spacing"})
             if (sub.count(opt) > 0)
@@ -88,6 +95,10 @@ int run_vocode(const VocodeOptions& o, const CLI::App& sub) {
     } else {
         const FileReport r = process_file(o.input, o.output, s);
         log_info("wrote {} ({:.2f} s)", o.output, r.duration_s);
+        if (!o.selection_log.empty()) {
+            write_text_file(o.selection_log, selection_csv(r.selection, s.vocoder.selection_frame_rate_hz));
+            log_info("wrote {} ({} frames)", o.selection_log, r.selection.size());
+        }
     }
     return 0;
 }
@@ -118,9 +129,12 @@ const bool registered_vocode = register_command({
         sub.add_option("--envelope-cutoff-hz", o->v.envelope_cutoff_hz, "Envelope low-pass cutoff (Hz)")->capture_default_str();
         sub.add_option("--envelope-order", o->v.envelope_filter_order, "Envelope Butterworth low-pass order")
             ->capture_default_str()->check(CLI::Range(1, 16));
-        sub.add_option("--carrier", o->carrier, "Carrier: noise, sine or low-noise")
+        sub.add_option("--carrier", o->carrier, "Carrier: noise, sine, low-noise, pulse-train or poisson")
             ->capture_default_str()
             ->check(one_of(carrier_type_names()));
+        add_ci_options(sub, o->v, o->ci);
+        sub.add_option("--selection-log", o->selection_log,
+                       "With --n-of-m: write the bands kept in each frame to this CSV (frame,start_s,bands)");
         sub.add_flag("--prefilter-carrier", o->v.prefilter_carrier, "Also band-pass the carrier before modulation");
         sub.add_flag("--no-refilter", o->no_refilter, "Do not band-pass the modulated carrier (not recommended)");
         sub.add_option("--low-noise-iterations", o->v.low_noise_iterations, "Iterations for the low-noise carrier")

@@ -25,10 +25,13 @@ inline std::vector<std::string> envelope_method_names() {
             to_string(EnvelopeMethod::Hilbert)};
 }
 
-// --carrier: noise, sine, low-noise.
+// --carrier: noise, sine, low-noise, pulse-train, poisson (pshc is named so
+// that the vocoder's validation says why it is refused).
 inline std::vector<std::string> carrier_type_names() {
     using vocoder::CarrierType;
-    return {to_string(CarrierType::Noise), to_string(CarrierType::Sine), to_string(CarrierType::LowNoise)};
+    return {to_string(CarrierType::Noise),      to_string(CarrierType::Sine),
+            to_string(CarrierType::LowNoise),   to_string(CarrierType::PulseTrain),
+            to_string(CarrierType::PoissonPulses), to_string(CarrierType::Pshc)};
 }
 
 // --snr-reference: whole, active.

@@ -314,6 +314,12 @@ ProtocolCondition read_condition(const ConfigSection& c, const fs::path& path, s
             c.report("layers", "animation layers animate a control model's face: they need face = \"model\"",
                      problems);
     }
+    if (const ConfigSection* vocoder = c.get_table("vocoder", problems)) {
+        cond.vocoder = *vocoder;
+        cond.has_vocoder = true;
+        if (cond.audio != ConditionAudio::Vocoded)
+            c.report("vocoder", "a condition's vocoder settings need audio = \"vocoded\"", problems);
+    }
     c.check_unknown_keys(problems);
     return cond;
 }

@@ -34,10 +34,7 @@ AdaptiveSession::AdaptiveSession(const Protocol& protocol, const Corpus& corpus,
     // Noise before vocoding: the stimuli's vocoder, for the mixture.
     if (!m_settings.list_variable() && m_settings.noise_stage == analysis::MaskerStage::BeforeVocoding)
         for (const auto& c : protocol.conditions)
-            if (c.audio == ConditionAudio::Vocoded) {
-                m_vocoder = stimuli::protocol_vocoder_settings(protocol);
-                break;
-            }
+            if (c.audio == ConditionAudio::Vocoded) m_vocoder[c.name] = stimuli::protocol_vocoder_settings(protocol, c);
     // Replay: each stored presentation of a track, in order, must be at the level the rules give.
     for (const auto& row : stored) {
         const AdaptiveRecord& r = row.record;
@@ -243,8 +240,9 @@ MixedPresentation AdaptiveSession::mix(const PlannedTrial& trial, const std::vec
     if (vocode_mixture) {
         // Noise before vocoding: the mixture through the stimuli's vocoder,
         // with the sentence's carrier seed (vocode() limits its own output).
-        vocoder::VocoderSettings v = m_vocoder;
-        v.seed = stimuli::sentence_vocoder_seed(m_vocoder, sentence(trial).id);
+        const vocoder::VocoderSettings& base = m_vocoder.at(trial.condition);
+        vocoder::VocoderSettings v = base;
+        v.seed = stimuli::sentence_vocoder_seed(base, sentence(trial).id);
         Audio in;
         in.sample_rate_hz = sample_rate;
         in.samples.assign(mixture.begin(), mixture.end());

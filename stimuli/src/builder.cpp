@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -51,7 +52,9 @@ const std::vector<std::string>& vocoder_keys() {
         "edges_hz",        "filter_order",    "zero_phase",       "envelope",
         "envelope_cutoff_hz", "envelope_filter_order", "carrier", "prefilter_carrier",
         "refilter_carrier", "low_noise_iterations", "match_band_rms", "match_output_rms",
-        "seed"};
+        "seed",            "pulse_rate_hz",   "pulse_width_us",   "pulse_phase",
+        "current_spread",  "spread_slope_db", "synthesis_filter_order", "insertion_shift_mm",
+        "n_of_m",          "selection_frame_rate_hz"};
     return keys;
 }
 
@@ -82,14 +85,32 @@ Enum get_enum(const ConfigSection& s, std::string_view key, Enum fallback, std::
     return fallback;
 }
 
-// The vocoder settings of [vocoder]: every field of vocoder::VocoderSettings
+// The cochlear-implant simulation keys of [vocoder] (vocoder/ci_simulation.h);
+// ranges and consistency are vocoder::validate_settings's.
+void read_ci_settings(const ConfigSection& s, vocoder::VocoderSettings& v, DiagnosticList& problems) {
+    using namespace vocoder;
+    v.pulse_rate_hz = s.get_number("pulse_rate_hz", v.pulse_rate_hz, -1e9, 1e9, problems);
+    v.pulse_width_us = s.get_number("pulse_width_us", v.pulse_width_us, -1e9, 1e9, problems);
+    v.pulse_phase = get_enum(s, "pulse_phase", v.pulse_phase, {PulsePhase::Interleaved, PulsePhase::Simultaneous},
+                             problems);
+    v.current_spread = get_enum(s, "current_spread", v.current_spread,
+                                {CurrentSpread::None, CurrentSpread::DbPerOctave, CurrentSpread::DbPerMm}, problems);
+    v.spread_slope_db = s.get_number("spread_slope_db", v.spread_slope_db, -1e9, 1e9, problems);
+    v.synthesis_filter_order =
+        static_cast<int>(s.get_int("synthesis_filter_order", v.synthesis_filter_order, -1000, 1000, problems));
+    v.insertion_shift_mm = s.get_number("insertion_shift_mm", v.insertion_shift_mm, -1e9, 1e9, problems);
+    v.n_of_m = static_cast<int>(s.get_int("n_of_m", v.n_of_m, -1000, 1000, problems));
+    v.selection_frame_rate_hz = s.get_number("selection_frame_rate_hz", v.selection_frame_rate_hz, -1e9, 1e9, problems);
+}
+
+// A vocoder table ([vocoder], or a condition's over it, `v` holding the
+// values a key left out keeps): every field of vocoder::VocoderSettings
 // under its own name. Unknown keys get "did you mean"; type, range and
 // consistency problems (vocoder::validate_settings) are reported at the key's
 // file:line:col, all at once.
-vocoder::VocoderSettings vocoder_settings(const Protocol& protocol) {
+vocoder::VocoderSettings read_vocoder_table(const ConfigSection& s, vocoder::VocoderSettings v,
+                                            const Protocol& protocol) {
     using namespace vocoder;
-    VocoderSettings v;
-    const ConfigSection& s = protocol.vocoder;
     DiagnosticList problems;
     v.bands = static_cast<int>(s.get_int("bands", v.bands, 1, 64, problems));
     v.low_hz = s.get_number("low_hz", v.low_hz, 1e-3, 1e6, problems);
@@ -98,6 +119,7 @@ vocoder::VocoderSettings vocoder_settings(const Protocol& protocol) {
                          {BandSpacing::Greenwood, BandSpacing::Log, BandSpacing::Linear, BandSpacing::Explicit},
                          problems);
     if (const ConfigValue* edges = s.find("edges_hz")) {
+        v.edges_hz.clear();
         if (edges->type != ConfigValue::Type::Array) {
             s.report("edges_hz", "expected an array of frequencies in Hz, got " + edges->describe(), problems);
         } else {
@@ -119,7 +141,9 @@ vocoder::VocoderSettings vocoder_settings(const Protocol& protocol) {
     v.envelope_cutoff_hz = s.get_number("envelope_cutoff_hz", v.envelope_cutoff_hz, 1e-3, 1e6, problems);
     v.envelope_filter_order =
         static_cast<int>(s.get_int("envelope_filter_order", v.envelope_filter_order, 1, 16, problems));
-    v.carrier = get_enum(s, "carrier", v.carrier, {CarrierType::Noise, CarrierType::Sine, CarrierType::LowNoise},
+    v.carrier = get_enum(s, "carrier", v.carrier,
+                         {CarrierType::Noise, CarrierType::Sine, CarrierType::LowNoise, CarrierType::PulseTrain,
+                          CarrierType::PoissonPulses, CarrierType::Pshc},
                          problems);
     v.prefilter_carrier = s.get_bool("prefilter_carrier", v.prefilter_carrier, problems);
     v.refilter_carrier = s.get_bool("refilter_carrier", v.refilter_carrier, problems);
@@ -127,8 +151,9 @@ vocoder::VocoderSettings vocoder_settings(const Protocol& protocol) {
         static_cast<int>(s.get_int("low_noise_iterations", v.low_noise_iterations, 0, 100, problems));
     v.match_band_rms = s.get_bool("match_band_rms", v.match_band_rms, problems);
     v.match_output_rms = s.get_bool("match_output_rms", v.match_output_rms, problems);
-    v.seed = static_cast<std::uint64_t>(s.get_int("seed", static_cast<long long>(protocol.seed), 0,
+    v.seed = static_cast<std::uint64_t>(s.get_int("seed", static_cast<long long>(v.seed), 0,
                                                   std::numeric_limits<long long>::max(), problems));
+    read_ci_settings(s, v, problems);
     s.check_unknown_keys(vocoder_keys(), problems);
     problems.throw_if_any();
     // Consistency (edges against bands and range, …): the vocoder's own
@@ -147,8 +172,37 @@ vocoder::VocoderSettings vocoder_settings(const Protocol& protocol) {
     return v;
 }
 
+// The vocoder settings of [vocoder] (the seed defaults to experiment.seed).
+vocoder::VocoderSettings vocoder_settings(const Protocol& protocol) {
+    vocoder::VocoderSettings v;
+    v.seed = protocol.seed;
+    return read_vocoder_table(protocol.vocoder, v, protocol);
+}
+
+// A condition's vocoder: its [condition.vocoder] keys over [vocoder]'s.
+vocoder::VocoderSettings condition_vocoder_settings(const Protocol& protocol, const ProtocolCondition& c,
+                                                    const vocoder::VocoderSettings& base) {
+    return c.has_vocoder ? read_vocoder_table(c.vocoder, base, protocol) : base;
+}
+
+// The cochlear-implant simulation keys, in the manifest only when one is
+// used (so the manifests and input hashes of plain vocoders stay as they were).
+void add_ci_json(json& j, const vocoder::VocoderSettings& v) {
+    if (!vocoder::uses_ci_simulation(v)) return;
+    j["pulse_rate_hz"] = v.pulse_rate_hz;
+    j["pulse_width_us"] = v.pulse_width_us;
+    j["pulse_phase"] = vocoder::to_string(v.pulse_phase);
+    j["current_spread"] = vocoder::to_string(v.current_spread);
+    j["spread_slope_db"] = v.spread_slope_db;
+    j["synthesis_filter_order"] = v.synthesis_filter_order;
+    j["insertion_shift_mm"] = v.insertion_shift_mm;
+    j["n_of_m"] = v.n_of_m;
+    j["selection_frame_rate_hz"] = v.selection_frame_rate_hz;
+    j["carrier_edges_hz"] = vocoder::carrier_edges_hz(v);
+}
+
 json vocoder_json(const vocoder::VocoderSettings& v) {
-    return {{"bands", v.bands},
+    json j = {{"bands", v.bands},
             {"low_hz", v.low_hz},
             {"high_hz", v.high_hz},
             {"spacing", vocoder::to_string(v.spacing)},
@@ -165,6 +219,8 @@ json vocoder_json(const vocoder::VocoderSettings& v) {
             {"match_band_rms", v.match_band_rms},
             {"match_output_rms", v.match_output_rms},
             {"seed", v.seed}};
+    add_ci_json(j, v);
+    return j;
 }
 
 // One pre-rendered audio variant of a stimulus (adaptive list variable).
@@ -303,6 +359,8 @@ struct Plan {
     RenderSettings render;
     double fps = 30.0;
     vocoder::VocoderSettings vocoder_base;
+    // The conditions with their own [condition.vocoder] keys (over vocoder_base).
+    std::map<std::string, vocoder::VocoderSettings> condition_vocoder;
     Head head;
     std::optional<LodResult> lod;  // the head simplified for rendering (BuildSettings::lod), when asked for
     std::optional<ArticulationMeter> meter;  // when [render] check_articulation
@@ -324,6 +382,9 @@ struct Plan {
     std::map<std::string, std::string> load_models();
     void load_layers();
     void describe_settings(const BuildSettings& settings);
+    // Every band count or cutoff an adaptive track steps to is a valid vocoder
+    // for each vocoded condition (n-of-m within the bands, pulses that fit, …).
+    void check_adaptive_vocoders() const;
     void plan_jobs(const BuildSettings& settings, const std::map<std::string, std::string>& model_hash);
     // The trajectory a condition shows: its model's, under the condition's
     // policy (the closure constraint for closure = "hold"; `stats` gets what
@@ -332,6 +393,11 @@ struct Plan {
                                  synth::ClosureStats* stats = nullptr) const;
     // The timed phones of a sentence: from the TTS front end, or its labels.
     PhoneSequence phones(const Sentence& sentence) const;
+    // A condition's vocoder settings: its own keys over [vocoder]'s.
+    const vocoder::VocoderSettings& vocoder_for(const ProtocolCondition& condition) const {
+        const auto own = condition_vocoder.find(condition.name);
+        return own != condition_vocoder.end() ? own->second : vocoder_base;
+    }
     // The articulation of a model stimulus: its trajectory (with the
     // condition's layers: its blended poses) measured on the head and checked.
     ArticulationSummary articulation(const Job& job, const synth::Trajectory& trajectory, const PhoneSequence& phones,
@@ -350,7 +416,10 @@ Plan::Plan(const BuildSettings& settings)
     render.background = parse_colour(pr.background, protocol);
     fps = pr.fps;
     vocoder_base = vocoder_settings(protocol);
+    for (const auto& c : protocol.conditions)
+        if (c.has_vocoder) condition_vocoder[c.name] = condition_vocoder_settings(protocol, c, vocoder_base);
     adaptive = adaptive_protocol(protocol);
+    check_adaptive_vocoders();
     choose_head(settings);
     const std::map<std::string, std::string> model_hash = load_models();
     load_layers();
@@ -423,6 +492,29 @@ void Plan::load_layers() {
     for (const auto& c : protocol.conditions)
         if (c.face == FaceMode::Model)
             layers[c.name] = parse_layer_settings(c.layers, protocol.path.parent_path(), problems);
+    problems.throw_if_any();
+}
+
+void Plan::check_adaptive_vocoders() const {
+    if (!adaptive.list_variable()) return;
+    DiagnosticList problems;
+    for (const auto& c : protocol.conditions) {
+        if (c.audio != ConditionAudio::Vocoded) continue;
+        for (const double level : adaptive.levels) {
+            vocoder::VocoderSettings v = vocoder_for(c);
+            if (adaptive.variable == AdaptiveVariable::Bands) v.bands = static_cast<int>(level);
+            else v.envelope_cutoff_hz = level;
+            try {
+                vocoder::validate_settings(v, 0.0, protocol.path.string());
+            } catch (const InputError& e) {
+                for (const auto& d : e.diagnostics())
+                    protocol.adaptive.report("levels",
+                                             fmt::format("condition {} at {} = {}: {}: {}", c.name,
+                                                         to_string(adaptive.variable), level, d.field, d.message),
+                                             problems);
+            }
+        }
+    }
     problems.throw_if_any();
 }
 
@@ -502,7 +594,7 @@ void Plan::plan_jobs(const BuildSettings& settings, const std::map<std::string, 
             job.condition = &c;
             job.video = std::filesystem::path(s.id) / (c.name + ".mp4");
             job.wav = std::filesystem::path(s.id) / (c.name + ".wav");
-            job.vocoder_seed = sentence_vocoder_seed(vocoder_base, s.id);
+            job.vocoder_seed = sentence_vocoder_seed(vocoder_for(c), s.id);
             job.blink_seed = derive_seed(protocol.seed, "blinks/" + s.id + "/" + c.name);
             job.gaze_seed = derive_seed(protocol.seed, "gaze/" + s.id + "/" + c.name);
             job.head_seed = derive_seed(protocol.seed, "head-motion/" + s.id + "/" + c.name);
@@ -523,6 +615,8 @@ void Plan::plan_jobs(const BuildSettings& settings, const std::map<std::string, 
                               {"seeds", {{"vocoder", job.vocoder_seed}, {"blinks", job.blink_seed}}}};
             if (!variants_key.is_null()) key["variants"] = variants_key;
             if (!job.unvocoded.empty()) key["unvocoded"] = true;
+            // A condition's own vocoder (only then, so other stimuli keep their hashes).
+            if (c.has_vocoder) key["condition_vocoder"] = vocoder_json(vocoder_for(c));
             // Layers (only when the condition has them, so speech-only stimuli keep their hashes).
             if (layers.count(c.name) && layers.at(c.name).configured)
                 key["layers"] = {{"stack", json::parse(layer_settings_json(layers.at(c.name)))},
@@ -784,6 +878,24 @@ std::vector<ConditionArticulation> write_articulation_qc(const Plan& plan, const
     return conditions;
 }
 
+// describe()'s "Label:      text" lines as a Markdown list of "Label: text".
+std::string methods_list(const std::string& lines) {
+    std::string m;
+    for (std::size_t a = 0; a < lines.size();) {
+        const std::size_t b = lines.find('\n', a);
+        std::string line = lines.substr(a, b == std::string::npos ? std::string::npos : b - a);
+        const std::size_t colon = line.find(':');
+        if (colon != std::string::npos) {
+            const std::size_t text = line.find_first_not_of(' ', colon + 1);
+            line = line.substr(0, colon + 1) + (text == std::string::npos ? "" : " " + line.substr(text));
+        }
+        if (!line.empty()) m += "- " + line + "\n";
+        if (b == std::string::npos) break;
+        a = b + 1;
+    }
+    return m;
+}
+
 // The stimuli's methods paragraph (methods.md beside the manifest): the
 // speech, the conditions with each model and its policy, what each model
 // put on the lips, the animation and the audio processing.
@@ -833,24 +945,20 @@ std::string methods_text(const Plan& plan, const json& manifest, const std::file
              "and contact in /f v/) was a factor of the design: each held condition is the same model as the "
              "condition it is a variant of.\n";
     // The vocoder's settings as a methods section reports them, at the rate
-    // of the vocoded stimuli.
+    // of the vocoded stimuli: [vocoder]'s, then each condition's own.
     for (const auto& e : manifest["stimuli"]) {
         if (e.value("audio", "") != "vocoded") continue;
         const Audio vocoded = read_audio(out_dir / e["wav"].get<std::string>());
-        m += "\nAudio of the vocoded conditions:\n\n";
-        const std::string lines = vocoder::describe(plan.vocoder_base, vocoded.sample_rate_hz);
-        for (std::size_t a = 0; a < lines.size();) {
-            const std::size_t b = lines.find('\n', a);
-            std::string line = lines.substr(a, b == std::string::npos ? std::string::npos : b - a);
-            const std::size_t colon = line.find(':');  // "Label:      text" → "Label: text"
-            if (colon != std::string::npos) {
-                const std::size_t text = line.find_first_not_of(' ', colon + 1);
-                line = line.substr(0, colon + 1) + (text == std::string::npos ? "" : " " + line.substr(text));
-            }
-            if (!line.empty()) m += "- " + line + "\n";
-            if (b == std::string::npos) break;
-            a = b + 1;
-        }
+        const bool shared = std::any_of(p.conditions.begin(), p.conditions.end(), [](const ProtocolCondition& c) {
+            return c.audio == ConditionAudio::Vocoded && !c.has_vocoder;
+        });
+        if (shared)
+            m += "\nAudio of the vocoded conditions:\n\n" +
+                 methods_list(vocoder::describe(plan.vocoder_base, vocoded.sample_rate_hz));
+        for (const auto& c : p.conditions)
+            if (c.has_vocoder)
+                m += fmt::format("\nAudio of condition {} (its own vocoder):\n\n", c.name) +
+                     methods_list(vocoder::describe(plan.vocoder_for(c), vocoded.sample_rate_hz));
         break;
     }
     return m;
@@ -869,6 +977,10 @@ std::filesystem::path unvocoded_audio_path(const std::filesystem::path& video) {
 
 vocoder::VocoderSettings protocol_vocoder_settings(const Protocol& protocol) { return vocoder_settings(protocol); }
 
+vocoder::VocoderSettings protocol_vocoder_settings(const Protocol& protocol, const ProtocolCondition& condition) {
+    return condition_vocoder_settings(protocol, condition, vocoder_settings(protocol));
+}
+
 std::uint64_t sentence_vocoder_seed(const vocoder::VocoderSettings& base, const std::string& sentence_id) {
     return derive_seed(base.seed, "vocoder/" + sentence_id);
 }
@@ -885,24 +997,33 @@ struct PresentedAudio {
 struct SentenceSpeech {
     Audio audio;
     PhoneSequence phones;
-    std::once_flag once[2];
-    PresentedAudio presented[2];  // [0] clean, [1] vocoded
-    // The audio the conditions with `kind` present, at the protocol's speech level.
+    // One presented version per vocoder (settings and seed; "" for clean).
+    struct Version {
+        std::once_flag once;
+        PresentedAudio presented;
+    };
+    std::mutex versions_mutex;
+    std::map<std::string, std::unique_ptr<Version>> versions;
+    // The audio the conditions with `kind` and these vocoder settings present,
+    // at the protocol's speech level.
     const PresentedAudio& as(ConditionAudio kind, const vocoder::VocoderSettings& base, std::uint64_t seed,
                              double level_dbfs) {
-        const int k = kind == ConditionAudio::Vocoded ? 1 : 0;
-        std::call_once(once[k], [&] {
-            PresentedAudio& p = presented[k];
-            if (kind == ConditionAudio::Vocoded) {
-                vocoder::VocoderSettings v = base;
-                v.seed = seed;
-                p.audio = vocoder::vocode(audio, v).audio;
-            } else {
-                p.audio = audio;
-            }
+        vocoder::VocoderSettings v = base;
+        v.seed = seed;
+        const bool vocoded = kind == ConditionAudio::Vocoded;
+        Version* version = nullptr;
+        {
+            std::lock_guard lock(versions_mutex);
+            auto& slot = versions[vocoded ? vocoder_json(v).dump() : std::string()];
+            if (!slot) slot = std::make_unique<Version>();
+            version = slot.get();
+        }
+        std::call_once(version->once, [&] {
+            PresentedAudio& p = version->presented;
+            p.audio = vocoded ? vocoder::vocode(audio, v).audio : audio;
             p.level = set_speech_level(p.audio, level_dbfs);
         });
-        return presented[k];
+        return version->presented;
     }
 };
 
@@ -1030,7 +1151,7 @@ json render_variants(const Plan& plan, const BuildSettings& settings, const Job&
     if (job.variants.empty()) return nullptr;
     json variants = json::array();
     for (const auto& variant : job.variants) {
-        vocoder::VocoderSettings v = plan.vocoder_base;
+        vocoder::VocoderSettings v = plan.vocoder_for(*job.condition);
         v.seed = job.vocoder_seed;
         if (plan.adaptive.variable == AdaptiveVariable::Bands)
             v.bands = static_cast<int>(variant.level);
@@ -1075,7 +1196,7 @@ json render_unvocoded(const Plan& plan, const BuildSettings& settings, const Job
 const PresentedAudio& presented_audio(const Plan& plan, const Job& job, SentenceSpeech& sp) {
     const Protocol& protocol = plan.protocol;
     const auto& c = *job.condition;
-    const PresentedAudio& presented = sp.as(c.audio, plan.vocoder_base, job.vocoder_seed, protocol.corpus.level_dbfs);
+    const PresentedAudio& presented = sp.as(c.audio, plan.vocoder_for(c), job.vocoder_seed, protocol.corpus.level_dbfs);
     const Level& level = presented.level;
     if (level.peak_dbfs > max_peak_dbfs)
         throw InputError(
@@ -1259,6 +1380,7 @@ void write_manifest(const Plan& plan, const BuildSettings& settings,
                   {"audio", to_string(c.audio)},
                   {"model", c.model.empty() ? json() : json(c.model.filename().string())},
                   {"policy", policy_json(c)}};
+        if (c.has_vocoder) j["vocoder"] = vocoder_json(plan.vocoder_for(c));
         if (c.face == FaceMode::Model) {
             j["policy_text"] = policy_text(plan, c);
             if (plan.closure.count(c.name)) j["closure_constraint"] = closure_json(plan.closure.at(c.name));
@@ -1429,7 +1551,7 @@ StimulusDefinition stimulus_definition(const std::filesystem::path& protocol_pat
         d.phones = read_phones(job->sentence->labels);
     }
     if (c.audio == ConditionAudio::Vocoded) {
-        vocoder::VocoderSettings v = plan.vocoder_base;
+        vocoder::VocoderSettings v = plan.vocoder_for(c);
         v.seed = job->vocoder_seed;
         d.audio = vocoder::vocode(speech, v).audio;
     } else {

@@ -479,6 +479,65 @@ TEST_F(BuilderFixture, RefusesUnknownAndInconsistentVocoderKeysWithTheirLocation
     EXPECT_NE(type.find("zero_phase"), std::string::npos) << type;
 }
 
+// A condition with its own [condition.vocoder] (a pulse-train CI simulation
+// beside [vocoder]'s noise carrier): its settings in the condition's manifest
+// record and its stimuli's input hash, its paragraph in methods.md, and audio
+// unlike the other vocoded condition's; the plain condition keeps its hash.
+TEST_F(BuilderFixture, AConditionsOwnVocoderIsAppliedRecordedAndDescribed) {
+    const auto plain = protocol_with_vocoder(dir / "plain", "bands = 3\nlow_hz = 100\nhigh_hz = 5000\n");
+    BuildSettings a = settings("plain-out");
+    a.protocol_path = plain;
+    a.max_sentences = 1;
+    build_stimuli(a);
+    std::string text = read_text_file(plain);
+    const std::string blank = "name = \"blank\"\nface = \"none\"\naudio = \"vocoded\"\n";
+    ASSERT_NE(text.find(blank), std::string::npos);
+    text.replace(text.find(blank), blank.size(),
+                 blank + "[condition.vocoder]\ncarrier = \"pulse-train\"\nbands = 8\nn_of_m = 4\n"
+                         "current_spread = \"db-per-octave\"\nspread_slope_db = 6\ninsertion_shift_mm = 2\n");
+    std::filesystem::create_directories(dir / "own");
+    write_text_file(dir / "own" / "protocol.toml", text);
+    BuildSettings b = settings("own-out");
+    b.protocol_path = dir / "own" / "protocol.toml";
+    b.max_sentences = 1;
+    build_stimuli(b);
+    const auto ma = nlohmann::json::parse(read_text_file(a.out_dir / "manifest.json"));
+    const auto mb = nlohmann::json::parse(read_text_file(b.out_dir / "manifest.json"));
+    const auto entry = [](const nlohmann::json& m, const std::string& condition) {
+        for (const auto& e : m["stimuli"])
+            if (e["condition"] == condition) return e;
+        return nlohmann::json();
+    };
+    EXPECT_EQ(entry(ma, "rule")["input_sha256"], entry(mb, "rule")["input_sha256"]);
+    EXPECT_NE(entry(ma, "blank")["input_sha256"], entry(mb, "blank")["input_sha256"]);
+    nlohmann::json own;
+    for (const auto& c : mb["conditions"])
+        if (c["name"] == "blank") own = c["vocoder"];
+    EXPECT_EQ(own["carrier"], "pulse-train");
+    EXPECT_EQ(own["bands"], 8);
+    EXPECT_EQ(own["n_of_m"], 4);
+    EXPECT_EQ(own["current_spread"], "db-per-octave");
+    EXPECT_EQ(own["insertion_shift_mm"], 2.0);
+    EXPECT_EQ(own["carrier_edges_hz"].size(), 9u);
+    EXPECT_EQ(mb["settings"]["vocoder"]["carrier"], "noise");
+    const std::string methods = read_text_file(b.out_dir / "methods.md");
+    EXPECT_NE(methods.find("Audio of the vocoded conditions:"), std::string::npos) << methods;
+    EXPECT_NE(methods.find("Audio of condition blank (its own vocoder):"), std::string::npos) << methods;
+    EXPECT_NE(methods.find("- Channel selection: 4-of-8"), std::string::npos) << methods;
+    const Audio rule = read_audio(b.out_dir / entry(mb, "rule")["wav"].get<std::string>());
+    const Audio pulses = read_audio(b.out_dir / entry(mb, "blank")["wav"].get<std::string>());
+    EXPECT_NE(rule.samples, pulses.samples);
+
+    // An impossible setting of the condition's table is refused at its line.
+    const std::string bad = text.replace(text.find("n_of_m = 4"), 10, "n_of_m = 9");
+    write_text_file(dir / "own" / "bad.toml", bad);
+    const std::string error = build_error(dir / "own" / "bad.toml", dir / "o-bad");
+    EXPECT_NE(error.find("bad.toml:"), std::string::npos) << error;
+    EXPECT_NE(error.find("vocoder.n_of_m: expected 0 (every channel) or at most the 8 bands, got 9"),
+              std::string::npos)
+        << error;
+}
+
 }  // namespace
 }  // namespace avsi::stimuli
 

@@ -449,6 +449,24 @@ protocol_cases = {
 for name, text in protocol_cases.items():
     write("protocol", name + ".toml", text)
 
+# The [vocoder] table of a protocol: an unknown carrier and impossible
+# cochlear-implant settings, refused at the key (build-stimuli reads the table
+# before anything is built or checked).
+command("vocoder", """
+copy {data}/experiment/corpus.csv
+name protocol.toml
+args build-stimuli {input} --out {out}/stimuli --verify
+""")
+vocoder_cases = {
+    "unknown_carrier": '[vocoder]\nbands = 8\ncarrier = "pulses"\n',
+    "n_of_m_over_bands": '[vocoder]\nbands = 8\nn_of_m = 12\n',
+    "spread_negative": '[vocoder]\ncurrent_spread = "db-per-octave"\nspread_slope_db = -4\n',
+    "pshc": '[vocoder]\ncarrier = "pshc"\n',
+    "pulses_overlap": '[vocoder]\nbands = 16\ncarrier = "pulse-train"\npulse_rate_hz = 1000\n',
+}
+for name, text in vocoder_cases.items():
+    write("vocoder", name + ".toml", proto.replace("[design]", text + "\n[design]"))
+
 corpus = (DATA / "experiment" / "corpus.csv").read_text()
 cl = corpus.splitlines(keepends=True)
 command("sentences", """

@@ -62,6 +62,10 @@ struct ProtocolCondition {
     // [condition.layers]: the animation layers over the speech (stimuli/layers.h
     // validates it; absent: speech and blinks only). Needs face = "model".
     ConfigSection layers;
+    // [condition.vocoder]: this condition's vocoder keys over [vocoder]'s
+    // (validated by the stimulus builder); only with audio = "vocoded".
+    ConfigSection vocoder;
+    bool has_vocoder = false;
     int line = 0;                 // where its [[condition]] table starts
 };
 

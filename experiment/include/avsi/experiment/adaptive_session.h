@@ -153,7 +153,8 @@ private:
     std::map<int, int> m_attempts;  // position → presentations stored
     std::map<int, std::vector<double>> m_noise_by_rate;  // a noise recording, per sample rate
     std::filesystem::path m_stimuli_dir;
-    vocoder::VocoderSettings m_vocoder;  // noise before vocoding: the stimuli's vocoder
+    // Noise before vocoding: the stimuli's vocoder of each vocoded condition.
+    std::map<std::string, vocoder::VocoderSettings> m_vocoder;
 };
 
 }  // namespace avsi::experiment

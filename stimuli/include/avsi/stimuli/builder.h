@@ -112,6 +112,9 @@ std::filesystem::path unvocoded_audio_path(const std::filesystem::path& video);
 
 // The protocol's [vocoder] settings as the builder applies them (InputError at the key).
 vocoder::VocoderSettings protocol_vocoder_settings(const Protocol& protocol);
+// A condition's vocoder settings: its [condition.vocoder] keys over [vocoder]'s
+// (the protocol's settings for a condition without them; InputError at the key).
+vocoder::VocoderSettings protocol_vocoder_settings(const Protocol& protocol, const ProtocolCondition& condition);
 // The carrier seed of a sentence's vocoded audio (shared by its vocoded conditions).
 std::uint64_t sentence_vocoder_seed(const vocoder::VocoderSettings& base, const std::string& sentence_id);
 
