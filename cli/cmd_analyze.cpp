@@ -127,6 +127,7 @@ const bool registered_analyze = register_command({
                 p.phonemes_csv = o->phonemes;
                 p.out_dir = s.out_dir;
                 p.bootstrap = o->bootstrap;
+                p.conditions = s.conditions;
                 analysis::append_phoneme_section(p);
             }
             if (result)

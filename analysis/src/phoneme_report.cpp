@@ -287,10 +287,20 @@ std::string section_intro(const InformationResult& info, const std::vector<Phone
         targets, targets ? 100.0 * double(correct) / double(targets) : 0.0, info.bootstrap, info.seed);
 }
 
+// The rows with the listed conditions first, in that order (stable otherwise).
+std::vector<PhonemeRow> in_condition_order(std::vector<PhonemeRow> rows, const std::vector<std::string>& order) {
+    const auto rank = [&](const std::string& c) {
+        return static_cast<std::size_t>(std::find(order.begin(), order.end(), c) - order.begin());
+    };
+    std::stable_sort(rows.begin(), rows.end(),
+                     [&](const PhonemeRow& a, const PhonemeRow& b) { return rank(a.condition) < rank(b.condition); });
+    return rows;
+}
+
 }  // namespace
 
 void append_phoneme_section(const PhonemeReportSettings& s) {
-    const std::vector<PhonemeRow> rows = read_phonemes_csv(s.phonemes_csv);
+    const std::vector<PhonemeRow> rows = in_condition_order(read_phonemes_csv(s.phonemes_csv), s.conditions);
     std::vector<std::string> conditions;
     for (const auto& r : rows)
         if (std::find(conditions.begin(), conditions.end(), r.condition) == conditions.end()) conditions.push_back(r.condition);

@@ -162,6 +162,17 @@ TEST(PhonemeScoringCli, ScoreWithPronunciationTableWritesPhonemesCsv) {
         EXPECT_EQ(std::vector<std::string>(got.rows[i].fields.begin(), got.rows[i].fields.begin() + 7),
                   expected.rows[i].fields);
     EXPECT_EQ(avsi::read_csv(dir / "phoneme_alignment.csv").rows.size(), 6u);
+    EXPECT_EQ(avsi::read_csv(dir / "information.csv").rows.size(), 10u);  // 2 conditions x 5 groupings
+    const auto report = avsi::test::run_avsi(
+        fmt::format("analyze {0}/scores.csv --out {0}/report --phonemes {0}/phonemes.csv --bootstrap 200", dir.string()));
+    ASSERT_EQ(report.exit_code, 0) << report.output();
+    const std::string html = avsi::read_text_file(dir / "report" / "index.html");
+    EXPECT_NE(html.find("What each model conveys"), std::string::npos);
+    EXPECT_NE(avsi::read_text_file(dir / "report" / "report.md").find("| audio | voicing | 13 |"), std::string::npos);
+    for (const char* f : {"rti.png", "confusion_audio_consonants.png", "confusion_face_visemes.png", "glmer_phonemes.R",
+                          "phonemes_glmer.csv"})
+        EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
+    EXPECT_EQ(avsi::read_csv(dir / "report" / "phonemes_glmer.csv").rows.size(), 40u);  // target phones
     const auto bad = avsi::test::run_avsi(fmt::format("score --corpus {0}/corpus.csv --responses {0}/responses.csv "
                                                       "--pronunciations {0}/pronunciations.tsv --out {1}",
                                                       kCase.string(), dir.string()));

@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace avsi::analysis {
 
@@ -31,6 +32,9 @@ struct PhonemeReportSettings {
     std::size_t bootstrap = 2000;
     std::uint64_t seed = 42;
     std::string banner;  // shown above the section, e.g. "SIMULATED answers" ("" none)
+    // Report order of the conditions (the protocol's); empty or for the rest:
+    // first appearance in phonemes.csv.
+    std::vector<std::string> conditions;
 };
 
 // Writes the files above and appends the section to out_dir's report.md and
