@@ -69,15 +69,16 @@ std::optional<std::string> category_of_row(const std::string& grouping, const Ph
 std::vector<std::string> ordered(const std::set<std::string>& categories) {
     std::vector<std::string> out, tail;
     for (const auto& c : categories) (c == k_deleted || c == k_other ? tail : out).push_back(c);
-    std::sort(tail.begin(), tail.end(), [](const std::string& a, const std::string& b) { return a == k_other && b != k_other; });
+    std::sort(tail.begin(), tail.end(),
+              [](const std::string& a, const std::string& b) { return a == k_other && b != k_other; });
     out.insert(out.end(), tail.begin(), tail.end());
     return out;
 }
 
 // A matrix over the given categories from (target, response) pairs.
 ConfusionMatrix matrix_of(const std::string& condition, const std::string& kind,
-                          const std::vector<std::pair<std::string, std::string>>& pairs,
-                          std::vector<std::string> rows, std::vector<std::string> columns) {
+                          const std::vector<std::pair<std::string, std::string>>& pairs, std::vector<std::string> rows,
+                          std::vector<std::string> columns) {
     ConfusionMatrix m{condition, kind, std::move(rows), std::move(columns), {}};
     m.counts.assign(m.rows.size(), std::vector<double>(m.columns.size(), 0.0));
     std::map<std::string, std::size_t> r, c;
@@ -97,8 +98,9 @@ ConfusionMatrix phone_matrix(const std::string& condition, const std::vector<Pho
     std::vector<std::pair<std::string, std::string>> pairs;
     for (const auto& row : rows) {
         if (row.target.empty() || is_vowel(inventory.info(row.target)) != vowels) continue;
-        std::string y = row.response.empty() ? k_deleted
-                        : is_vowel(inventory.info(row.response)) == vowels ? row.response : k_other;
+        std::string y = row.response.empty()                               ? k_deleted
+                        : is_vowel(inventory.info(row.response)) == vowels ? row.response
+                                                                           : k_other;
         pairs.emplace_back(row.target, std::move(y));
     }
     std::vector<std::string> columns = symbols;
@@ -145,7 +147,8 @@ double percentile(std::vector<double> v, double q) {
 }
 
 // The tables of every condition for one grouping, with categories shared by all conditions.
-std::map<std::string, GroupingTables> grouping_tables(const std::string& grouping, const std::vector<PhonemeRow>& rows) {
+std::map<std::string, GroupingTables> grouping_tables(const std::string& grouping,
+                                                      const std::vector<PhonemeRow>& rows) {
     std::set<std::string> xs, ys;
     for (const auto& row : rows) {
         if (row.outcome == PhoneOutcome::Inserted) continue;
@@ -164,7 +167,10 @@ std::map<std::string, GroupingTables> grouping_tables(const std::string& groupin
         const auto x = category_of_row(grouping, row, false);
         if (!x) continue;
         GroupingTables& g = out[row.condition];
-        if (g.x_categories.empty()) g.x_categories = x_list, g.y_categories = y_list;
+        if (g.x_categories.empty()) {
+            g.x_categories = x_list;
+            g.y_categories = y_list;
+        }
         auto& t = g.by_subject[row.subject];
         if (t.empty()) t.assign(x_list.size(), std::vector<double>(y_list.size(), 0.0));
         t[xi.at(*x)][yi.at(*category_of_row(grouping, row, true))] += 1.0;
@@ -218,19 +224,24 @@ void information_of_grouping(const std::string& grouping, const std::vector<Phon
         const GroupingTables& g = tables.at(c);
         std::vector<const std::vector<std::vector<double>>*> all;
         for (const auto& [s, t] : g.by_subject) all.push_back(&t);
-        InformationRow row{c, grouping, g.by_subject.size(),
+        InformationRow row{c,
+                           grouping,
+                           g.by_subject.size(),
                            information_transmitted(sum_tables(all, g.x_categories.size(), g.y_categories.size())),
-                           percentile(draws[c], 0.025), percentile(draws[c], 0.975)};
+                           percentile(draws[c], 0.025),
+                           percentile(draws[c], 0.975)};
         out.rows.push_back(std::move(row));
     }
     const std::size_t first = out.comparisons.size();
     for (std::size_t a = 0; a < present.size(); ++a)
         for (std::size_t b = a + 1; b < present.size(); ++b) {
             InformationComparison cmp{grouping, present[a], present[b], 0, 0, 0, 0, 0, 1, 1};
-            const auto& ra = *std::find_if(out.rows.begin(), out.rows.end(),
-                                           [&](const InformationRow& r) { return r.feature == grouping && r.condition == present[a]; });
-            const auto& rb = *std::find_if(out.rows.begin(), out.rows.end(),
-                                           [&](const InformationRow& r) { return r.feature == grouping && r.condition == present[b]; });
+            const auto& ra = *std::find_if(out.rows.begin(), out.rows.end(), [&](const InformationRow& r) {
+                return r.feature == grouping && r.condition == present[a];
+            });
+            const auto& rb = *std::find_if(out.rows.begin(), out.rows.end(), [&](const InformationRow& r) {
+                return r.feature == grouping && r.condition == present[b];
+            });
             cmp.rti_a = ra.t.rti;
             cmp.rti_b = rb.t.rti;
             cmp.difference = cmp.rti_a - cmp.rti_b;
@@ -247,7 +258,8 @@ void information_of_grouping(const std::string& grouping, const std::vector<Phon
             cmp.ci_high = percentile(d, 0.975);
             cmp.p = d.empty() ? std::numeric_limits<double>::quiet_NaN()
                               : std::clamp(2.0 * double(std::max<std::size_t>(1, std::min(at_most_0, at_least_0))) /
-                                               double(d.size()), 0.0, 1.0);
+                                               double(d.size()),
+                                           0.0, 1.0);
             out.comparisons.push_back(cmp);
         }
     std::vector<std::optional<double>> p;
@@ -284,7 +296,8 @@ std::vector<ConfusionMatrix> confusion_matrices(const std::string& condition, co
         if (r.condition == condition && r.outcome != PhoneOutcome::Inserted) mine.push_back(r);
     std::vector<ConfusionMatrix> out = {phone_matrix(condition, mine, false), phone_matrix(condition, mine, true)};
     std::vector<std::string> classes;
-    for (int c = 0; c < static_cast<int>(VisemeClass::Count); ++c) classes.emplace_back(to_string(static_cast<VisemeClass>(c)));
+    for (int c = 0; c < static_cast<int>(VisemeClass::Count); ++c)
+        classes.emplace_back(to_string(static_cast<VisemeClass>(c)));
     std::vector<std::string> columns = classes;
     columns.emplace_back(k_deleted);
     std::vector<std::pair<std::string, std::string>> pairs;
@@ -355,12 +368,14 @@ void write_confusions_csv(const std::filesystem::path& path, const std::vector<C
 }
 
 void write_information_csv(const std::filesystem::path& path, const InformationResult& result) {
-    std::string out = "condition,feature,subjects,phones,h_x,t_plugin,h_x_corrected,t_corrected,rti,ci_low,ci_high,"
-                      "correction,bootstrap,seed\n";
+    std::string out =
+        "condition,feature,subjects,phones,h_x,t_plugin,h_x_corrected,t_corrected,rti,ci_low,ci_high,"
+        "correction,bootstrap,seed\n";
     for (const auto& r : result.rows)
-        out += csv_line({r.condition, r.feature, std::to_string(r.subjects), fmt::format("{:g}", r.t.n), csv_number_or_na(r.t.h_x),
-                         csv_number_or_na(r.t.t_plugin), csv_number_or_na(r.t.h_x_corrected), csv_number_or_na(r.t.t_corrected), csv_number_or_na(r.t.rti),
-                         csv_number_or_na(r.ci_low), csv_number_or_na(r.ci_high), "miller-madow", std::to_string(result.bootstrap),
+        out += csv_line({r.condition, r.feature, std::to_string(r.subjects), fmt::format("{:g}", r.t.n),
+                         csv_number_or_na(r.t.h_x), csv_number_or_na(r.t.t_plugin), csv_number_or_na(r.t.h_x_corrected),
+                         csv_number_or_na(r.t.t_corrected), csv_number_or_na(r.t.rti), csv_number_or_na(r.ci_low),
+                         csv_number_or_na(r.ci_high), "miller-madow", std::to_string(result.bootstrap),
                          std::to_string(result.seed)});
     write_text_file(path, out);
 }
@@ -368,9 +383,9 @@ void write_information_csv(const std::filesystem::path& path, const InformationR
 void write_information_comparisons_csv(const std::filesystem::path& path, const InformationResult& result) {
     std::string out = "feature,condition_a,condition_b,rti_a,rti_b,difference,ci_low,ci_high,p,p_holm,bootstrap\n";
     for (const auto& c : result.comparisons)
-        out += csv_line({c.feature, c.condition_a, c.condition_b, csv_number_or_na(c.rti_a), csv_number_or_na(c.rti_b), csv_number_or_na(c.difference),
-                         csv_number_or_na(c.ci_low), csv_number_or_na(c.ci_high), csv_number_or_na(c.p), csv_number_or_na(c.p_holm),
-                         std::to_string(result.bootstrap)});
+        out += csv_line({c.feature, c.condition_a, c.condition_b, csv_number_or_na(c.rti_a), csv_number_or_na(c.rti_b),
+                         csv_number_or_na(c.difference), csv_number_or_na(c.ci_low), csv_number_or_na(c.ci_high),
+                         csv_number_or_na(c.p), csv_number_or_na(c.p_holm), std::to_string(result.bootstrap)});
     write_text_file(path, out);
 }
 
@@ -397,23 +412,30 @@ std::vector<PhonemeRow> read_phonemes_csv(const std::filesystem::path& path) {
         r.target = field(target);
         r.response = field(response);
         const auto pos = parse_int(field(position));
-        if (!pos || *pos < 0) problems.push_back({path.string(), row.line, 1, "position",
-                                                  fmt::format("expected a count, got \"{}\"", field(position))});
-        else r.position = static_cast<std::size_t>(*pos);
+        if (!pos || *pos < 0)
+            problems.push_back(
+                {path.string(), row.line, 1, "position", fmt::format("expected a count, got \"{}\"", field(position))});
+        else
+            r.position = static_cast<std::size_t>(*pos);
         bool known = false;
         for (auto o : {PhoneOutcome::Correct, PhoneOutcome::Substituted, PhoneOutcome::Deleted, PhoneOutcome::Inserted})
-            if (field(outcome) == outcome_name(o)) r.outcome = o, known = true;
-        if (!known) problems.push_back({path.string(), row.line, 1, "outcome",
-                                        fmt::format("expected correct, substituted, deleted or inserted, got \"{}\"",
-                                                    field(outcome))});
+            if (field(outcome) == outcome_name(o)) {
+                r.outcome = o;
+                known = true;
+            }
+        if (!known)
+            problems.push_back(
+                {path.string(), row.line, 1, "outcome",
+                 fmt::format("expected correct, substituted, deleted or inserted, got \"{}\"", field(outcome))});
         for (const auto* s : {&r.target, &r.response})
             if (!s->empty() && !inventory.contains(*s))
                 problems.push_back({path.string(), row.line, 1, s == &r.target ? "target" : "response",
                                     fmt::format("expected a phone of the phone set, got \"{}\"", *s)});
         const bool consistent = known && (r.outcome == PhoneOutcome::Inserted ? r.target.empty() && !r.response.empty()
-                                          : r.outcome == PhoneOutcome::Deleted ? !r.target.empty() && r.response.empty()
-                                          : !r.target.empty() && !r.response.empty() &&
-                                                ((r.target == r.response) == (r.outcome == PhoneOutcome::Correct)));
+                                          : r.outcome == PhoneOutcome::Deleted
+                                              ? !r.target.empty() && r.response.empty()
+                                              : !r.target.empty() && !r.response.empty() &&
+                                                    ((r.target == r.response) == (r.outcome == PhoneOutcome::Correct)));
         if (known && !consistent)
             problems.push_back({path.string(), row.line, 1, "outcome",
                                 fmt::format("\"{}\" does not fit target \"{}\" and response \"{}\"", field(outcome),

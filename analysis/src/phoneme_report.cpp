@@ -28,7 +28,8 @@ namespace fs = std::filesystem;
 // A name safe in a file name ("ANN 1" -> "ann-1").
 std::string file_stem(const std::string& s) {
     std::string out;
-    for (char c : s) out += std::isalnum(static_cast<unsigned char>(c)) ? char(std::tolower(static_cast<unsigned char>(c))) : '-';
+    for (char c : s)
+        out += std::isalnum(static_cast<unsigned char>(c)) ? char(std::tolower(static_cast<unsigned char>(c))) : '-';
     return out;
 }
 
@@ -92,8 +93,8 @@ void write_heatmap(const ConfusionMatrix& m, const std::string& title, const fs:
     cairo_set_source_rgb(cr, 0, 0, 0);
     for (std::size_t j = 0; j < m.columns.size(); ++j)
         draw_text(cr, left + cell_px * (double(j) + 0.65), top - 6, m.columns[j], cell_px > 30 ? 10 : 9, false, true);
-    draw_text(cr, 10, height - 18, "rows: target; columns: response (- deleted); shade: row percentage; numbers: counts",
-              11);
+    draw_text(cr, 10, height - 18,
+              "rows: target; columns: response (- deleted); shade: row percentage; numbers: counts", 11);
     cairo_destroy(cr);
     cairo_surface_flush(surface);
     write_figure_png(surface, path);
@@ -213,8 +214,9 @@ if (requireNamespace("car", quietly = TRUE)) print(car::Anova(m, type = 3))
 std::string fixed3_or_na(double x) { return std::isfinite(x) ? fmt::format("{:.3f}", x) : "NA"; }
 
 std::string information_table_md(const InformationResult& info) {
-    std::string md = "| condition | feature | phones | H(x) bits | T bits (Miller-Madow) | RTI | 95 % CI |\n"
-                     "| --- | --- | ---: | ---: | ---: | ---: | --- |\n";
+    std::string md =
+        "| condition | feature | phones | H(x) bits | T bits (Miller-Madow) | RTI | 95 % CI |\n"
+        "| --- | --- | ---: | ---: | ---: | ---: | --- |\n";
     for (const auto& r : info.rows)
         md += fmt::format("| {} | {} | {:g} | {:.3f} | {:.3f} | {:.3f} | {} – {} |\n", r.condition, r.feature, r.t.n,
                           r.t.h_x_corrected, r.t.t_corrected, r.t.rti, fixed3_or_na(r.ci_low), fixed3_or_na(r.ci_high));
@@ -222,8 +224,9 @@ std::string information_table_md(const InformationResult& info) {
 }
 
 std::string comparisons_table_md(const InformationResult& info) {
-    std::string md = "| feature | pair | RTI difference | 95 % CI | p (bootstrap) | p Holm |\n"
-                     "| --- | --- | ---: | --- | ---: | ---: |\n";
+    std::string md =
+        "| feature | pair | RTI difference | 95 % CI | p (bootstrap) | p Holm |\n"
+        "| --- | --- | ---: | --- | ---: | ---: |\n";
     for (const auto& c : info.comparisons)
         md += fmt::format("| {} | {} − {} | {:.3f} | {} – {} | {} | {} |\n", c.feature, c.condition_a, c.condition_b,
                           c.difference, fixed3_or_na(c.ci_low), fixed3_or_na(c.ci_high), fixed3_or_na(c.p),
@@ -267,8 +270,10 @@ void append_to_report(const fs::path& out_dir, const std::string& md, const std:
     write_text_file(md_path, read_text_file(md_path) + md);
     std::string page = read_text_file(html_path);
     const auto body = page.rfind("</body>");
-    if (body == std::string::npos) page += html;
-    else page.insert(body, html);
+    if (body == std::string::npos)
+        page += html;
+    else
+        page.insert(body, html);
     write_text_file(html_path, page);
 }
 
@@ -303,7 +308,8 @@ void append_phoneme_section(const PhonemeReportSettings& s) {
     const std::vector<PhonemeRow> rows = in_condition_order(read_phonemes_csv(s.phonemes_csv), s.conditions);
     std::vector<std::string> conditions;
     for (const auto& r : rows)
-        if (std::find(conditions.begin(), conditions.end(), r.condition) == conditions.end()) conditions.push_back(r.condition);
+        if (std::find(conditions.begin(), conditions.end(), r.condition) == conditions.end())
+            conditions.push_back(r.condition);
     std::vector<ConfusionMatrix> matrices;
     std::vector<PhonemeFigure> figures;
     for (const auto& c : conditions)
@@ -329,7 +335,8 @@ void append_phoneme_section(const PhonemeReportSettings& s) {
                      information_table_md(info) + "\n" + comparisons_table_md(info) + "\n";
     std::string html = "<h2>What each model conveys</h2>\n" +
                        (s.banner.empty() ? "" : "<p><strong>" + xml_escape(s.banner) + "</strong></p>\n") + "<p>" +
-                       xml_escape(intro) + "</p>\n<img alt=\"RTI per feature and condition\" src=\"data:image/png;base64," +
+                       xml_escape(intro) +
+                       "</p>\n<img alt=\"RTI per feature and condition\" src=\"data:image/png;base64," +
                        detail::base64(read_text_file(s.out_dir / "rti.png")) + "\"/>\n" +
                        md_table_to_html(information_table_md(info)) + md_table_to_html(comparisons_table_md(info));
     for (const auto& f : figures) {
@@ -337,9 +344,10 @@ void append_phoneme_section(const PhonemeReportSettings& s) {
         html += fmt::format("<img alt=\"{}\" src=\"data:image/png;base64,{}\"/>\n", xml_escape(f.caption),
                             detail::base64(read_text_file(s.out_dir / f.file)));
     }
-    const std::string files = "Files: confusions.csv (counts and row percentages: consonants, vowels, viseme classes), "
-                              "information.csv, information_comparisons.csv, phonemes_glmer.csv and glmer_phonemes.R "
-                              "(phoneme-level lme4 model: Rscript glmer_phonemes.R phonemes_glmer.csv voicing).";
+    const std::string files =
+        "Files: confusions.csv (counts and row percentages: consonants, vowels, viseme classes), "
+        "information.csv, information_comparisons.csv, phonemes_glmer.csv and glmer_phonemes.R "
+        "(phoneme-level lme4 model: Rscript glmer_phonemes.R phonemes_glmer.csv voicing).";
     md += files + "\n";
     html += "<p class=\"note\">" + xml_escape(files) + "</p>\n";
     append_to_report(s.out_dir, md, html);

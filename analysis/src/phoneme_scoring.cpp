@@ -25,9 +25,9 @@ namespace {
 // Features that enter the substitution cost: all but Stress.
 constexpr std::size_t k_cost_features = static_cast<std::size_t>(Feature::Stress);
 
-constexpr const char* k_units[] = {"zero", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine",
-                                   "ten", "eleven", "twelve", "thirteen", "fourteen", "fifteen", "sixteen",
-                                   "seventeen", "eighteen", "nineteen"};
+constexpr const char* k_units[] = {"zero",     "one",     "two",     "three",     "four",     "five",    "six",
+                                   "seven",    "eight",   "nine",    "ten",       "eleven",   "twelve",  "thirteen",
+                                   "fourteen", "fifteen", "sixteen", "seventeen", "eighteen", "nineteen"};
 constexpr const char* k_tens[] = {"", "", "twenty", "thirty", "forty", "fifty", "sixty", "seventy", "eighty", "ninety"};
 
 // 0 <= n < 1000 as words ("three hundred and five" in British usage is
@@ -62,7 +62,7 @@ std::vector<std::string> number_words(long n) {
 // The last number word as an ordinal ("one" -> "first", "twenty" -> "twentieth").
 std::string ordinal_word(const std::string& w) {
     static const std::map<std::string, std::string> irregular = {
-        {"one", "first"}, {"two", "second"}, {"three", "third"}, {"five", "fifth"},
+        {"one", "first"},    {"two", "second"}, {"three", "third"},   {"five", "fifth"},
         {"eight", "eighth"}, {"nine", "ninth"}, {"twelve", "twelfth"}};
     if (auto it = irregular.find(w); it != irregular.end()) return it->second;
     if (w.back() == 'y') return w.substr(0, w.size() - 1) + "ieth";
@@ -149,19 +149,29 @@ struct AnswerScorer {
         x.condition = response.condition;
         x.sentence = response.sentence;
         x.word = word;
-        if (t) x.target_word = t->transcription->word, x.target_letter_to_sound = !t->transcription->in_lexicon;
-        if (r) x.response_word = r->transcription->word, x.response_letter_to_sound = !r->transcription->in_lexicon;
+        if (t) {
+            x.target_word = t->transcription->word;
+            x.target_letter_to_sound = !t->transcription->in_lexicon;
+        }
+        if (r) {
+            x.response_word = r->transcription->word;
+            x.response_letter_to_sound = !r->transcription->in_lexicon;
+        }
         return x;
     }
 
     void add(std::size_t word, const WordItem* t, const WordItem* r, long ti, long ri) {
         PhonemeRow x = row(word, t, r);
-        if (ti >= 0) x.target = t->phones[static_cast<std::size_t>(ti)], x.position = ++position;
-        else x.position = position;
+        if (ti >= 0) {
+            x.target = t->phones[static_cast<std::size_t>(ti)];
+            ++position;
+        }
+        x.position = position;
         if (ri >= 0) x.response = r->phones[static_cast<std::size_t>(ri)];
-        x.outcome = ti < 0 ? PhoneOutcome::Inserted
-                    : ri < 0 ? PhoneOutcome::Deleted
-                    : x.target == x.response ? PhoneOutcome::Correct : PhoneOutcome::Substituted;
+        x.outcome = ti < 0                   ? PhoneOutcome::Inserted
+                    : ri < 0                 ? PhoneOutcome::Deleted
+                    : x.target == x.response ? PhoneOutcome::Correct
+                                             : PhoneOutcome::Substituted;
         std::size_t* counts[] = {&audit.correct, &audit.substituted, &audit.deleted, &audit.inserted};
         ++*counts[static_cast<int>(x.outcome)];
         audit.cost += ti < 0 || ri < 0 ? 1.0
@@ -220,7 +230,8 @@ void write_information_files(const PhonemeFilesSettings& s, const std::vector<Ph
     std::vector<ConfusionMatrix> matrices;
     std::vector<std::string> conditions;
     for (const auto& r : rows)
-        if (std::find(conditions.begin(), conditions.end(), r.condition) == conditions.end()) conditions.push_back(r.condition);
+        if (std::find(conditions.begin(), conditions.end(), r.condition) == conditions.end())
+            conditions.push_back(r.condition);
     for (const auto& c : conditions)
         for (auto& m : confusion_matrices(c, rows)) matrices.push_back(std::move(m));
     write_confusions_csv(s.out_dir / "confusions.csv", matrices);
@@ -256,12 +267,14 @@ std::vector<std::string> spoken_words(std::string_view text) {
 double phone_substitution_cost(const PhoneInfo& a, const PhoneInfo& b) {
     if (a.symbol == b.symbol) return 0.0;
     double distance = 0.0;
-    for (std::size_t f = 0; f < k_cost_features; ++f) distance += std::fabs(double(a.features[f]) - double(b.features[f]));
+    for (std::size_t f = 0; f < k_cost_features; ++f)
+        distance += std::fabs(double(a.features[f]) - double(b.features[f]));
     return std::min(2.0, 0.5 + 0.25 * distance);
 }
 
-Alignment align_weighted(std::size_t n, std::size_t m, const std::function<double(std::size_t, std::size_t)>& substitution,
-                         double deletion, double insertion) {
+Alignment align_weighted(std::size_t n, std::size_t m,
+                         const std::function<double(std::size_t, std::size_t)>& substitution, double deletion,
+                         double insertion) {
     // cost[i][j]: best cost of target[0, i) against answer[0, j).
     std::vector<double> cost((n + 1) * (m + 1), 0.0), sub(n * m, 0.0);
     const auto at = [m](std::size_t i, std::size_t j) { return i * (m + 1) + j; };
@@ -296,7 +309,8 @@ Alignment align_phones(const std::vector<std::string>& target, const std::vector
     for (const auto& s : target) t.push_back(&inventory.info(s, "target phone"));
     for (const auto& s : response) r.push_back(&inventory.info(s, "response phone"));
     return align_weighted(
-        t.size(), r.size(), [&](std::size_t i, std::size_t j) { return phone_substitution_cost(*t[i], *r[j]); }, 1.0, 1.0);
+        t.size(), r.size(), [&](std::size_t i, std::size_t j) { return phone_substitution_cost(*t[i], *r[j]); }, 1.0,
+        1.0);
 }
 
 Pronunciations read_pronunciations(const std::filesystem::path& path) {
@@ -328,8 +342,10 @@ Pronunciations read_pronunciations(const std::filesystem::path& path) {
             problem(row.line, "phones", e.first().message);
             continue;
         }
-        if (w.phones.empty()) problem(row.line, "phones", fmt::format("expected phones for \"{}\", got none", w.word));
-        else if (!out.emplace(w.word, w).second) problem(row.line, "word", fmt::format("\"{}\" is listed twice", w.word));
+        if (w.phones.empty())
+            problem(row.line, "phones", fmt::format("expected phones for \"{}\", got none", w.word));
+        else if (!out.emplace(w.word, w).second)
+            problem(row.line, "word", fmt::format("\"{}\" is listed twice", w.word));
     }
     if (!problems.empty()) throw InputError(problems);
     return out;
@@ -337,10 +353,14 @@ Pronunciations read_pronunciations(const std::filesystem::path& path) {
 
 const char* outcome_name(PhoneOutcome outcome) {
     switch (outcome) {
-    case PhoneOutcome::Correct: return "correct";
-    case PhoneOutcome::Substituted: return "substituted";
-    case PhoneOutcome::Deleted: return "deleted";
-    case PhoneOutcome::Inserted: return "inserted";
+        case PhoneOutcome::Correct:
+            return "correct";
+        case PhoneOutcome::Substituted:
+            return "substituted";
+        case PhoneOutcome::Deleted:
+            return "deleted";
+        case PhoneOutcome::Inserted:
+            return "inserted";
     }
     return "?";
 }
@@ -377,8 +397,12 @@ PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Resp
                                fmt::format("\"{}\" is not in the corpus {}", r.sentence, corpus.path.string())});
             continue;
         }
-        AnswerScorer a{r, transcribed(spoken_words(it->second->text), pronunciations),
-                       transcribed(spoken_words(r.response), pronunciations), out.rows, {}, 0};
+        AnswerScorer a{r,
+                       transcribed(spoken_words(it->second->text), pronunciations),
+                       transcribed(spoken_words(r.response), pronunciations),
+                       out.rows,
+                       {},
+                       0};
         a.audit = {r.subject, r.session, r.trial, r.condition, r.sentence, r.response, {}, {}, 0, 0, 0, 0, {}, 0.0};
         a.score();
         out.answers.push_back(std::move(a.audit));
@@ -388,8 +412,9 @@ PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Resp
 }
 
 void write_phonemes_csv(const std::filesystem::path& path, const std::vector<PhonemeRow>& rows) {
-    std::string out = "subject,condition,sentence,position,target,response,outcome,word,target_word,response_word,"
-                      "target_letter_to_sound,response_letter_to_sound,session,trial\n";
+    std::string out =
+        "subject,condition,sentence,position,target,response,outcome,word,target_word,response_word,"
+        "target_letter_to_sound,response_letter_to_sound,session,trial\n";
     for (const auto& r : rows)
         out += csv_line({r.subject, r.condition, r.sentence, std::to_string(r.position), r.target, r.response,
                          outcome_name(r.outcome), std::to_string(r.word), r.target_word, r.response_word,
@@ -399,8 +424,9 @@ void write_phonemes_csv(const std::filesystem::path& path, const std::vector<Pho
 }
 
 void write_phoneme_alignment_csv(const std::filesystem::path& path, const std::vector<AnswerAlignment>& answers) {
-    std::string out = "subject,session,trial,condition,sentence,response,target_phones,response_phones,correct,"
-                      "substituted,deleted,inserted,letter_to_sound,cost\n";
+    std::string out =
+        "subject,session,trial,condition,sentence,response,target_phones,response_phones,correct,"
+        "substituted,deleted,inserted,letter_to_sound,cost\n";
     for (const auto& a : answers) {
         std::string lts;
         for (const auto& w : a.letter_to_sound) lts += (lts.empty() ? "" : " ") + w;
@@ -444,10 +470,11 @@ PhonemeScoringResult score_phoneme_files(const PhonemeFilesSettings& s) {
         targets += r.outcome == PhoneOutcome::Inserted ? 0 : 1;
         correct += r.outcome == PhoneOutcome::Correct ? 1 : 0;
     }
-    log_info("phonemes: {} answers, {} target phones, {} correct ({:.1f} %); {} words transcribed by {} ({} by "
-             "letter-to-sound), {} from the pronunciation table",
-             result.answers.size(), targets, correct, targets ? 100.0 * double(correct) / double(targets) : 0.0,
-             needed.size(), tts_voice_spec(s.tts), lts, pronunciations.size() - needed.size());
+    log_info(
+        "phonemes: {} answers, {} target phones, {} correct ({:.1f} %); {} words transcribed by {} ({} by "
+        "letter-to-sound), {} from the pronunciation table",
+        result.answers.size(), targets, correct, targets ? 100.0 * double(correct) / double(targets) : 0.0,
+        needed.size(), tts_voice_spec(s.tts), lts, pronunciations.size() - needed.size());
     return result;
 }
 

@@ -54,10 +54,12 @@ std::vector<WordTranscription> transcribe_words(const std::vector<std::string>& 
                                  fmt::format("expected one word without spaces, got \"{}\"", words[end]));
             bytes += words[end].size() + 1;
         }
-        const std::vector<std::string> batch(words.begin() + static_cast<long>(begin), words.begin() + static_cast<long>(end));
+        const std::vector<std::string> batch(words.begin() + static_cast<long>(begin),
+                                             words.begin() + static_cast<long>(end));
         const auto [phone_set, festival] = detail::festival_transcribe(batch, settings.voice);
         check_radio_phone_set(phone_set, settings.voice);
-        for (std::size_t i = 0; i < batch.size(); ++i) out.push_back(map_festival_word(batch[i], festival[i], settings.voice));
+        for (std::size_t i = 0; i < batch.size(); ++i)
+            out.push_back(map_festival_word(batch[i], festival[i], settings.voice));
         begin = end;
     }
     return out;

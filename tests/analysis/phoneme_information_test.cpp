@@ -50,11 +50,11 @@ TEST(PhonemeConfusions, HandBuiltCaseCounts) {
     ASSERT_EQ(face.size(), 3u);
     const ConfusionMatrix& consonants = face[0];
     EXPECT_EQ(consonants.kind, "consonants");
-    EXPECT_EQ(cell(consonants, "T", "T"), 1.0);  // "pat"
-    EXPECT_EQ(cell(consonants, "T", "-"), 3.0);  // "pat" loses sat's T, the empty answer both
-    EXPECT_EQ(cell(consonants, "G", "G"), 1.0);  // "big"
-    EXPECT_EQ(cell(consonants, "G", "T"), 1.0);  // "dot" for "dog"
-    EXPECT_EQ(cell(consonants, "DH", "-"), 1.0); // "a" for "the"
+    EXPECT_EQ(cell(consonants, "T", "T"), 1.0);   // "pat"
+    EXPECT_EQ(cell(consonants, "T", "-"), 3.0);   // "pat" loses sat's T, the empty answer both
+    EXPECT_EQ(cell(consonants, "G", "G"), 1.0);   // "big"
+    EXPECT_EQ(cell(consonants, "G", "T"), 1.0);   // "dot" for "dog"
+    EXPECT_EQ(cell(consonants, "DH", "-"), 1.0);  // "a" for "the"
     const ConfusionMatrix& vowels = face[1];
     EXPECT_EQ(cell(vowels, "AO", "AA"), 1.0);
     EXPECT_EQ(cell(vowels, "AE", "-"), 3.0);
@@ -106,7 +106,8 @@ TEST(PhonemeInformation, HandBuiltCaseEqualsTheNumpyReference) {
         });
         ASSERT_NE(it, result.rows.end());
         const double values[] = {it->t.n, it->t.h_x, it->t.t_plugin, it->t.h_x_corrected, it->t.t_corrected, it->t.rti};
-        for (std::size_t k = 0; k < 6; ++k) EXPECT_NEAR(values[k], std::stod(e.fields[2 + k]), 1e-9) << expected.header[2 + k];
+        for (std::size_t k = 0; k < 6; ++k)
+            EXPECT_NEAR(values[k], std::stod(e.fields[2 + k]), 1e-9) << expected.header[2 + k];
     }
 }
 
@@ -204,10 +205,11 @@ TEST(PhonemeInformation, PhonemesCsvRoundTripAndBadRowsNamed) {
         EXPECT_EQ(back[i].target, rows[i].target);
         EXPECT_EQ(back[i].outcome, rows[i].outcome);
     }
-    avsi::write_text_file(dir / "bad.csv", "subject,condition,sentence,position,target,response,outcome\n"
-                                           "a,audio,s1,1,P,P,correct\n"
-                                           "a,audio,s1,2,P,QQ,substituted\n"
-                                           "a,audio,s1,x,P,B,correct\n");
+    avsi::write_text_file(dir / "bad.csv",
+                          "subject,condition,sentence,position,target,response,outcome\n"
+                          "a,audio,s1,1,P,P,correct\n"
+                          "a,audio,s1,2,P,QQ,substituted\n"
+                          "a,audio,s1,x,P,B,correct\n");
     try {
         read_phonemes_csv(dir / "bad.csv");
         FAIL() << "no error";

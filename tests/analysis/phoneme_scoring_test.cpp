@@ -60,7 +60,8 @@ TEST(PhoneAlignment, InsertionInsideAWord) {
 TEST(PhoneAlignment, TieTakesTheSubstitutionFirst) {
     // Two items against one, every step costing 1: the backtrace keeps the
     // last pair as a substitution and deletes the first item.
-    const Alignment a = align_weighted(2, 1, [](std::size_t, std::size_t) { return 1.0; }, 1.0, 1.0);
+    const Alignment a = align_weighted(
+        2, 1, [](std::size_t, std::size_t) { return 1.0; }, 1.0, 1.0);
     EXPECT_EQ(a.cost, 2.0);
     ASSERT_EQ(a.pairs.size(), 2u);
     EXPECT_EQ(a.pairs[0].target, 0);
@@ -72,7 +73,8 @@ TEST(PhoneAlignment, TieTakesTheSubstitutionFirst) {
 TEST(SpokenWords, DigitsReadOutAndApostrophesKept) {
     EXPECT_EQ(spoken_words("Don't take 7 of the 21st, 'dear'!"),
               (std::vector<std::string>{"don't", "take", "seven", "of", "the", "twenty", "first", "dear"}));
-    EXPECT_EQ(spoken_words("1,305 boats"), (std::vector<std::string>{"one", "thousand", "three", "hundred", "five", "boats"}));
+    EXPECT_EQ(spoken_words("1,305 boats"),
+              (std::vector<std::string>{"one", "thousand", "three", "hundred", "five", "boats"}));
     EXPECT_EQ(spoken_words("the 12th"), (std::vector<std::string>{"the", "twelfth"}));
 }
 
@@ -93,8 +95,13 @@ TEST(PhonemeScoring, HandBuiltCaseMatchesTheHandAlignment) {
     ASSERT_EQ(result.rows.size(), expected.rows.size());
     for (std::size_t i = 0; i < result.rows.size(); ++i) {
         const PhonemeRow& r = result.rows[i];
-        const std::vector<std::string> got = {r.subject, r.condition, r.sentence, std::to_string(r.position),
-                                              r.target, r.response, outcome_name(r.outcome)};
+        const std::vector<std::string> got = {r.subject,
+                                              r.condition,
+                                              r.sentence,
+                                              std::to_string(r.position),
+                                              r.target,
+                                              r.response,
+                                              outcome_name(r.outcome)};
         EXPECT_EQ(got, expected.rows[i].fields) << "row " << i + 1 << " (file line " << expected.rows[i].line << ")";
     }
     ASSERT_EQ(result.answers.size(), 6u);  // the practice answer is not scored
@@ -126,7 +133,8 @@ TEST(PhonemeScoring, LetterToSoundWordsAreMarked) {
 TEST(PhonemeScoring, WordsToTranscribeOnlyFromTestAnswers) {
     const auto corpus = avsi::read_corpus(kCase / "corpus.csv");
     const auto words = words_to_transcribe(corpus, read_responses(kCase / "responses.csv"));
-    EXPECT_EQ(words, (std::vector<std::string>{"the", "big", "dog", "pig", "pat", "sat", "spat", "bat", "sad", "a", "dot"}));
+    EXPECT_EQ(words,
+              (std::vector<std::string>{"the", "big", "dog", "pig", "pat", "sat", "spat", "bat", "sad", "a", "dot"}));
 }
 
 TEST(PhonemeScoring, BadPronunciationTableNamesLineAndField) {
@@ -150,10 +158,10 @@ TEST(PhonemeScoring, BadPronunciationTableNamesLineAndField) {
 TEST(PhonemeScoringCli, ScoreWithPronunciationTableWritesPhonemesCsv) {
     if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
     const fs::path dir = avsi::test::temp_dir("phoneme_cli");
-    const auto r = avsi::test::run_avsi(
-        fmt::format("score --corpus {0}/corpus.csv --responses {0}/responses.csv --phonemes --tts festival:cmu_us_slt_arctic_hts "
-                    "--pronunciations {0}/pronunciations.tsv --out {1}",
-                    kCase.string(), dir.string()));
+    const auto r = avsi::test::run_avsi(fmt::format(
+        "score --corpus {0}/corpus.csv --responses {0}/responses.csv --phonemes --tts festival:cmu_us_slt_arctic_hts "
+        "--pronunciations {0}/pronunciations.tsv --out {1}",
+        kCase.string(), dir.string()));
     ASSERT_EQ(r.exit_code, 0) << r.output();
     const avsi::CsvTable got = avsi::read_csv(dir / "phonemes.csv");
     const avsi::CsvTable expected = avsi::read_csv(kCase / "expected_phonemes.csv");
@@ -163,8 +171,8 @@ TEST(PhonemeScoringCli, ScoreWithPronunciationTableWritesPhonemesCsv) {
                   expected.rows[i].fields);
     EXPECT_EQ(avsi::read_csv(dir / "phoneme_alignment.csv").rows.size(), 6u);
     EXPECT_EQ(avsi::read_csv(dir / "information.csv").rows.size(), 10u);  // 2 conditions x 5 groupings
-    const auto report = avsi::test::run_avsi(
-        fmt::format("analyze {0}/scores.csv --out {0}/report --phonemes {0}/phonemes.csv --bootstrap 200", dir.string()));
+    const auto report = avsi::test::run_avsi(fmt::format(
+        "analyze {0}/scores.csv --out {0}/report --phonemes {0}/phonemes.csv --bootstrap 200", dir.string()));
     ASSERT_EQ(report.exit_code, 0) << report.output();
     const std::string html = avsi::read_text_file(dir / "report" / "index.html");
     EXPECT_NE(html.find("What each model conveys"), std::string::npos);
@@ -173,9 +181,10 @@ TEST(PhonemeScoringCli, ScoreWithPronunciationTableWritesPhonemesCsv) {
                           "phonemes_glmer.csv"})
         EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
     EXPECT_EQ(avsi::read_csv(dir / "report" / "phonemes_glmer.csv").rows.size(), 40u);  // target phones
-    const auto bad = avsi::test::run_avsi(fmt::format("score --corpus {0}/corpus.csv --responses {0}/responses.csv "
-                                                      "--pronunciations {0}/pronunciations.tsv --out {1}",
-                                                      kCase.string(), dir.string()));
+    const auto bad =
+        avsi::test::run_avsi(fmt::format("score --corpus {0}/corpus.csv --responses {0}/responses.csv "
+                                         "--pronunciations {0}/pronunciations.tsv --out {1}",
+                                         kCase.string(), dir.string()));
     EXPECT_EQ(bad.exit_code, 2) << bad.output();
     fs::remove_all(dir);
 }

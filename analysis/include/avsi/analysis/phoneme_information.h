@@ -51,9 +51,9 @@ namespace avsi::analysis {
 
 // A target × response count table.
 struct ConfusionMatrix {
-    std::string condition, kind;             // kind: consonants, vowels, visemes, or a feature grouping
-    std::vector<std::string> rows, columns;  // target categories; response categories
-    std::vector<std::vector<double>> counts; // rows × columns
+    std::string condition, kind;              // kind: consonants, vowels, visemes, or a feature grouping
+    std::vector<std::string> rows, columns;   // target categories; response categories
+    std::vector<std::vector<double>> counts;  // rows × columns
 };
 
 // The names of the feature groupings, in report order.
@@ -71,9 +71,9 @@ ConfusionMatrix feature_matrix(const std::string& condition, const std::string& 
 // T, H and RTI of a count table, as the header states.
 struct Transmission {
     double n = 0.0;
-    double h_x = 0.0, t_plugin = 0.0;            // bits, plug-in
-    double h_x_corrected = 0.0, t_corrected = 0.0; // Miller-Madow
-    double rti = 0.0;                             // t_corrected / h_x_corrected (0 when h_x is 0)
+    double h_x = 0.0, t_plugin = 0.0;               // bits, plug-in
+    double h_x_corrected = 0.0, t_corrected = 0.0;  // Miller-Madow
+    double rti = 0.0;                               // t_corrected / h_x_corrected (0 when h_x is 0)
 };
 Transmission information_transmitted(const std::vector<std::vector<double>>& counts);
 
@@ -102,7 +102,8 @@ struct InformationResult {
 
 // Every condition (first-appearance order) × grouping, with intervals and
 // paired comparisons of every pair of conditions.
-InformationResult information_by_condition(const std::vector<PhonemeRow>& rows, const InformationSettings& settings = {});
+InformationResult information_by_condition(const std::vector<PhonemeRow>& rows,
+                                           const InformationSettings& settings = {});
 
 // confusions.csv: condition,kind,target,response,count,row_percent (every cell);
 // information.csv and information_comparisons.csv (the rows and comparisons above).

@@ -68,8 +68,9 @@ struct Alignment {
 
 // Weighted edit distance of n target and m answer items with the tie rule
 // above; substitution(i, j) is the cost of answer item j for target item i.
-Alignment align_weighted(std::size_t n, std::size_t m, const std::function<double(std::size_t, std::size_t)>& substitution,
-                         double deletion, double insertion);
+Alignment align_weighted(std::size_t n, std::size_t m,
+                         const std::function<double(std::size_t, std::size_t)>& substitution, double deletion,
+                         double insertion);
 
 // Phone alignment of step 3 (base symbols of the built-in inventory).
 Alignment align_phones(const std::vector<std::string>& target, const std::vector<std::string>& response);
@@ -91,10 +92,10 @@ const char* outcome_name(PhoneOutcome outcome);
 // One row of phonemes.csv: one target phone, or one inserted answer phone.
 struct PhonemeRow {
     std::string subject, session, trial, condition, sentence;
-    std::size_t position = 0;  // 1-based target phone in the sentence; an insertion: the one before it (0: none)
+    std::size_t position = 0;      // 1-based target phone in the sentence; an insertion: the one before it (0: none)
     std::string target, response;  // base symbols; "" for the side that has none
     PhoneOutcome outcome = PhoneOutcome::Correct;
-    std::size_t word = 0;          // 1-based target word (0 for a phone of an inserted word)
+    std::size_t word = 0;  // 1-based target word (0 for a phone of an inserted word)
     std::string target_word, response_word;
     bool target_letter_to_sound = false, response_letter_to_sound = false;
 };
@@ -105,7 +106,7 @@ struct AnswerAlignment {
     std::string target_tier, response_tier;  // aligned phones, '-' for a gap, '|' between words, padded to line up
     std::size_t correct = 0, substituted = 0, deleted = 0, inserted = 0;
     std::vector<std::string> letter_to_sound;  // words transcribed by letter-to-sound
-    double cost = 0.0;                          // phone edit cost of the answer
+    double cost = 0.0;                         // phone edit cost of the answer
 };
 
 struct PhonemeScoringResult {
