@@ -50,8 +50,10 @@ build-cli: configure
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(TEST_JOBS) --timeout 900 -E '^Fuzz\.Smoke$$'
 
+# PROTOCOL=FILE runs another protocol (out/demo-<name>), e.g.
+# make demo PROTOCOL=protocols/beskow2004-sv.toml
 demo: build-cli
-	scripts/demo $(BUILD_DIR)
+	scripts/demo $(if $(PROTOCOL),--protocol $(PROTOCOL)) $(BUILD_DIR)
 
 bench: build
 	scripts/bench $(BUILD_DIR)
