@@ -143,7 +143,7 @@ TEST(Protocol, LanguageComesFromTheVoiceOrTheCorpusKey) {
     EXPECT_EQ(error("tts = \"espeak:sv\"\nlanguage = \"de\"\n"),
               file + ":7:12: error: corpus.language: expected the voice's language \"sv\" (tts = \"espeak:sv\"), got \"de\"");
     EXPECT_EQ(error("language = \"fr\"\n"),
-              file + ":6:12: error: corpus.language: expected \"de\", \"en\", or \"sv\", got \"fr\"");
+              file + ":6:12: error: corpus.language: expected \"de\", \"en\", or \"sv\", got \"fr\" (did you mean \"de\"?)");
     fs::remove_all(dir);
 }
 
