@@ -8,6 +8,8 @@
 #   stoi          avsi stoi of those 9 minutes against their vocoded version
 #   render        avsi render of a sentence to MP4  vs  ffmpeg encoding the same frames (PNG, libx264)
 #   score         avsi score of a 25-subject study (simulated answers to the default protocol's lists)
+#   phonemes      avsi score --phonemes of the same 25 subjects with all 111 answers each (warm-up and
+#                 practice counted as test): keywords, Festival transcription, alignment, information
 # Each median of RUNS runs (default 7, at least 5), the mean user and system
 # CPU, and the peak resident memory of one more run (/usr/bin/time). The tasks run in
 # rounds, each round every task once in turn after a warm-up round
@@ -76,10 +78,10 @@ if wanted "synth, phones of a sentence" "render a sentence (MP4)" "encode its fr
   "$avsi" phones --text "$sentence" --wav sentence.wav --out sentence.tsv 2>/dev/null
   "$avsi" synth --phones sentence.tsv --out sentence.csv 2>/dev/null
 fi
-if wanted "score 25 subjects" && [[ ! -f lists.csv ]]; then
+if wanted "score 25 subjects" "score --phonemes, 25 x 111 answers" && [[ ! -f lists.csv ]]; then
   "$avsi" design "$repo/protocols/beskow2004-en.toml" --subjects 25 --out lists.csv >/dev/null 2>&1
 fi
-if wanted "score 25 subjects" && [[ ! -f responses.csv ]]; then
+if wanted "score 25 subjects" "score --phonemes, 25 x 111 answers" && [[ ! -f responses.csv ]]; then
   # Every test trial of the 25 subjects answered with each word of the
   # sentence kept with probability 0.7 (seeded), as scripts/dry-run-responses does.
   "$python" - "$repo/protocols/corpus/sentences.csv" lists.csv responses.csv <<'EOF'
@@ -94,6 +96,10 @@ with open(sys.argv[3], "w", newline="") as f:
         answer = " ".join(x for x in words if rng.random() < 0.7)
         w.writerow([row["subject"], 1, row["position"], row["phase"], row["condition"], row["list"], row["sentence"], answer])
 EOF
+fi
+if wanted "score --phonemes, 25 x 111 answers" && [[ ! -f responses111.csv ]]; then
+  # The same answers with every trial (15 warm-up, 6 practice, 90 test) scored: 25 x 111.
+  sed -e '1!s/^\([^,]*,[^,]*,[^,]*\),\(warmup\|practice\),/\1,test,/' responses.csv > responses111.csv
 fi
 # The frames of the sentence as PNGs, for ffmpeg to encode.
 fps=60
@@ -120,6 +126,7 @@ tasks=(
   "render a sentence (MP4)|$avsi render --traj sentence.csv --audio sentence.wav --out m.mp4"
   "encode its frames: ffmpeg|ffmpeg -loglevel error -y -framerate $fps -i $pattern -c:v libx264 -crf 18 -pix_fmt yuv420p f.mp4"
   "score 25 subjects|$avsi score --protocol $repo/protocols/beskow2004-en.toml --responses responses.csv --out scores"
+  "score --phonemes, 25 x 111 answers|$avsi score --protocol $repo/protocols/beskow2004-en.toml --responses responses111.csv --out pscores --phonemes"
 )
 if [[ -n "$before" ]]; then
   tasks+=(

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "avsi/analysis/adaptive_report.h"
+#include "avsi/analysis/phoneme_report.h"
 #include "avsi/analysis/report.h"
 #include "avsi/core/error.h"
 #include "avsi/core/protocol.h"
@@ -23,6 +24,8 @@ struct AnalyzeOptions {
     bool include_unconverged = false;
     std::string timing_certificate;
     bool exclude_timing_fail = false;
+    std::string phonemes;
+    std::size_t bootstrap = 2000;
 };
 
 const bool registered_analyze = register_command({
@@ -65,6 +68,13 @@ const bool registered_analyze = register_command({
         sub.add_flag("--exclude-timing-fail", o->exclude_timing_fail,
                      "Leave out the subjects whose presentation timing failed the tolerances (needs "
                      "--timing-certificate; they are named in the report)");
+        sub.add_option("--phonemes", o->phonemes,
+                       "phonemes.csv from `avsi score --phonemes`: adds \"What each model conveys\" (confusion heat "
+                       "maps, information transmitted per feature with bootstrap CIs, glmer_phonemes.R)")
+            ->check(CLI::ExistingFile);
+        sub.add_option("--bootstrap", o->bootstrap, "Subject-bootstrap replicates of the RTI intervals (with --phonemes)")
+            ->capture_default_str()
+            ->check(CLI::Range(std::size_t{0}, std::size_t{100000}));
         return [o, title = sub.get_option("--title"), dv = sub.get_option("--dv")] {
             if (analysis::is_adaptive_trials_file(o->input)) {
                 if (dv->count() > 0)
@@ -112,6 +122,14 @@ const bool registered_analyze = register_command({
                 s.conditions_source = o->protocol;
             }
             const auto result = analysis::analyze_file(s);
+            if (!o->phonemes.empty()) {
+                analysis::PhonemeReportSettings p;
+                p.phonemes_csv = o->phonemes;
+                p.out_dir = s.out_dir;
+                p.bootstrap = o->bootstrap;
+                p.conditions = s.conditions;
+                analysis::append_phoneme_section(p);
+            }
             if (result)
                 fmt::print("{}\n", analysis::apa_anova(result->anova));
             else

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "avsi/analysis/phoneme_scoring.h"
 #include "avsi/analysis/scoring.h"
 #include "avsi/core/error.h"
 #include "avsi/core/protocol.h"
@@ -16,7 +17,8 @@ namespace {
 
 struct ScoreOptions {
     std::string protocol, corpus, responses, out = "scores", overrides, homophones, rules, agreement;
-    bool strict = false;
+    std::string tts, pronunciations;
+    bool strict = false, phonemes = false;
 };
 
 const bool registered_score = register_command({
@@ -57,15 +59,31 @@ const bool registered_score = register_command({
                        "Homophone table (default: the protocol's, else protocols/homophones.csv, General American; "
                        "protocols/homophones-rp.csv for RP)")
             ->check(CLI::ExistingFile);
+        sub.add_flag("--phonemes", o->phonemes,
+                     "Also score every phone: target sentence and answer transcribed with the protocol's front end "
+                     "(letter-to-sound words marked), words then phones aligned by feature-weighted edit distance; "
+                     "writes phonemes.csv and phoneme_alignment.csv (docs/phoneme-analysis.md)");
+        sub.add_option("--tts", o->tts,
+                       "Front end for --phonemes, festival:<voice> (default: the protocol's [corpus] tts)");
+        sub.add_option("--pronunciations", o->pronunciations,
+                       "Pronunciation table for --phonemes (word<TAB>phones, e.g. \"garden\tG AA1 R D AH0 N\"); "
+                       "its words take precedence over the front end")
+            ->check(CLI::ExistingFile);
         return [o] {
             analysis::ScoreFilesSettings s;
+            analysis::PhonemeFilesSettings p;
             std::string rules = "strict";
             if (!o->protocol.empty()) {
                 const Protocol protocol = load_protocol(o->protocol);
                 s.corpus = protocol.corpus.sentences;
                 s.scoring = analysis::scoring_settings(protocol);
                 rules = protocol.scoring.rules;
+                p.tts.engine = protocol.corpus.tts_engine;
+                p.tts.voice = protocol.corpus.tts_voice;
             }
+            if (!o->phonemes && (!o->tts.empty() || !o->pronunciations.empty()))
+                throw UsageError("--tts and --pronunciations apply to --phonemes; add --phonemes");
+            if (!o->tts.empty()) set_tts_voice(p.tts, o->tts, "--tts");
             if (!o->corpus.empty()) s.corpus = o->corpus;
             if (s.corpus.empty()) throw UsageError("--corpus (or --protocol, whose [corpus] sentences it uses) is required");
             if (o->strict && !o->rules.empty() && o->rules != "strict")
@@ -85,6 +103,13 @@ const bool registered_score = register_command({
             s.agreement = o->agreement;
             if (!o->homophones.empty()) s.scoring.homophones = o->homophones;
             analysis::score_files(s);
+            if (o->phonemes) {
+                p.corpus = s.corpus;
+                p.responses = s.responses;
+                p.out_dir = s.out_dir;
+                p.pronunciations = o->pronunciations;
+                analysis::score_phoneme_files(p);
+            }
             return 0;
         };
     }});

@@ -55,6 +55,8 @@ char32_t next_code_point(std::string_view s, std::size_t& i) {
     return c;
 }
 
+}  // namespace
+
 // Steps 1-2: an ASCII string of lower-case letters, digits, apostrophes and
 // spaces (everything else becomes a space).
 std::string fold_to_ascii(std::string_view text) {
@@ -80,6 +82,8 @@ std::string fold_to_ascii(std::string_view text) {
     }
     return out;
 }
+
+namespace {
 
 const std::map<std::string, std::vector<std::string>>& irregular_contractions() {
     static const std::map<std::string, std::vector<std::string>> table = {

@@ -16,7 +16,10 @@ constexpr std::size_t k_max_text_bytes = 64 * 1024;
 
 // A request: i64 kind, str voice, str text; sent with the write end of a pipe
 // (SCM_RIGHTS), into which one worker writes the whole answer.
-enum RequestKind : std::int64_t { Synthesize = 1, ListVoices = 2, VoiceInfo = 3 };
+// Transcribe: text is words, one a line; the answer (after Ok) is str phone
+// set, i64 n, then per word i64 in_lexicon and i64 m phones, each str name
+// and i64 stressed (the stress of its syllable).
+enum RequestKind : std::int64_t { Synthesize = 1, ListVoices = 2, VoiceInfo = 3, Transcribe = 4 };
 
 // An answer starts with a status:
 //   Ok            then the request's result

@@ -158,6 +158,44 @@ void answer_voice_info(const Request& r, WireWriter& w) {
     w.str(lisp_string("avsi_voice_dir"));
 }
 
+// The dictionary entry of each word (lines of r.text) under the voice's
+// lexicon: whether the lexicon or its addenda hold it (lex.lookup_all, which
+// ignores letter-to-sound) and its phones with syllable stress (lex.lookup,
+// which falls back on the voice's letter-to-sound rules). No post-lexical rules.
+void answer_transcribe(const Request& r, WireWriter& w) {
+    check_voice(r.voice);
+    eval(fmt::format("(voice_{})", r.voice));
+    eval("(set! avsi_phone_set (Parameter.get 'PhoneSet))");
+    std::vector<std::string> words;
+    std::size_t from = 0;
+    while (from <= r.text.size()) {
+        const std::size_t end = std::min(r.text.find('\n', from), r.text.size());
+        if (end > from) words.push_back(r.text.substr(from, end - from));
+        from = end + 1;
+    }
+    w.i64(proto::Ok);
+    w.str(lisp_string("avsi_phone_set"));
+    w.i64(static_cast<std::int64_t>(words.size()));
+    for (const auto& word : words) {
+        siod_set_lval("avsi_word", strcons(static_cast<long>(word.size()), word.c_str()));
+        eval("(set! avsi_known (lex.lookup_all avsi_word))");
+        eval("(set! avsi_entry (lex.lookup avsi_word nil))");
+        w.i64(siod_get_lval("avsi_known", nullptr) == NIL ? 0 : 1);
+        std::vector<std::pair<std::string, bool>> phones;
+        const LISP entry = siod_get_lval("avsi_entry", nullptr);
+        const LISP syllables = siod_llength(entry) >= 3 ? car(cdr(cdr(entry))) : NIL;
+        for (LISP syl = syllables; syl != NIL; syl = cdr(syl)) {
+            const bool stressed = siod_llength(car(syl)) >= 2 && get_c_int(car(cdr(car(syl)))) > 0;
+            for (LISP p = car(car(syl)); p != NIL; p = cdr(p)) phones.emplace_back(get_c_string(car(p)), stressed);
+        }
+        w.i64(static_cast<std::int64_t>(phones.size()));
+        for (const auto& [name, stressed] : phones) {
+            w.str(name);
+            w.i64(stressed ? 1 : 0);
+        }
+    }
+}
+
 // The worker: answers one request into `out_fd` and exits.
 [[noreturn]] void run_worker(const Request& r, int out_fd) {
     ::signal(SIGCHLD, SIG_DFL);
@@ -177,6 +215,8 @@ void answer_voice_info(const Request& r, WireWriter& w) {
             for (const auto& v : voices) w.str(v);
         } else if (r.kind == proto::VoiceInfo) {
             answer_voice_info(r, w);
+        } else if (r.kind == proto::Transcribe) {
+            answer_transcribe(r, w);
         } else {
             throw std::runtime_error("unknown request");
         }

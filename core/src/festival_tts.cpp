@@ -257,6 +257,36 @@ std::vector<std::string> festival_voices() {
     return voices;
 }
 
+std::pair<std::string, std::vector<FestivalWord>> festival_transcribe(const std::vector<std::string>& words,
+                                                                      const std::string& voice) {
+    std::string text;
+    for (const auto& word : words) {
+        if (word.find('\n') != std::string::npos || word.empty())
+            throw std::invalid_argument("festival_transcribe: a word is empty or holds a newline");
+        text += word + '\n';
+    }
+    if (text.size() > proto::k_max_text_bytes)
+        throw InputError("tts", 0, 0, "text",
+                         fmt::format("expected at most {} bytes of words for Festival, got {}", proto::k_max_text_bytes,
+                                     text.size()));
+    const std::string answer = call_ok({proto::Transcribe, voice, text});
+    WireReader reader(answer, "festival answer");
+    std::pair<std::string, std::vector<FestivalWord>> out;
+    out.first = reader.str();
+    out.second.resize(reader.count(2 * sizeof(std::int64_t)));
+    for (auto& word : out.second) {
+        word.in_lexicon = reader.i64() != 0;
+        word.phones.resize(reader.count(2 * sizeof(std::int64_t)));
+        for (auto& p : word.phones) {
+            p.name = reader.str();
+            p.stressed = reader.i64() != 0;
+        }
+    }
+    if (out.second.size() != words.size())
+        throw std::runtime_error(fmt::format("festival: {} transcriptions for {} words", out.second.size(), words.size()));
+    return out;
+}
+
 FestivalVoiceInfo festival_voice_info(const std::string& voice) {
     const std::string answer = call_ok({proto::VoiceInfo, voice, ""});
     WireReader reader(answer, "festival answer");

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace avsi::detail {
@@ -40,6 +41,17 @@ FestivalUtterance festival_synthesize(const std::string& text, const std::string
 
 // The installed Festival voices (voice.list), sorted.
 std::vector<std::string> festival_voices();
+
+// One word as the voice's lexicon transcribes it.
+struct FestivalWord {
+    bool in_lexicon = false;            // in the lexicon or its addenda (else letter-to-sound)
+    std::vector<FestivalSegment> phones;  // end_s is 0: a dictionary entry has no timing
+};
+
+// The voice's phone set and one transcription per word, in order. Words must
+// not contain a newline. Throws as festival_synthesize.
+std::pair<std::string, std::vector<FestivalWord>> festival_transcribe(const std::vector<std::string>& words,
+                                                                      const std::string& voice);
 
 // Festival's version and where `voice` is installed; throws as festival_synthesize.
 FestivalVoiceInfo festival_voice_info(const std::string& voice);

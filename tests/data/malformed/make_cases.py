@@ -748,4 +748,37 @@ motive_cases = {
 for name, content in motive_cases.items():
     write("motive", name, content)
 
+# ------------------------------------------------------------------ pronunciation table and phonemes.csv
+ph = DATA / "analysis" / "phonemes"
+pron = (ph / "pronunciations.tsv").read_text()
+pl = pron.splitlines(keepends=True)
+command("pronunciations", "args score --corpus {data}/analysis/phonemes/corpus.csv --responses "
+        "{data}/analysis/phonemes/responses.csv --phonemes --pronunciations {input} --out {out}/scores")
+pronunciation_cases = {
+    "unknown_phone": "".join(pl[:3]) + pl[3].replace("G", "QQ", 1) + "".join(pl[4:]),
+    "repeated_word": "".join(pl) + pl[2],
+    "no_tab": "".join(pl) + "garden G AA1 R D AH0 N\n",
+    "two_words": "".join(pl) + "big dog\tB IH1 G D AO1 G\n",
+    "no_phones": "".join(pl) + "garden\t \n",
+}
+for name, text in pronunciation_cases.items():
+    write("pronunciations", name + ".tsv", text)
+
+phonemes = ("subject,condition,sentence,position,target,response,outcome\n"
+            "a,audio,s1,1,DH,DH,correct\na,audio,s1,2,AH,AH,correct\na,audio,s1,3,B,P,substituted\n"
+            "b,face,s1,1,DH,,deleted\nb,face,s1,1,,AH,inserted\n")
+ql = phonemes.splitlines(keepends=True)
+command("phonemes", "args analyze {data}/analysis/balanced.csv --out {out}/report --phonemes {input}")
+phoneme_cases = {
+    "empty": "",
+    "missing_column": "".join(",".join(l.split(",")[:-1]) + "\n" for l in ql),
+    "unknown_phone": "".join(ql[:3]) + ql[3].replace(",P,", ",QQ,", 1) + "".join(ql[4:]),
+    "bad_outcome": "".join(ql[:2]) + ql[2].replace("correct", "right", 1) + "".join(ql[3:]),
+    "outcome_does_not_fit": "".join(ql[:3]) + ql[3].replace("substituted", "correct", 1) + "".join(ql[4:]),
+    "bad_position": "".join(ql[:1]) + ql[1].replace(",1,", ",-1,", 1) + "".join(ql[2:]),
+    "short_row": "".join(ql) + "a,audio\n",
+}
+for name, text in phoneme_cases.items():
+    write("phonemes", name + ".csv", text)
+
 print("written")

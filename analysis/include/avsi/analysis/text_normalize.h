@@ -31,6 +31,10 @@ struct NormalizedWord {
 // normalize_words with, for each word, whether step 5 made it from number words.
 std::vector<NormalizedWord> normalize_tokens(std::string_view text);
 
+// Steps 1-2 alone: lower-case ASCII letters, digits, apostrophes and
+// spaces (anything else, and a separator of thousands kept out, becomes a space).
+std::string fold_to_ascii(std::string_view text);
+
 // The normalised words joined by single spaces.
 std::string normalize_text(std::string_view text);
 

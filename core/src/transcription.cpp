@@ -1,0 +1,68 @@
+// Dictionary transcription of words through the Festival voice's lexicon and
+// letter-to-sound rules (transcription.h); the lookups run in the Festival
+// server (festival_server.cpp, request Transcribe).
+#include "avsi/core/transcription.h"
+
+#include <fmt/format.h>
+
+#include "avsi/core/error.h"
+#include "festival_tts.h"
+
+namespace avsi {
+namespace {
+
+// Words per request, well under the request's text limit (64 KiB).
+constexpr std::size_t k_batch_bytes = 32 * 1024;
+
+// The project phones of one Festival word; throws naming the word and phone.
+WordTranscription map_festival_word(const std::string& word, const detail::FestivalWord& festival,
+                                    const std::string& voice) {
+    const PhoneInventory& inventory = PhoneInventory::builtin();
+    WordTranscription out{word, {}, festival.in_lexicon};
+    const std::string where = fmt::format("word \"{}\" (Festival voice {})", word, voice);
+    for (const auto& phone : festival.phones)
+        for (auto& p : inventory.from_festival(phone.name, phone.stressed, where))
+            if (p.symbol != "sil") out.phones.push_back(std::move(p));
+    return out;
+}
+
+void check_radio_phone_set(const std::string& phone_set, const std::string& voice) {
+    if (phone_set != "radio")
+        throw InputError("tts", 0, 0, "voice",
+                         fmt::format("Festival voice \"{}\" uses the phone set \"{}\"; the phone mapping "
+                                     "(protocols/phone_map.tsv) covers Festival's US English phone set \"radio\"",
+                                     voice, phone_set));
+}
+
+}  // namespace
+
+std::vector<WordTranscription> transcribe_words(const std::vector<std::string>& words, const TtsSettings& settings) {
+    if (settings.engine != TtsEngine::Festival)
+        throw InputError("tts", 0, 0, "tts",
+                         fmt::format("phoneme transcription needs a Festival voice (festival:<voice>), got \"{}\": "
+                                     "espeak-ng does not say which words its dictionary lacks, so letter-to-sound "
+                                     "words could not be marked",
+                                     tts_voice_spec(settings)));
+    std::vector<WordTranscription> out;
+    out.reserve(words.size());
+    std::size_t begin = 0;
+    while (begin < words.size()) {
+        std::size_t end = begin, bytes = 0;
+        for (; end < words.size() && (end == begin || bytes + words[end].size() + 1 <= k_batch_bytes); ++end) {
+            if (words[end].empty() || words[end].find_first_of(" \t\r\n") != std::string::npos)
+                throw InputError("tts", 0, 0, "word",
+                                 fmt::format("expected one word without spaces, got \"{}\"", words[end]));
+            bytes += words[end].size() + 1;
+        }
+        const std::vector<std::string> batch(words.begin() + static_cast<long>(begin),
+                                             words.begin() + static_cast<long>(end));
+        const auto [phone_set, festival] = detail::festival_transcribe(batch, settings.voice);
+        check_radio_phone_set(phone_set, settings.voice);
+        for (std::size_t i = 0; i < batch.size(); ++i)
+            out.push_back(map_festival_word(batch[i], festival[i], settings.voice));
+        begin = end;
+    }
+    return out;
+}
+
+}  // namespace avsi

@@ -1,0 +1,192 @@
+// Phoneme scoring (phoneme_scoring.h): the substitution costs and the
+// alignment of the hand-built case in tests/data/analysis/phonemes, whose
+// outcomes were worked out by hand (expected_phonemes.csv); the numpy
+// reference tests/analysis/phoneme_reference.py checks the same file.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "avsi/analysis/phoneme_scoring.h"
+#include "avsi/analysis/scoring.h"
+#include "avsi/core/corpus.h"
+#include "avsi/core/csv.h"
+#include "avsi/core/error.h"
+#include "avsi/core/files.h"
+#include "support/run_avsi.h"
+#include "support/temp_dir.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace avsi::analysis;
+
+const fs::path kCase = fs::path(AVSI_TEST_DATA_DIR) / "analysis" / "phonemes";
+
+double cost(const char* a, const char* b) {
+    const auto& inventory = avsi::PhoneInventory::builtin();
+    return phone_substitution_cost(inventory.info(a), inventory.info(b));
+}
+
+TEST(PhoneCost, FeatureDistanceByHand) {
+    EXPECT_EQ(cost("P", "P"), 0.0);
+    EXPECT_EQ(cost("P", "B"), 0.75);   // voiced
+    EXPECT_EQ(cost("T", "D"), 0.75);   // voiced
+    EXPECT_EQ(cost("S", "P"), 1.5);    // alveolar, bilabial, fricative, stop
+    EXPECT_EQ(cost("AO", "AA"), 1.0);  // open 0.5, rounded 1, protruded 0.5
+    EXPECT_EQ(cost("G", "T"), 1.25);   // velar, alveolar, voiced
+    EXPECT_EQ(cost("DH", "AH"), 1.5);  // vowel, dental, fricative, open 0.5, front 0.5
+    EXPECT_EQ(cost("P", "AA"), 1.75);  // vowel, bilabial, stop, voiced, open
+    EXPECT_EQ(cost("P", "UW"), 2.0);   // vowel, bilabial, stop, voiced, rounded, protruded
+    EXPECT_EQ(cost("CH", "AE"), 2.0);  // 9.5 apart: capped at deletion + insertion
+    EXPECT_EQ(cost("B", "P"), cost("P", "B"));
+}
+
+TEST(PhoneAlignment, InsertionInsideAWord) {
+    // P AE T against S P AE T: insert S (1) beats substituting S for P (1.5) and inserting P.
+    const Alignment a = align_phones({"P", "AE", "T"}, {"S", "P", "AE", "T"});
+    EXPECT_EQ(a.cost, 1.0);
+    ASSERT_EQ(a.pairs.size(), 4u);
+    EXPECT_EQ(a.pairs[0].target, -1);
+    EXPECT_EQ(a.pairs[0].response, 0);
+    for (long i = 0; i < 3; ++i) {
+        EXPECT_EQ(a.pairs[static_cast<std::size_t>(i) + 1].target, i);
+        EXPECT_EQ(a.pairs[static_cast<std::size_t>(i) + 1].response, i + 1);
+    }
+}
+
+TEST(PhoneAlignment, TieTakesTheSubstitutionFirst) {
+    // Two items against one, every step costing 1: the backtrace keeps the
+    // last pair as a substitution and deletes the first item.
+    const Alignment a = align_weighted(
+        2, 1, [](std::size_t, std::size_t) { return 1.0; }, 1.0, 1.0);
+    EXPECT_EQ(a.cost, 2.0);
+    ASSERT_EQ(a.pairs.size(), 2u);
+    EXPECT_EQ(a.pairs[0].target, 0);
+    EXPECT_EQ(a.pairs[0].response, -1);
+    EXPECT_EQ(a.pairs[1].target, 1);
+    EXPECT_EQ(a.pairs[1].response, 0);
+}
+
+TEST(SpokenWords, DigitsReadOutAndApostrophesKept) {
+    EXPECT_EQ(spoken_words("Don't take 7 of the 21st, 'dear'!"),
+              (std::vector<std::string>{"don't", "take", "seven", "of", "the", "twenty", "first", "dear"}));
+    EXPECT_EQ(spoken_words("1,305 boats"),
+              (std::vector<std::string>{"one", "thousand", "three", "hundred", "five", "boats"}));
+    EXPECT_EQ(spoken_words("the 12th"), (std::vector<std::string>{"the", "twelfth"}));
+}
+
+PhonemeScoringResult score_case() {
+    const auto corpus = avsi::read_corpus(kCase / "corpus.csv");
+    const auto responses = read_responses(kCase / "responses.csv");
+    return score_phonemes(corpus, responses, read_pronunciations(kCase / "pronunciations.tsv"));
+}
+
+TEST(PhonemeScoring, HandBuiltCaseMatchesTheHandAlignment) {
+    // Word costs that decide the case: "bat sad the" for "pat sat" pairs
+    // pat-bat (0.75/6) and sat-sad (0.75/6) and inserts "the" (0.5); "pat"
+    // for "pat sat" deletes "sat" (0.5) rather than pairing it (0.25 + 0.5);
+    // "a big dot" pairs the-a (1/3, DH deleted) and dog-dot (2.25/6: AO->AA
+    // 1.0, G->T 1.25).
+    const PhonemeScoringResult result = score_case();
+    const avsi::CsvTable expected = avsi::read_csv(kCase / "expected_phonemes.csv");
+    ASSERT_EQ(result.rows.size(), expected.rows.size());
+    for (std::size_t i = 0; i < result.rows.size(); ++i) {
+        const PhonemeRow& r = result.rows[i];
+        const std::vector<std::string> got = {r.subject,
+                                              r.condition,
+                                              r.sentence,
+                                              std::to_string(r.position),
+                                              r.target,
+                                              r.response,
+                                              outcome_name(r.outcome)};
+        EXPECT_EQ(got, expected.rows[i].fields) << "row " << i + 1 << " (file line " << expected.rows[i].line << ")";
+    }
+    ASSERT_EQ(result.answers.size(), 6u);  // the practice answer is not scored
+    const AnswerAlignment& bat = result.answers[3];
+    EXPECT_EQ(bat.target_tier, "P AE T | S AE T | -  -");
+    EXPECT_EQ(bat.response_tier, "B AE T | S AE D | DH AH");
+    EXPECT_EQ(bat.substituted, 2u);
+    EXPECT_EQ(bat.inserted, 2u);
+    EXPECT_EQ(bat.cost, 3.5);  // 0.75 + 0.75 + 1 + 1
+    const AnswerAlignment& dot = result.answers[4];
+    EXPECT_EQ(dot.correct, 5u);
+    EXPECT_EQ(dot.substituted, 2u);
+    EXPECT_EQ(dot.deleted, 1u);
+    EXPECT_EQ(dot.cost, 3.25);  // 1 + 1.0 + 1.25
+}
+
+TEST(PhonemeScoring, LetterToSoundWordsAreMarked) {
+    const auto corpus = avsi::read_corpus(kCase / "corpus.csv");
+    auto responses = read_responses(kCase / "responses.csv");
+    Pronunciations p = read_pronunciations(kCase / "pronunciations.tsv");
+    p.at("spat").in_lexicon = false;
+    const PhonemeScoringResult result = score_phonemes(corpus, responses, p);
+    std::size_t marked = 0;
+    for (const auto& r : result.rows) marked += r.response_letter_to_sound ? 1 : 0;
+    EXPECT_EQ(marked, 4u);  // S P AE T of "spat"
+    EXPECT_EQ(result.answers[2].letter_to_sound, std::vector<std::string>{"spat"});
+}
+
+TEST(PhonemeScoring, WordsToTranscribeOnlyFromTestAnswers) {
+    const auto corpus = avsi::read_corpus(kCase / "corpus.csv");
+    const auto words = words_to_transcribe(corpus, read_responses(kCase / "responses.csv"));
+    EXPECT_EQ(words,
+              (std::vector<std::string>{"the", "big", "dog", "pig", "pat", "sat", "spat", "bat", "sad", "a", "dot"}));
+}
+
+TEST(PhonemeScoring, BadPronunciationTableNamesLineAndField) {
+    const fs::path dir = avsi::test::temp_dir("phoneme_pronunciations");
+    avsi::write_text_file(dir / "p.tsv", "big\tB IH1 G\nbig\tB IH1 K\ndog\tD QQ G\nTwo Words\tT UW1\n");
+    try {
+        read_pronunciations(dir / "p.tsv");
+        FAIL() << "no error";
+    } catch (const avsi::InputError& e) {
+        ASSERT_EQ(e.diagnostics().size(), 3u);
+        EXPECT_EQ(e.diagnostics()[0].line, 2);
+        EXPECT_EQ(e.diagnostics()[0].field, "word");
+        EXPECT_EQ(e.diagnostics()[1].line, 3);
+        EXPECT_EQ(e.diagnostics()[1].field, "phones");
+        EXPECT_NE(e.diagnostics()[1].message.find("QQ"), std::string::npos);
+        EXPECT_EQ(e.diagnostics()[2].line, 4);
+    }
+    fs::remove_all(dir);
+}
+
+TEST(PhonemeScoringCli, ScoreWithPronunciationTableWritesPhonemesCsv) {
+    if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
+    const fs::path dir = avsi::test::temp_dir("phoneme_cli");
+    const auto r = avsi::test::run_avsi(fmt::format(
+        "score --corpus {0}/corpus.csv --responses {0}/responses.csv --phonemes --tts festival:cmu_us_slt_arctic_hts "
+        "--pronunciations {0}/pronunciations.tsv --out {1}",
+        kCase.string(), dir.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    const avsi::CsvTable got = avsi::read_csv(dir / "phonemes.csv");
+    const avsi::CsvTable expected = avsi::read_csv(kCase / "expected_phonemes.csv");
+    ASSERT_EQ(got.rows.size(), expected.rows.size());
+    for (std::size_t i = 0; i < got.rows.size(); ++i)
+        EXPECT_EQ(std::vector<std::string>(got.rows[i].fields.begin(), got.rows[i].fields.begin() + 7),
+                  expected.rows[i].fields);
+    EXPECT_EQ(avsi::read_csv(dir / "phoneme_alignment.csv").rows.size(), 6u);
+    EXPECT_EQ(avsi::read_csv(dir / "information.csv").rows.size(), 10u);  // 2 conditions x 5 groupings
+    const auto report = avsi::test::run_avsi(fmt::format(
+        "analyze {0}/scores.csv --out {0}/report --phonemes {0}/phonemes.csv --bootstrap 200", dir.string()));
+    ASSERT_EQ(report.exit_code, 0) << report.output();
+    const std::string html = avsi::read_text_file(dir / "report" / "index.html");
+    EXPECT_NE(html.find("What each model conveys"), std::string::npos);
+    EXPECT_NE(avsi::read_text_file(dir / "report" / "report.md").find("| audio | voicing | 13 |"), std::string::npos);
+    for (const char* f : {"rti.png", "confusion_audio_consonants.png", "confusion_face_visemes.png", "glmer_phonemes.R",
+                          "phonemes_glmer.csv"})
+        EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
+    EXPECT_EQ(avsi::read_csv(dir / "report" / "phonemes_glmer.csv").rows.size(), 40u);  // target phones
+    const auto bad =
+        avsi::test::run_avsi(fmt::format("score --corpus {0}/corpus.csv --responses {0}/responses.csv "
+                                         "--pronunciations {0}/pronunciations.tsv --out {1}",
+                                         kCase.string(), dir.string()));
+    EXPECT_EQ(bad.exit_code, 2) << bad.output();
+    fs::remove_all(dir);
+}
+
+}  // namespace
