@@ -201,8 +201,9 @@ TEST(MarkerText, MotiveCsvReadsTheSamePositions) {
 TEST(MarkersCommand, WritesTimeAndMillimetresWithEmptyDropouts) {
     C3dWriteSpec s = known_spec();
     s.cpu = C3dCpu::Mips;
-    const fs::path in = write_spec("cli.c3d", s);
-    const fs::path out = test::temp_dir("markers") / "cli.csv";
+    const fs::path dir = test::temp_dir("markers_cli");
+    const fs::path in = dir / "cli.c3d", out = dir / "cli.csv";
+    test::write_c3d_file(in, s);
     const auto r = test::run_avsi({"markers", in.string(), "--out", out.string()});
     ASSERT_EQ(r.exit_code, 0) << r.output();
     const std::string csv = read_text_file(out);
@@ -213,7 +214,7 @@ TEST(MarkersCommand, WritesTimeAndMillimetresWithEmptyDropouts) {
     for (int i = 0; i < 3; ++i) at = csv.find('\n', at) + 1;
     EXPECT_EQ(csv.substr(at, csv.find('\n', at) - at),
               "0.033333,-120.250,-110.000,-99.750,-83.000,-72.750,-62.500,,,,-8.500,1.750,12.000");
-    const auto bad = test::run_avsi({"markers", (test::temp_dir("markers") / "x.trc").string(), "--out", out.string()});
+    const auto bad = test::run_avsi({"markers", (dir / "x.trc").string(), "--out", out.string()});
     EXPECT_EQ(bad.exit_code, 1);
     EXPECT_NE(bad.err.find("unsupported marker file extension '.trc'"), std::string::npos) << bad.err;
 }
