@@ -287,7 +287,7 @@ C3dLayout read_layout(const C3dBytes& b, const ParameterView& v, const Parameter
     if (!std::isfinite(L.rate_hz) || L.rate_hz <= 0.0 || L.rate_hz > max_c3d_rate_hz)
         v.fail("POINT:RATE", v.find("POINT:RATE"), fmt::format("expected a frame rate in (0, {}] Hz, got {}", max_c3d_rate_hz, L.rate_hz));
     const double start = v.number("POINT:DATA_START", true).value_or(b.u16(16));
-    if (!(start * block_bytes >= double(s.end)) || start > 65535)
+    if (!((start - 1) * block_bytes >= double(s.end)) || start > 65535)
         v.fail("POINT:DATA_START", v.find("POINT:DATA_START"),
                fmt::format("the data starts at block {}, inside the header or the parameter section (blocks 1–{})", start,
                            block_of(s.end - 1)));

@@ -78,7 +78,7 @@ std::string report_section(const Recording& r, const MarkerFitResult& fit) {
                                 fit.reference_frame, fit.orientation.scale, fit.orientation_rms_mm,
                                 fit.frames_unplaced, fit.frames_too_few_markers);
     for (const auto& n : fit.notes) s += "- " + n + "\n";
-    s += fmt::format("\n![residual](fit/{}.residual.svg)\n\n| marker | dropouts (frames) | RMS (mm) | largest (mm) |\n"
+    s += fmt::format("\n![residual]({}.residual.svg)\n\n| marker | dropouts (frames) | RMS (mm) | largest (mm) |\n"
                      "| --- | --- | --- | --- |\n", r.id);
     for (std::size_t m = 0; m < fit.markers.size(); ++m) {
         double sq = 0, mx = 0;
