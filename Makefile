@@ -2,6 +2,10 @@
 # missing Debian packages, configures and builds incrementally, then runs.
 BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
+# ctest runs one more test than there are cores: several tests spend most of
+# their time waiting (a browser's timers, the online sender's 2-minute outage,
+# a Slurm job's queue), so a core would otherwise idle beside them.
+TEST_JOBS ?= $(shell echo $$(( $(JOBS) + 1 )))
 CMAKE_FLAGS ?=
 # Unity builds (AVSI_UNITY_BUILD in CMakeLists.txt) for a faster first build;
 # `make UNITY=OFF …` compiles file by file.
@@ -44,10 +48,12 @@ build-cli: configure
 # fuzz tree, about 10 minutes the first time), which belongs to `make fuzz`;
 # `cd build && ctest -R Fuzz.Smoke` still runs it where clang is installed.
 test: build
-	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 900 -E '^Fuzz\.Smoke$$'
+	cd $(BUILD_DIR) && ctest --output-on-failure -j $(TEST_JOBS) --timeout 900 -E '^Fuzz\.Smoke$$'
 
+# PROTOCOL=FILE runs another protocol (out/demo-<name>), e.g.
+# make demo PROTOCOL=protocols/beskow2004-sv.toml
 demo: build-cli
-	scripts/demo $(BUILD_DIR)
+	scripts/demo $(if $(PROTOCOL),--protocol $(PROTOCOL)) $(BUILD_DIR)
 
 bench: build
 	scripts/bench $(BUILD_DIR)

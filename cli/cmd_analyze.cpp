@@ -24,7 +24,7 @@ struct AnalyzeOptions {
     bool include_unconverged = false;
     std::string timing_certificate;
     bool exclude_timing_fail = false;
-    std::string phonemes;
+    std::string phonemes, viseme_information;
     std::size_t bootstrap = 2000;
 };
 
@@ -71,6 +71,10 @@ const bool registered_analyze = register_command({
         sub.add_option("--phonemes", o->phonemes,
                        "phonemes.csv from `avsi score --phonemes`: adds \"What each model conveys\" (confusion heat "
                        "maps, information transmitted per feature with bootstrap CIs, glmer_phonemes.R)")
+            ->check(CLI::ExistingFile);
+        sub.add_option("--viseme-information", o->viseme_information,
+                       "viseme_information.csv of scripts/viseme-information: each model's objective viseme "
+                       "information beside the listeners' (with --phonemes)")
             ->check(CLI::ExistingFile);
         sub.add_option("--bootstrap", o->bootstrap, "Subject-bootstrap replicates of the RTI intervals (with --phonemes)")
             ->capture_default_str()
@@ -121,6 +125,8 @@ const bool registered_analyze = register_command({
                 for (const auto& c : load_protocol(o->protocol).conditions) s.conditions.push_back(c.name);
                 s.conditions_source = o->protocol;
             }
+            if (!o->viseme_information.empty() && o->phonemes.empty())
+                throw UsageError("--viseme-information is shown beside the listeners' RTI: add --phonemes");
             const auto result = analysis::analyze_file(s);
             if (!o->phonemes.empty()) {
                 analysis::PhonemeReportSettings p;
@@ -128,6 +134,7 @@ const bool registered_analyze = register_command({
                 p.out_dir = s.out_dir;
                 p.bootstrap = o->bootstrap;
                 p.conditions = s.conditions;
+                p.objective_csv = o->viseme_information;
                 analysis::append_phoneme_section(p);
             }
             if (result)

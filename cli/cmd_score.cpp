@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "avsi/analysis/language.h"
 #include "avsi/analysis/phoneme_scoring.h"
 #include "avsi/analysis/scoring.h"
 #include "avsi/core/error.h"
@@ -16,7 +17,7 @@ namespace avsi::cli {
 namespace {
 
 struct ScoreOptions {
-    std::string protocol, corpus, responses, out = "scores", overrides, homophones, rules, agreement;
+    std::string protocol, corpus, responses, out = "scores", overrides, homophones, rules, agreement, language;
     std::string tts, pronunciations;
     bool strict = false, phonemes = false;
 };
@@ -47,6 +48,11 @@ const bool registered_score = register_command({
                        "default: the protocol's [scoring] rules, else strict (docs/scoring.md)")
             ->check(one_of(analysis::rule_set_names()));
         sub.add_flag("--strict", o->strict, "Same as --rules strict");
+        sub.add_option("--language", o->language,
+                       "Language of the keywords and answers: en, sv (Swedish), de (German): its number words, "
+                       "homophones, spellings, inflections (hunspell) and lexicon; default: the language of the "
+                       "protocol's voice (espeak:sv -> sv; Festival voices are English), else en")
+            ->check(one_of(analysis::scoring_language_codes()));
         sub.add_option("--overrides", o->overrides,
                        "Manual overrides CSV: subject,trial or sentence,keyword_index,correct,reason "
                        "(audit.csv with `correct` edited and a reason is one)")
@@ -102,6 +108,7 @@ const bool registered_score = register_command({
             s.overrides = o->overrides;
             s.agreement = o->agreement;
             if (!o->homophones.empty()) s.scoring.homophones = o->homophones;
+            if (!o->language.empty()) s.scoring.language = o->language;
             analysis::score_files(s);
             if (o->phonemes) {
                 p.corpus = s.corpus;

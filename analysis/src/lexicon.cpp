@@ -23,6 +23,8 @@ std::string package_of(const std::filesystem::path& file) {
     const std::string name = file.filename().string();
     if (name == "american-english") return "wamerican";
     if (name == "british-english") return "wbritish";
+    if (name == "swedish") return "wswedish";
+    if (name == "ngerman") return "wngerman";
     return "";
 }
 
@@ -32,7 +34,8 @@ std::vector<std::filesystem::path> Lexicon::default_files() {
     return {"/usr/share/dict/american-english", "/usr/share/dict/british-english"};
 }
 
-Lexicon Lexicon::read(const std::vector<std::filesystem::path>& files) {
+Lexicon Lexicon::read(const std::vector<std::filesystem::path>& files, std::string_view language) {
+    const bool keep_capitalised = language == "de";  // German nouns
     const auto start = std::chrono::steady_clock::now();
     Lexicon lexicon;
     lexicon.m_files = files;
@@ -58,7 +61,8 @@ Lexicon Lexicon::read(const std::vector<std::filesystem::path>& files) {
             std::string_view line(text.data() + i, end - i);
             i = end + 1;
             if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-            if (line.empty() || std::isupper(static_cast<unsigned char>(line.front()))) continue;  // names
+            if (line.empty()) continue;
+            if (!keep_capitalised && std::isupper(static_cast<unsigned char>(line.front()))) continue;  // names
             if (line.find('\'') != std::string_view::npos) continue;  // possessives
             bool plain = true;
             for (char c : line) plain = plain && std::islower(static_cast<unsigned char>(c));
@@ -67,7 +71,7 @@ Lexicon Lexicon::read(const std::vector<std::filesystem::path>& files) {
                 lexicon.m_arena.insert(lexicon.m_arena.end(), line.begin(), line.end());
                 lexicon.m_arena.push_back('\0');
             } else {
-                const auto words = normalize_words(line);  // "café" -> "cafe"
+                const auto words = normalize_words(line, language);  // "café" -> "cafe" (English)
                 if (words.size() == 1) folded.push_back(words.front());
             }
         }
@@ -87,13 +91,14 @@ Lexicon Lexicon::read(const std::vector<std::filesystem::path>& files) {
     return lexicon;
 }
 
-std::shared_ptr<const Lexicon> Lexicon::shared(const std::vector<std::filesystem::path>& files) {
+std::shared_ptr<const Lexicon> Lexicon::shared(const std::vector<std::filesystem::path>& files,
+                                               std::string_view language) {
     static std::mutex mutex;
-    static std::map<std::vector<std::filesystem::path>, std::shared_ptr<const Lexicon>> cache;
-    const std::vector<std::filesystem::path> key = files.empty() ? default_files() : files;
+    static std::map<std::pair<std::vector<std::filesystem::path>, std::string>, std::shared_ptr<const Lexicon>> cache;
+    const std::vector<std::filesystem::path> paths = files.empty() ? default_files() : files;
     std::lock_guard lock(mutex);
-    auto& slot = cache[key];
-    if (!slot) slot = std::make_shared<const Lexicon>(read(key));
+    auto& slot = cache[{paths, std::string(language)}];
+    if (!slot) slot = std::make_shared<const Lexicon>(read(paths, language));
     return slot;
 }
 

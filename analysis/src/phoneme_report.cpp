@@ -302,6 +302,38 @@ std::vector<PhonemeRow> in_condition_order(std::vector<PhonemeRow> rows, const s
     return rows;
 }
 
+// The objective table: per condition of viseme_information.csv, the face's
+// LDA accuracy and RTI beside the listeners' viseme RTI and its CI.
+std::string objective_table_md(const fs::path& path, const InformationResult& info) {
+    const CsvTable t = read_csv(path);
+    const std::size_t condition = t.require_column("condition"), accuracy = t.require_column("lda_accuracy"),
+                      chance = t.require_column("majority_class"), rti = t.require_column("rti");
+    std::vector<Diagnostic> problems;
+    std::string md = "| condition | face: LDA accuracy | majority class | face: viseme RTI | listeners: viseme RTI "
+                     "(95 % CI) |\n| --- | ---: | ---: | ---: | --- |\n";
+    for (const auto& row : t.rows) {
+        if (row.fields.size() < t.header.size()) {
+            problems.push_back({path.string(), row.line, 1, "row", "expected every column of the header"});
+            continue;
+        }
+        const auto a = parse_double(row.fields[accuracy]), c = parse_double(row.fields[chance]),
+                   r = parse_double(row.fields[rti]);
+        if (!a || !c || !r) {
+            problems.push_back({path.string(), row.line, 1, !a ? "lda_accuracy" : !c ? "majority_class" : "rti",
+                                "expected a number"});
+            continue;
+        }
+        std::string listeners = "not tested";
+        for (const auto& i : info.rows)
+            if (i.feature == "viseme" && i.condition == row.fields[condition])
+                listeners = fmt::format("{:.3f} ({} – {})", i.t.rti, fixed3_or_na(i.ci_low), fixed3_or_na(i.ci_high));
+        md += fmt::format("| {} | {:.1f} % | {:.1f} % | {:.3f} | {} |\n", row.fields[condition], 100.0 * *a,
+                          100.0 * *c, *r, listeners);
+    }
+    if (!problems.empty()) throw InputError(problems);
+    return md;
+}
+
 }  // namespace
 
 void append_phoneme_section(const PhonemeReportSettings& s) {
@@ -350,6 +382,15 @@ void append_phoneme_section(const PhonemeReportSettings& s) {
         "(phoneme-level lme4 model: Rscript glmer_phonemes.R phonemes_glmer.csv voicing).";
     md += files + "\n";
     html += "<p class=\"note\">" + xml_escape(files) + "</p>\n";
+    if (!s.objective_csv.empty()) {
+        const std::string table = objective_table_md(s.objective_csv, info);
+        const std::string intro = fmt::format(
+            "What each model's face carries about the viseme class before any listener ({}: scripts/viseme-information, "
+            "cross-validated LDA on the articulation measures of each phone), beside what the listeners got.",
+            s.objective_csv.filename().string());
+        md += "\n### Objective viseme information\n\n" + intro + "\n\n" + table;
+        html += "<h3>Objective viseme information</h3>\n<p>" + xml_escape(intro) + "</p>\n" + md_table_to_html(table);
+    }
     append_to_report(s.out_dir, md, html);
     log_info("phoneme section: {} conditions, {} figures, RTI of {} features", conditions.size(), figures.size() + 1,
              feature_grouping_names().size());

@@ -10,10 +10,12 @@
 #include <map>
 #include <mutex>
 #include <set>
+#include <tuple>
 
 #include <fmt/format.h>
 
 #include "avsi/analysis/inflection.h"
+#include "avsi/analysis/language.h"
 #include "avsi/analysis/lexicon.h"
 #include "avsi/analysis/text_normalize.h"
 #include "avsi/core/csv.h"
@@ -21,6 +23,8 @@
 #include "avsi/core/files.h"
 #include "avsi/core/log.h"
 #include "avsi/core/text.h"
+#include "avsi/core/ui_strings.h"
+#include "hunspell_dictionary.h"
 
 namespace avsi::analysis {
 
@@ -31,6 +35,7 @@ const char* rule_name(MatchRule rule) {
     case MatchRule::Alternate: return "alternate";
     case MatchRule::Variant: return "variant";
     case MatchRule::Homophone: return "homophone";
+    case MatchRule::Compound: return "compound";
     case MatchRule::Inflection: return "inflection";
     case MatchRule::Typo: return "typo";
     case MatchRule::None: return "none";
@@ -84,6 +89,25 @@ std::filesystem::path protocols_file(const std::filesystem::path& given, const c
     return given.empty() ? std::filesystem::path(AVSI_PROTOCOLS_DIR) / name : given;
 }
 
+std::filesystem::path given_or(const std::filesystem::path& given, const std::filesystem::path& fallback) {
+    return given.empty() ? fallback : given;
+}
+
+// A normalised word with one byte per letter (its Latin-1 bytes: the kept
+// letters of every language are below U+0100), so that an edit is one
+// letter; "" when a letter is not Latin-1.
+std::string one_byte_per_letter(const std::string& utf8) {
+    std::string out;
+    for (std::size_t i = 0; i < utf8.size(); ++i) {
+        const auto b = static_cast<unsigned char>(utf8[i]);
+        if (b < 0x80) out += static_cast<char>(b);
+        else if ((b == 0xC2 || b == 0xC3) && i + 1 < utf8.size())
+            out += static_cast<char>(((b & 0x03) << 6) | (static_cast<unsigned char>(utf8[++i]) & 0x3F));
+        else return "";
+    }
+    return out;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------- word groups
@@ -113,7 +137,7 @@ std::vector<std::string> WordGroups::partners(const std::string& word) const {
     return out;
 }
 
-WordGroups WordGroups::read(const std::filesystem::path& path) {
+WordGroups WordGroups::read(const std::filesystem::path& path, std::string_view language) {
     const CsvTable table = read_csv(path);
     const std::size_t c_words = table.require_column("words");
     WordGroups out;
@@ -127,7 +151,7 @@ WordGroups WordGroups::read(const std::filesystem::path& path) {
                 part += c;
                 continue;
             }
-            const auto words = normalize_words(part);
+            const auto words = normalize_words(part, language);
             if (words.size() != 1)
                 problems.add(path.string(), row.line, int(c_words) + 1, "words",
                              fmt::format("expected one word per entry, got \"{}\" (normalised to {} words)",
@@ -153,17 +177,27 @@ ScoringSettings scoring_settings(const Protocol& protocol) {
     AVSI_ASSERT(set.has_value());  // load_protocol accepts protocol_rule_sets() only
     s.rules = *set;
     s.homophones = protocol.scoring.homophones;
+    s.split_compounds = parse_rule_set(protocol.scoring.split_compounds);  // "never": nullopt
+    s.language = protocol_language(protocol);
+    try {
+        scoring_language(s.language);
+    } catch (const InputError& e) {
+        throw InputError(protocol.path.string(), protocol.corpus.tts_line, protocol.corpus.tts_column, "corpus.tts",
+                         e.first().message);
+    }
     return s;
 }
 
-std::vector<std::string> corpus_vocabulary(const Corpus& corpus) {
+std::string protocol_language(const Protocol& protocol) { return protocol.session.language; }
+
+std::vector<std::string> corpus_vocabulary(const Corpus& corpus, std::string_view language) {
     std::set<std::string> words;
     for (const auto& s : corpus.sentences) {
-        for (auto& w : normalize_words(s.text)) words.insert(std::move(w));
+        for (auto& w : normalize_words(s.text, language)) words.insert(std::move(w));
         for (const auto& k : s.keywords) {
-            for (auto& w : normalize_words(k.word)) words.insert(std::move(w));
+            for (auto& w : normalize_words(k.word, language)) words.insert(std::move(w));
             for (const auto& a : k.alternates)
-                for (auto& w : normalize_words(a)) words.insert(std::move(w));
+                for (auto& w : normalize_words(a, language)) words.insert(std::move(w));
         }
     }
     return {words.begin(), words.end()};
@@ -187,18 +221,47 @@ std::shared_ptr<const T> shared_table(const std::vector<std::filesystem::path>& 
 
 struct KeywordScorer::Impl {
     ScoringSettings settings;
+    const ScoringLanguage* language = nullptr;
     std::shared_ptr<const WordGroups> homophones, variants;
-    std::shared_ptr<const Inflections> inflections;  // loose and lenient
+    std::shared_ptr<const Inflections> inflections;  // English, loose and lenient
     std::shared_ptr<const Lexicon> lexicon;          // lenient
+    std::shared_ptr<const detail::HunspellDictionary> hunspell;  // Swedish, German
     Inflections::OpenWords vocabulary;
     Inflections::OpenWords open_words;  // vocabulary words that may be bases though WordNet lacks them
 
+    bool english() const { return language->code == "en"; }
+
     bool is_word(const std::string& w) const {
-        return vocabulary.count(w) > 0 || (lexicon && lexicon->contains(w));
+        return vocabulary.count(w) > 0 || (lexicon && lexicon->contains(w)) || (hunspell && hunspell->spell(w));
+    }
+
+    // Does the set credit by `rule`? Compound: from settings.split_compounds on.
+    bool allows(MatchRule rule) const {
+        if (rule == MatchRule::Compound)
+            return settings.split_compounds && std::size_t(settings.rules) >= std::size_t(*settings.split_compounds);
+        return rule_set_allows(settings.rules, rule);
+    }
+
+    // The keyboard spelling of a word without the language's letters (schoen
+    // for schön), credited only when it is not itself another word (masse is
+    // not maße).
+    bool ascii_spelling_of(const std::string& k, const std::string& r) const {
+        if (english() || k == r || ascii_spelling(k, language->code) != r) return false;
+        return !is_word(r);
+    }
+
+    // Swedish, German: a shared hunspell stem (bilarna and bil: bil).
+    bool shares_stem(const std::string& k, const std::string& r) const {
+        const auto ks = hunspell->stems(k), rs = hunspell->stems(r);
+        for (const auto& a : ks)
+            if (std::find(rs.begin(), rs.end(), a) != rs.end()) return true;
+        return false;
     }
 
     bool inflection_of(const std::string& k, const std::string& r) const {
-        if (!inflections || is_number(k) || is_number(r)) return false;
+        if (is_number(k) || is_number(r)) return false;
+        if (!english()) return hunspell && shares_stem(k, r);
+        if (!inflections) return false;
         if (inflections->same_lemma(k, r, &open_words)) return true;
         // An inflection of a spelling variant (colours for color).
         for (const auto& v : variants->partners(r))
@@ -208,9 +271,16 @@ struct KeywordScorer::Impl {
 
     bool typo_of(const std::string& k, const std::string& r) const {
         if (is_number(k) || is_number(r)) return false;
-        if (k.size() < settings.typo_min_letters || r.size() < settings.typo_min_letters) return false;
-        if (is_word(r)) return false;  // a word of English is never a misspelling
-        return edit_distance(k, r) <= 1;
+        if (english()) {
+            if (k.size() < settings.typo_min_letters || r.size() < settings.typo_min_letters) return false;
+            if (is_word(r)) return false;  // a word of English is never a misspelling
+            return edit_distance(k, r) <= 1;
+        }
+        const std::string k1 = one_byte_per_letter(k), r1 = one_byte_per_letter(r);
+        if (k1.empty() || r1.empty()) return false;
+        if (k1.size() < settings.typo_min_letters || r1.size() < settings.typo_min_letters) return false;
+        if (is_word(r)) return false;  // a word of the language is never a misspelling
+        return edit_distance(k1, r1) <= 1;
     }
 
     // Does response word `r` match keyword word `k` under `rule`?
@@ -220,8 +290,10 @@ struct KeywordScorer::Impl {
         case MatchRule::Exact: return equal && k.number_in_words == r.number_in_words;
         case MatchRule::Number: return equal && k.number_in_words != r.number_in_words;
         case MatchRule::Alternate: return equal;
-        case MatchRule::Variant: return equal || variants->same_group(k.text, r.text);
+        case MatchRule::Variant:
+            return equal || variants->same_group(k.text, r.text) || ascii_spelling_of(k.text, r.text);
         case MatchRule::Homophone: return equal || homophones->same_group(k.text, r.text);
+        case MatchRule::Compound: return false;  // several response words: KeywordScorer::score
         case MatchRule::Inflection: return equal || inflection_of(k.text, r.text);
         case MatchRule::Typo: return equal || typo_of(k.text, r.text);
         case MatchRule::None: return false;
@@ -233,11 +305,21 @@ struct KeywordScorer::Impl {
 KeywordScorer::KeywordScorer(ScoringSettings settings) : m_impl(std::make_unique<Impl>()) {
     Impl& m = *m_impl;
     m.settings = std::move(settings);
-    const auto homophones = protocols_file(m.settings.homophones, "homophones.csv");
-    m.homophones = shared_table<WordGroups>({homophones}, [&] { return WordGroups::read(homophones); });
-    const auto variants = protocols_file(m.settings.spelling_variants, "spelling_variants.csv");
-    m.variants = shared_table<WordGroups>({variants}, [&] { return WordGroups::read(variants); });
+    m.language = &scoring_language(m.settings.language);
+    const std::string code = m.language->code;
+    const auto homophones = given_or(m.settings.homophones, m.language->homophones);
+    m.homophones = shared_table<WordGroups>({homophones, code}, [&] { return WordGroups::read(homophones, code); });
+    const auto variants = given_or(m.settings.spelling_variants, m.language->spelling_variants);
+    m.variants = shared_table<WordGroups>({variants, code}, [&] { return WordGroups::read(variants, code); });
     for (const auto& w : m.settings.vocabulary) m.vocabulary.insert(w);
+    if (!m.english()) {
+        // Every rule set: the keyboard spellings (variant) ask whether a word is a word.
+        m.hunspell = detail::HunspellDictionary::shared(m.language->hunspell, m.language->hunspell_package);
+        if (rule_set_allows(m.settings.rules, MatchRule::Typo))
+            m.lexicon = Lexicon::shared(m.settings.lexicon.empty() ? m.language->word_lists : m.settings.lexicon,
+                                        code);
+        return;
+    }
     if (rule_set_allows(m.settings.rules, MatchRule::Inflection)) {
         const auto table = protocols_file(m.settings.inflections, "inflections.csv");
         const auto pos = protocols_file(m.settings.parts_of_speech, "lemma_pos.tsv");
@@ -261,7 +343,8 @@ std::size_t KeywordScorer::lexicon_size() const { return m_impl->lexicon ? m_imp
 double KeywordScorer::lexicon_load_ms() const { return m_impl->lexicon ? m_impl->lexicon->load_ms() : 0.0; }
 
 std::vector<KeywordMatch> KeywordScorer::score(const Sentence& sentence, std::string_view response) const {
-    const std::vector<NormalizedWord> words = normalize_tokens(response);
+    const std::string& language = m_impl->language->code;
+    const std::vector<NormalizedWord> words = normalize_tokens(response, language);
     std::vector<bool> used(words.size(), false);
 
     // Each keyword's candidate phrases: [0] the keyword, then its alternates.
@@ -269,13 +352,13 @@ std::vector<KeywordMatch> KeywordScorer::score(const Sentence& sentence, std::st
     std::vector<KeywordMatch> result;
     for (std::size_t i = 0; i < sentence.keywords.size(); ++i) {
         const Keyword& kw = sentence.keywords[i];
-        std::vector<std::vector<NormalizedWord>> p{normalize_tokens(kw.word)};
+        std::vector<std::vector<NormalizedWord>> p{normalize_tokens(kw.word, language)};
         auto same_text = [](const std::vector<NormalizedWord>& a, const std::vector<NormalizedWord>& b) {
             return std::equal(a.begin(), a.end(), b.begin(), b.end(),
                               [](const NormalizedWord& x, const NormalizedWord& y) { return x.text == y.text; });
         };
         for (const auto& alt : kw.alternates) {
-            auto a = normalize_tokens(alt);
+            auto a = normalize_tokens(alt, language);
             if (!a.empty() && std::none_of(p.begin(), p.end(), [&](const auto& q) { return same_text(q, a); }))
                 p.push_back(std::move(a));
         }
@@ -298,12 +381,29 @@ std::vector<KeywordMatch> KeywordScorer::score(const Sentence& sentence, std::st
         return std::string::npos;
     };
 
-    static constexpr std::array<MatchRule, 7> kRules = {MatchRule::Exact,     MatchRule::Number,
+    // The first run of 2-3 unused words whose letters together spell the
+    // one-word `phrase` ("bil nyckel" for "bilnyckel"): (start, length) or npos.
+    auto find_split = [&](const std::vector<NormalizedWord>& phrase) -> std::pair<std::size_t, std::size_t> {
+        if (phrase.size() != 1 || phrase.front().number_in_words || is_number(phrase.front().text))
+            return {std::string::npos, 0};
+        for (std::size_t start = 0; start < words.size(); ++start) {
+            std::string joined;
+            for (std::size_t n = 1; n <= 3 && start + n <= words.size(); ++n) {
+                const NormalizedWord& w = words[start + n - 1];
+                if (used[start + n - 1] || w.number_in_words || is_number(w.text)) break;
+                joined += w.text;
+                if (n >= 2 && joined == phrase.front().text) return {start, n};
+            }
+        }
+        return {std::string::npos, 0};
+    };
+
+    static constexpr std::array<MatchRule, 8> kRules = {MatchRule::Exact,     MatchRule::Number,
                                                         MatchRule::Alternate, MatchRule::Variant,
-                                                        MatchRule::Homophone, MatchRule::Inflection,
-                                                        MatchRule::Typo};
+                                                        MatchRule::Homophone, MatchRule::Compound,
+                                                        MatchRule::Inflection, MatchRule::Typo};
     for (MatchRule rule : kRules) {
-        if (!rule_set_allows(m_impl->settings.rules, rule)) continue;
+        if (!m_impl->allows(rule)) continue;
         for (std::size_t i = 0; i < result.size(); ++i) {
             if (result[i].correct) continue;
             // exact, number: the keyword only; alternate: alternates only;
@@ -312,10 +412,12 @@ std::vector<KeywordMatch> KeywordScorer::score(const Sentence& sentence, std::st
             const std::size_t from = rule == MatchRule::Alternate ? 1 : 0;
             const std::size_t to = keyword_only ? 1 : phrases[i].size();
             for (std::size_t p = from; p < to; ++p) {
-                const std::size_t start = find_phrase(rule, phrases[i][p]);
+                std::size_t start = std::string::npos, length = phrases[i][p].size();
+                if (rule == MatchRule::Compound) std::tie(start, length) = find_split(phrases[i][p]);
+                else start = find_phrase(rule, phrases[i][p]);
                 if (start == std::string::npos) continue;
                 std::vector<std::string> matched;
-                for (std::size_t j = 0; j < phrases[i][p].size(); ++j) {
+                for (std::size_t j = 0; j < length; ++j) {
                     used[start + j] = true;
                     matched.push_back(words[start + j].text);
                 }
@@ -462,7 +564,7 @@ ScoringResult score_responses(const Corpus& corpus, const std::vector<Response>&
     // One scorer per rule set: the chosen one is reported, all feed the
     // audit and the agreement.
     ScoringSettings with_vocabulary = settings;
-    const auto vocabulary = corpus_vocabulary(corpus);
+    const auto vocabulary = corpus_vocabulary(corpus, settings.language);
     with_vocabulary.vocabulary.insert(with_vocabulary.vocabulary.end(), vocabulary.begin(), vocabulary.end());
     std::vector<KeywordScorer> scorers;
     for (RuleSet set : kRuleSets) {
@@ -706,7 +808,7 @@ ScoreFilesResult score_files(const ScoreFilesSettings& s) {
              result.keywords.empty() ? 0.0 : 100.0 * double(correct) / double(result.keywords.size()), non_exact,
              result.overrides.size());
     std::vector<std::string> lexicon_files;
-    for (const auto& f : s.scoring.lexicon.empty() ? Lexicon::default_files() : s.scoring.lexicon)
+    for (const auto& f : s.scoring.lexicon.empty() ? scoring_language(s.scoring.language).word_lists : s.scoring.lexicon)
         lexicon_files.push_back(f.string());
     log_info("lexicon: {} words from {} (read once per process in {:.1f} ms)", result.lexicon_words,
              fmt::join(lexicon_files, ", "), result.lexicon_load_ms);

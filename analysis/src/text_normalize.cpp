@@ -1,11 +1,14 @@
 // Text normalisation for keyword scoring (see text_normalize.h for the steps).
 #include "avsi/analysis/text_normalize.h"
 
+#include <algorithm>
 #include <array>
 #include <cctype>
 #include <cstdint>
 #include <map>
 #include <optional>
+
+#include "number_words.h"
 
 namespace avsi::analysis {
 
@@ -245,7 +248,133 @@ std::vector<NormalizedWord> numbers_to_digits(const std::vector<std::string>& wo
     return out;
 }
 
+// ---------------------------------------------------------------- other languages
+
+void append_utf8(std::string& out, char32_t c) {
+    if (c < 0x80) {
+        out += static_cast<char>(c);
+    } else if (c < 0x800) {
+        out += static_cast<char>(0xC0 | (c >> 6));
+        out += static_cast<char>(0x80 | (c & 0x3F));
+    } else if (c < 0x10000) {
+        out += static_cast<char>(0xE0 | (c >> 12));
+        out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
+        out += static_cast<char>(0x80 | (c & 0x3F));
+    } else {
+        out += static_cast<char>(0xF0 | (c >> 18));
+        out += static_cast<char>(0x80 | ((c >> 12) & 0x3F));
+        out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
+        out += static_cast<char>(0x80 | (c & 0x3F));
+    }
+}
+
+// The letters a language keeps (step 1), each upper- or lower-case code
+// point mapped to its lower-case form.
+const std::map<char32_t, char32_t>* kept_letters(std::string_view language) {
+    static const std::map<char32_t, char32_t> swedish = {{U'Å', U'å'}, {U'å', U'å'}, {U'Ä', U'ä'}, {U'ä', U'ä'},
+                                                         {U'Ö', U'ö'}, {U'ö', U'ö'}, {U'É', U'é'}, {U'é', U'é'}};
+    static const std::map<char32_t, char32_t> german = {{U'Ä', U'ä'}, {U'ä', U'ä'}, {U'Ö', U'ö'}, {U'ö', U'ö'},
+                                                        {U'Ü', U'ü'}, {U'ü', U'ü'}, {U'ß', U'ß'}, {U'ẞ', U'ß'}};
+    if (language == "sv") return &swedish;
+    if (language == "de") return &german;
+    return nullptr;
+}
+
+// Steps 1-3 for a language other than English: the words, lower case, the
+// language's letters kept, apostrophes dropped.
+std::vector<std::string> split_words_keeping(std::string_view text, const std::map<char32_t, char32_t>& kept) {
+    std::vector<std::string> words;
+    std::string w;
+    auto flush = [&] {
+        if (!w.empty()) words.push_back(std::move(w));
+        w.clear();
+    };
+    std::size_t i = 0;
+    while (i < text.size()) {
+        const char32_t c = next_code_point(text, i);
+        if (c < 0x80 && std::isalnum(static_cast<unsigned char>(c))) {
+            w += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        } else if (c == '\'' || c == '`' || c == 0x2018 || c == 0x2019 || c == 0x02BC || c == 0x00B4) {
+            continue;  // dropped: "geht's" -> "gehts"
+        } else if (auto k = kept.find(c); k != kept.end()) {
+            append_utf8(w, k->second);
+        } else if (const char* folded = fold_latin(c)) {
+            w += folded;
+        } else {
+            flush();
+        }
+    }
+    flush();
+    return words;
+}
+
+bool all_letters(const std::string& w) {
+    return !w.empty() && !std::isdigit(static_cast<unsigned char>(w.front()));
+}
+
+// Step 5 for Swedish and German: the longest run of words (at most 6) whose
+// concatenation is a number becomes its digits.
+std::vector<NormalizedWord> language_numbers_to_digits(const std::vector<std::string>& words,
+                                                       const detail::NumberGrammar& grammar) {
+    constexpr std::size_t kLongestRun = 6;
+    std::vector<NormalizedWord> out;
+    std::size_t i = 0;
+    while (i < words.size()) {
+        std::size_t taken = 0;
+        long long value = 0;
+        std::string joined;
+        for (std::size_t n = 1; n <= kLongestRun && i + n <= words.size() && all_letters(words[i + n - 1]); ++n) {
+            joined += words[i + n - 1];
+            if (n == 1 && std::find(grammar.alone_not_numbers.begin(), grammar.alone_not_numbers.end(), joined) !=
+                              grammar.alone_not_numbers.end())
+                continue;
+            if (auto v = detail::parse_number_word(joined, grammar)) {
+                taken = n;
+                value = *v;
+            }
+        }
+        if (taken == 0) {
+            out.push_back({words[i++], false});
+            continue;
+        }
+        out.push_back({std::to_string(value), true});
+        i += taken;
+    }
+    return out;
+}
+
 }  // namespace
+
+std::vector<NormalizedWord> normalize_tokens(std::string_view text, std::string_view language) {
+    const auto* kept = kept_letters(language);
+    const auto* grammar = detail::number_grammar_of(language);
+    if (!kept || !grammar) return normalize_tokens(text);
+    return language_numbers_to_digits(split_words_keeping(text, *kept), *grammar);
+}
+
+std::vector<std::string> normalize_words(std::string_view text, std::string_view language) {
+    std::vector<std::string> out;
+    for (auto& t : normalize_tokens(text, language)) out.push_back(std::move(t.text));
+    return out;
+}
+
+std::string ascii_spelling(std::string_view word, std::string_view language) {
+    static const std::map<std::string, const char*, std::less<>> german = {
+        {"ä", "ae"}, {"ö", "oe"}, {"ü", "ue"}, {"ß", "ss"}};
+    static const std::map<std::string, const char*, std::less<>> swedish = {{"é", "e"}};
+    const auto* table = language == "de" ? &german : language == "sv" ? &swedish : nullptr;
+    if (!table) return std::string(word);
+    std::string out;
+    for (std::size_t i = 0; i < word.size();) {
+        const std::size_t start = i;
+        next_code_point(word, i);
+        const std::string_view letter = word.substr(start, i - start);
+        const auto it = table->find(letter);
+        if (it != table->end()) out += it->second;
+        else out += letter;
+    }
+    return out;
+}
 
 std::vector<NormalizedWord> normalize_tokens(std::string_view text) {
     const std::string ascii = fold_to_ascii(text);

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/files.h"
+#include "avsi/core/ui_strings.h"
 
 namespace avsi {
 
@@ -395,10 +396,36 @@ void read_render_section(const ConfigSection& root, Protocol& p, DiagnosticList&
 }
 
 // [session]: the runner's screen, response mode, timing and texts.
+// The session texts' defaults in the language of the voice (ui_strings.h).
+void read_language_strings(Protocol& p, DiagnosticList& problems) {
+    SessionSettings& s = p.session;
+    s.language = language_of_voice(p.corpus.tts_engine == TtsEngine::Espeak, p.corpus.tts_voice);
+    // After an error elsewhere (a malformed tts among them) the voice may be
+    // no voice at all: that error is the one to fix first.
+    if (!problems.empty()) return;
+    if (!fs::is_regular_file(ui_strings_file(s.language))) {
+        problems.add(p.path.string(), p.corpus.tts_line, p.corpus.tts_column, "corpus.tts",
+                     fmt::format("no table of what the subject reads in language '{}' of voice \"{}\" (expected {})",
+                                 s.language, p.corpus.tts_voice, ui_strings_file(s.language).string()));
+        return;
+    }
+    try {
+        const UiStrings& t = ui_strings(s.language);
+        s.instructions = t.text("session", "instructions");
+        s.practice_instructions = t.text("session", "practice_instructions");
+        s.test_instructions = t.text("session", "test_instructions");
+        s.break_text = t.text("session", "break_text");
+        s.end_text = t.text("session", "end_text");
+    } catch (const InputError& e) {
+        for (const auto& d : e.diagnostics()) problems.add(d);
+    }
+}
+
 void read_session_section(const ConfigSection& root, Protocol& p, DiagnosticList& problems) {
     ConfigSection session_storage;
     const ConfigSection& session = section_or_empty(root, "session", session_storage, problems);
     SessionSettings& s = p.session;
+    read_language_strings(p, problems);
     s.fullscreen = session.get_bool("fullscreen", s.fullscreen, problems);
     s.monitor = static_cast<int>(session.get_int("monitor", s.monitor, 0, 16, problems));
     s.response_mode = session.get_choice("response_mode", {"subject", "experimenter"}, "subject",
@@ -419,12 +446,15 @@ void read_session_section(const ConfigSection& root, Protocol& p, DiagnosticList
     p.session_section = session;
 }
 
-// [scoring]: the rule set and the homophone table.
+// [scoring]: the rule set, the homophone table and split compounds.
 void read_scoring_section(const ConfigSection& root, Protocol& p, DiagnosticList& problems) {
     const fs::path& path = p.path;
     ConfigSection scoring_storage;
     const ConfigSection& scoring = section_or_empty(root, "scoring", scoring_storage, problems);
     p.scoring.rules = scoring.get_choice("rules", protocol_rule_sets(), p.scoring.rules, problems);
+    std::vector<std::string> compound_choices = protocol_rule_sets();
+    compound_choices.push_back("never");
+    p.scoring.split_compounds = scoring.get_choice("split_compounds", compound_choices, p.scoring.split_compounds, problems);
     if (const std::string table = scoring.get_string("homophones", "", problems); !table.empty()) {
         p.scoring.homophones = resolve(path, table);
         if (!fs::is_regular_file(p.scoring.homophones))

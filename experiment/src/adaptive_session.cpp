@@ -28,7 +28,7 @@ AdaptiveSession::AdaptiveSession(const Protocol& protocol, const Corpus& corpus,
                          "expected session.response_mode = \"experimenter\" with confirm_scores = true: the score "
                          "check screen lists the sentence's keywords, which the subject must not see");
     analysis::ScoringSettings scoring = analysis::scoring_settings(protocol);
-    scoring.vocabulary = analysis::corpus_vocabulary(corpus);
+    scoring.vocabulary = analysis::corpus_vocabulary(corpus, scoring.language);
     m_scorer = std::make_unique<analysis::KeywordScorer>(scoring);
     for (const auto& c : protocol.conditions) m_tracks.emplace(c.name, analysis::AdaptiveTrack(m_settings.track));
     // Noise before vocoding: the stimuli's vocoder, for the mixture.

@@ -33,6 +33,7 @@
 #include "avsi/core/json.h"
 #include "avsi/core/log.h"
 #include "avsi/core/protocol.h"
+#include "avsi/core/ui_strings.h"
 #include "avsi/experiment/adaptive_session.h"
 #include "avsi/experiment/design.h"
 #include "avsi/experiment/session.h"
@@ -893,7 +894,7 @@ private:
     }
 
     void draw_response(const ImVec2& display, bool new_screen, double next_flip_s) {
-        centered_text("What did you hear? Type every word, then press Enter.", 0.35f);
+        centered_text(m_strings.text("runner", "answer_prompt"), 0.35f);
         ImGui::SetCursorPos(ImVec2(display.x * 0.15f, display.y * 0.5f));
         ImGui::PushItemWidth(display.x * 0.7f);
         if (m_scripted && m_machine->trial()) m_answer = script_line(m_machine->trial_index());
@@ -907,7 +908,7 @@ private:
             m_focus_answer = true;
         }
         ImGui::PopItemWidth();
-        hint_text("Enter: submit    Esc: pause");
+        hint_text(m_strings.text("runner", "answer_keys"));
     }
 
     void draw_score_check() {
@@ -938,7 +939,7 @@ private:
         switch (shown) {
             case Screen::Instructions:
                 centered_text(m_machine->message());
-                hint_text("Press Space to begin");
+                hint_text(m_strings.text("runner", "begin_hint"));
                 break;
             case Screen::Fixation: centered_text("+", 0.5f); break;
             case Screen::Stimulus:
@@ -949,27 +950,32 @@ private:
             case Screen::Response: draw_response(display, new_screen, next_flip_s); break;
             case Screen::ScoreCheck: draw_score_check(); break;
             case Screen::ConfirmEmpty:
-                centered_text("You did not type anything. Submit an empty answer?");
-                hint_text("Y or Enter: submit empty    N: go back and type");
+                centered_text(m_strings.text("runner", "empty_answer"));
+                hint_text(m_strings.text("runner", "empty_answer_keys"));
                 break;
             case Screen::Feedback:
-                centered_text(trial ? "The sentence was:\n\n" + m_corpus.sentence(trial->sentence).text : std::string());
-                hint_text("Press Space to continue");
+                centered_text(trial ? m_strings.text("runner", "feedback") + "\n\n" + m_corpus.sentence(trial->sentence).text
+                                    : std::string());
+                hint_text(m_strings.text("runner", "continue_hint"));
                 break;
             case Screen::Break:
                 centered_text(m_machine->message());
-                // The default break text already names the key.
-                if (m_machine->message().find("Space") == std::string::npos) hint_text("Press Space to continue");
+                // The default break text already names the key (as does an English one naming Space).
+                if (m_machine->message() != m_strings.text("session", "break_text") &&
+                    m_machine->message().find("Space") == std::string::npos)
+                    hint_text(m_strings.text("runner", "continue_hint"));
                 break;
             case Screen::Paused:
-                centered_text("Paused.");
-                hint_text("Esc: continue    Q: stop the session (it can be resumed later)");
+                centered_text(m_strings.text("runner", "paused"));
+                hint_text(m_strings.text("runner", "paused_keys"));
                 break;
             case Screen::End: centered_text(m_machine->message()); break;
         }
         if (m_protocol.session.show_progress && trial && shown != Screen::Stimulus && shown != Screen::End &&
             shown != Screen::Paused) {
-            const std::string progress = fmt::format("Sentence {} of {}", trial->position, m_machine->total_trials());
+            const std::string progress = m_strings.fill(
+                "runner", "progress",
+                {{"position", std::to_string(trial->position)}, {"total", std::to_string(m_machine->total_trials())}});
             ImGui::SetCursorPos(ImVec2(display.x * 0.02f, display.y * 0.95f));
             ImGui::TextColored(ImVec4(0.75f, 0.75f, 0.75f, 1.0f), "%s", progress.c_str());
         }
@@ -1032,6 +1038,8 @@ private:
 
     const RunSettings& m_settings;
     const Protocol m_protocol;
+    // What the subject reads, in the protocol's language (ui_strings.h).
+    const UiStrings& m_strings = ui_strings(m_protocol.session.language);
     const Corpus m_corpus;
     const bool m_scripted;
     std::vector<std::string> m_script;

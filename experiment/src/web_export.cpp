@@ -27,6 +27,7 @@
 #include "avsi/core/json.h"
 #include "avsi/core/log.h"
 #include "avsi/core/rng.h"
+#include "avsi/core/ui_strings.h"
 #include "avsi/experiment/design.h"
 #include "avsi/experiment/runner.h"
 #include "avsi/experiment/web_study.h"
@@ -381,6 +382,14 @@ ordered_json study_json(const Protocol& protocol, const OnlineSettings& online, 
                         {"test_instructions", session.test_instructions},
                         {"break_text", session.break_text},
                         {"end_text", session.end_text}};
+    // What the participant reads, in the protocol's language (ui_strings.h).
+    const UiStrings& strings = ui_strings(session.language);
+    study["language"] = session.language;
+    for (const char* section : {"runner", "web"}) {
+        ordered_json texts = ordered_json::object();
+        for (const auto& [key, text] : strings.section(section)) texts[key] = text;
+        study["strings"][section] = texts;
+    }
     study["online"] = {{"completion_url", online.completion_url},
                        {"screening_fail_url", online.screening_fail_url},
                        {"results_url", online.results_url},

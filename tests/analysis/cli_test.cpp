@@ -67,6 +67,43 @@ TEST_F(Cli, ScoreThenAnalyze) {
               std::string::npos);
 }
 
+TEST_F(Cli, ScoreSwedishTakesTheLanguageFromTheProtocolVoice) {
+    // A Swedish protocol (espeak:sv) with split compounds credited under
+    // strict: scores.csv counts them, audit.csv shows them as "compound";
+    // the definite form is in audit.csv only as a loose credit.
+    avsi::write_text_file(dir / "sentences.csv",
+                          "id,text,keywords\n"
+                          "s1,Pojken tappade sin bilnyckel.,pojken;tappade;bilnyckel\n"
+                          "s2,Fem bilar stod i garaget.,fem;bilar;garaget\n");
+    avsi::write_text_file(dir / "study.toml",
+                          "[experiment]\nname = \"sv-test\"\n[corpus]\nsentences = \"sentences.csv\"\n"
+                          "tts = \"espeak:sv\"\n[[condition]]\nname = \"audio-only\"\nface = \"still\"\n"
+                          "[design]\nlists = 1\nsentences_per_list = 2\nwarmup = 0\npractice = 0\n"
+                          "[scoring]\nrules = \"strict\"\nsplit_compounds = \"strict\"\n");
+    avsi::write_text_file(dir / "responses.csv",
+                          "subject,session,trial,phase,condition,list,sentence,response\n"
+                          "p1,1,1,test,audio-only,1,s1,pojken tappade sin bil nyckel\n"
+                          "p1,1,2,test,audio-only,1,s2,5 bilen stod i garage\n");
+    const CliResult score = run_avsi(fmt::format("score --protocol {0}/study.toml --responses {0}/responses.csv --out {0}/out",
+                                                 dir.string()));
+    ASSERT_EQ(score.exit_code, 0) << score.output();
+    const auto scores = avsi::read_csv(dir / "out" / "scores.csv");
+    ASSERT_EQ(scores.rows.size(), 1u);
+    // pojken, tappade, bil nyckel (compound), 5 (number); bilen (loose only), garage (not garaget) wrong.
+    EXPECT_EQ(scores.rows[0].fields[scores.require_column("correct")], "4");
+    const std::string audit = avsi::read_text_file(dir / "out" / "audit.csv");
+    EXPECT_NE(audit.find("bilnyckel,bil nyckel,compound,strict,1"), std::string::npos) << audit;
+    EXPECT_NE(audit.find("fem,5,number,strict,1"), std::string::npos) << audit;
+    EXPECT_NE(audit.find("bilar,bilen,inflection,loose,0"), std::string::npos) << audit;
+
+    // --language overrides; an unknown one is a usage error naming the choices.
+    const CliResult fr = run_avsi(fmt::format("score --protocol {0}/study.toml --responses {0}/responses.csv --out {0}/fr "
+                                              "--language fr",
+                                              dir.string()));
+    EXPECT_EQ(fr.exit_code, 2) << fr.output();
+    EXPECT_NE(fr.output().find("sv"), std::string::npos) << fr.output();
+}
+
 TEST_F(Cli, AnalyzeTakesTheConditionOrderFromTheProtocol) {
     // Scores in session order (rule first); the report follows the protocol's [[condition]] order.
     const std::vector<std::string> session_order = {"rule", "ann2", "audio-only", "ohman", "cohen-massaro", "ann1"};

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "avsi/analysis/scoring.h"
+#include "avsi/analysis/text_normalize.h"
 #include "avsi/core/csv.h"
 #include "avsi/core/files.h"
 #include "avsi/core/text.h"
@@ -63,6 +64,12 @@ std::string phonemes(const std::string& word, const std::string& voice) {
         while ((at = out.find(mark)) != std::string::npos) out.erase(at, mark.size());
     }
     return out;
+}
+
+// The one normalised word of `word` in `language`.
+std::string normalize_text_for(const std::string& word, const std::string& language) {
+    const auto words = normalize_words(word, language);
+    return words.empty() ? "" : words.front();
 }
 
 // GA's NORTH–FORCE (horse–hoarse) merger: espeak-ng's en-us keeps a FORCE
@@ -165,6 +172,38 @@ TEST(HomophoneTable, NonHomophonesOfGeneralAmericanDifferAndAreNotListed) {
     EXPECT_TRUE(rp.same_group("been", "bean"));
     EXPECT_TRUE(rp.same_group("father", "farther"));
     EXPECT_FALSE(rp.same_group("cot", "caught"));
+}
+
+// The Swedish and German tables against espeak-ng's sv and de voices, and
+// pairs of each language that are not homophones (vowel length, long e/ä,
+// ß after a long vowel) against the same voices, so the check can fail.
+void expect_language_table(const std::string& language, const std::vector<std::pair<std::string, std::string>>& not_homophones) {
+    const std::string file = "languages/" + language + "/scoring/homophones.csv";
+    ASSERT_FALSE(phonemes("hus", language).empty()) << "espeak-ng voice " << language << " is not usable";
+    const auto table = groups(file);
+    ASSERT_GE(table.size(), 10u);
+    for (const auto& g : table) {
+        EXPECT_EQ(g.basis, language) << file << ":" << g.line;
+        for (std::size_t i = 1; i < g.words.size(); ++i)
+            EXPECT_EQ(phonemes(g.words[0], language), phonemes(g.words[i], language))
+                << file << ":" << g.line << ": " << g.words[0] << " / " << g.words[i];
+    }
+    const WordGroups groups_read = WordGroups::read(std::filesystem::path(AVSI_PROTOCOLS_DIR) / file, language);
+    for (const auto& [a, b] : not_homophones) {
+        EXPECT_NE(phonemes(a, language), phonemes(b, language)) << a << " / " << b;
+        EXPECT_FALSE(groups_read.same_group(normalize_text_for(a, language), normalize_text_for(b, language)))
+            << a << " / " << b << " is in " << file;
+    }
+    EXPECT_NE(header_of(file).find("Source:"), std::string::npos);
+    EXPECT_NE(header_of(file).find("espeak-ng"), std::string::npos);
+}
+
+TEST(HomophoneTable, SwedishPairsHaveIdenticalSvPhonemes) {
+    expect_language_table("sv", {{"vet", "vett"}, {"hel", "häl"}, {"gjorde", "jorde"}, {"kärna", "gärna"}});
+}
+
+TEST(HomophoneTable, GermanPairsHaveIdenticalDePhonemes) {
+    expect_language_table("de", {{"Masse", "Maße"}, {"Ferse", "Verse"}, {"schon", "schön"}});
 }
 
 TEST(HomophoneTable, HeadersStateSourceAndCriteria) {

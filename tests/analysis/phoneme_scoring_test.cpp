@@ -181,6 +181,22 @@ TEST(PhonemeScoringCli, ScoreWithPronunciationTableWritesPhonemesCsv) {
                           "phonemes_glmer.csv"})
         EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
     EXPECT_EQ(avsi::read_csv(dir / "report" / "phonemes_glmer.csv").rows.size(), 40u);  // target phones
+    // The objective viseme information beside the listeners' (scripts/viseme-information's file).
+    avsi::write_text_file(dir / "viseme_information.csv",
+                          "condition,segments,lda_accuracy,majority_class,t_bits,rti\nface,100,0.61,0.36,0.9,0.389\n");
+    const auto objective = avsi::test::run_avsi(
+        fmt::format("analyze {0}/scores.csv --out {0}/report2 --phonemes {0}/phonemes.csv --bootstrap 0 "
+                    "--viseme-information {0}/viseme_information.csv",
+                    dir.string()));
+    ASSERT_EQ(objective.exit_code, 0) << objective.output();
+    const std::string md = avsi::read_text_file(dir / "report2" / "report.md");
+    EXPECT_NE(md.find("| face | 61.0 % | 36.0 % | 0.389 | 0.535 (NA – NA) |"), std::string::npos) << md;
+    avsi::write_text_file(dir / "bad.csv", "condition,segments,lda_accuracy,majority_class,t_bits,rti\nface,1,x,0,0,0\n");
+    const auto bad_objective = avsi::test::run_avsi(
+        fmt::format("analyze {0}/scores.csv --out {0}/report3 --phonemes {0}/phonemes.csv --viseme-information {0}/bad.csv",
+                    dir.string()));
+    EXPECT_EQ(bad_objective.exit_code, 1);
+    EXPECT_NE(bad_objective.output().find("bad.csv:2:1: error: lda_accuracy"), std::string::npos) << bad_objective.output();
     const auto bad =
         avsi::test::run_avsi(fmt::format("score --corpus {0}/corpus.csv --responses {0}/responses.csv "
                                          "--pronunciations {0}/pronunciations.tsv --out {1}",

@@ -293,8 +293,9 @@ TEST_F(RunnerE2E, BuiltStimulusSetPlaysEveryFrameOnTimeWithItsAudio) {
     ASSERT_EQ(manifest.stimuli.size(), 6u);
 
     // 4 trials: warm-up, practice (feedback screen), two test blocks; one empty answer.
-    const std::vector<std::string> answers = {"sun warm", "she opened the door", "", "he bought bread"};
-    write_text_file(dir / "script.txt", "sun warm\nshe opened the door\n-\nhe bought bread\n");
+    // The last answer has letters of other languages (å ä ö ü ß): stored and exported as typed.
+    const std::vector<std::string> answers = {"sun warm", "she opened the door", "", "he bought bread: får åtta äpplen, süße"};
+    write_text_file(dir / "script.txt", "sun warm\nshe opened the door\n-\nhe bought bread: får åtta äpplen, süße\n");
     const fs::path db = dir / "built.sqlite";
     ASSERT_EQ(run_avsi_logged({"run", protocol.string(), "--subject", "1", "--db", db.string(), "--stimuli", stimuli.string(),
                    "--audio", "null", "--windowed", "--size", "640x480", "--script", (dir / "script.txt").string(),

@@ -212,7 +212,8 @@ try {
   await clickButton('Begin');                                  // test instructions
   await answer(3, '');                                          // an empty answer, confirmed
   await clickButton('Continue');                               // break between test blocks
-  await answer(4, 'he bought bread');
+  // Letters of other languages typed into the answer box (å ä ö ü ß) are stored as typed.
+  await answer(4, 'he bought bread: får åtta äpplen, süße Brötchen');
   await page.waitForFunction(() => document.querySelector('#avsi-finish'));
   downloadText = await page.evaluate(() => window.avsiStudy.resultsText());
   jsPsychJson = await page.evaluate(() => window.avsiStudy.jsPsychData());

@@ -53,6 +53,13 @@
     return String(text).replace(/[&<>"']/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;', "'": '&#39;' })[c]);
   }
   function textHtml(text) { return `<div class="avsi-text">${escapeHtml(text)}</div>`; }
+  // A text of the study's language (study.json "strings", from
+  // protocols/languages/<lang>/strings.toml) with its {placeholders} filled.
+  function T(section, key, values) {
+    const text = Study.config.strings[section][key];
+    if (text === undefined) throw new Error(`study.json has no text ${section}.${key}`);
+    return text.replace(/\{(\w+)\}/g, (whole, name) => (values && name in values ? String(values[name]) : whole));
+  }
   function sleep(ms) { return new Promise((resolve) => setTimeout(resolve, ms)); }
   function nowUtc() { return new Date().toISOString(); }
   function randomId() {
@@ -364,12 +371,10 @@
   // The start screen's warning about a second run of the same subject.
   function runNotice() {
     if (Study.otherRun)
-      return '<div class="avsi-text avsi-error">This participant number was already started in another browser or on another device. ' +
-        'If that was you, please close this window and continue there. Starting here begins again at the first sentence, and the experimenter will keep only one of the two runs.</div>';
+      return `<div class="avsi-text avsi-error">${escapeHtml(T('web', 'other_run'))}</div>`;
     const fresh = Study.state.answered.length === 0 && Study.state.seq === 0;
     if (fresh && !Study.jatos)
-      return '<div class="avsi-hint">If you already started this study in another browser or on another device, please continue there: ' +
-        'this browser does not know about it and would begin again at the first sentence.</div>';
+      return `<div class="avsi-hint">${escapeHtml(T('web', 'other_browser'))}</div>`;
     return '';
   }
 
@@ -384,12 +389,10 @@
     static info = { name: 'avsi-start', version: '1', parameters: { resumed: { type: ParameterType.BOOL, default: false } }, data: {} };
     constructor(jsPsych) { this.jsPsych = jsPsych; }
     async trial(display, trial, on_load) {
-      display.innerHTML = textHtml(trial.resumed
-        ? 'Welcome back. The study continues where it stopped.\n\nPlease use headphones and keep this window open until the end.'
-        : 'This study plays short videos with sound.\n\nPlease use headphones, sit in a quiet place and keep this window open until the end.')
+      display.innerHTML = textHtml(trial.resumed ? T('web', 'resume_text') : T('web', 'start_text'))
         + runNotice()
-        + '<div id="avsi-start-status" class="avsi-hint"></div><button class="jspsych-btn" data-value="start">Start</button>'
-        + '<div class="avsi-hint">Enter or Space: start</div>';
+        + `<div id="avsi-start-status" class="avsi-hint"></div><button class="jspsych-btn" data-value="start">${escapeHtml(T('web', 'start_button'))}</button>`
+        + `<div class="avsi-hint">${escapeHtml(T('web', 'start_keys'))}</div>`;
       on_load();
       const status = display.querySelector('#avsi-start-status');
       for (;;) {
@@ -404,9 +407,9 @@
           silence.start();
         } catch (e) { /* reported below */ }
         if (ctx.state === 'running') { Study.ctx = ctx; break; }
-        status.textContent = 'Sound could not be started in this browser window. Click Start again.';
+        status.textContent = T('web', 'sound_failed');
       }
-      status.textContent = 'Loading…';
+      status.textContent = T('web', 'loading');
       display.querySelector('button').disabled = true;
       await loadSounds();
       Study.refreshHz = await measureRefresh(40);
@@ -475,10 +478,8 @@
       source.connect(ctx.destination);
       const start = performance.now();
       source.start();
-      display.innerHTML = textHtml('You now hear a steady noise, as loud as the speech in this study.\n\n' +
-        'Set the volume of your computer so that the noise is clearly audible and comfortable. ' +
-        'Then leave the volume as it is until the end of the study.') +
-        '<button class="jspsych-btn" data-value="ok" disabled>The level is comfortable</button><div class="avsi-hint">Enter: the level is comfortable</div>';
+      display.innerHTML = textHtml(T('web', 'level_text')) +
+        `<button class="jspsych-btn" data-value="ok" disabled>${escapeHtml(T('web', 'level_button'))}</button><div class="avsi-hint">${escapeHtml(T('web', 'level_keys'))}</div>`;
       on_load();
       await sleep(1000);
       display.querySelector('button').disabled = false;
@@ -500,11 +501,11 @@
     constructor(jsPsych) { this.jsPsych = jsPsych; }
     async trial(display, trial, on_load) {
       const { answer, files } = screeningTrial(trial.test, trial.index);
-      const question = trial.test === 'antiphase' ? 'Which tone was the softest?' : 'Which noise had a faint tone in it?';
-      display.innerHTML = `<div class="avsi-text">Sound check ${trial.index} of ${trial.total}: ${question}</div>` +
+      const question = T('web', trial.test === 'antiphase' ? 'antiphase_question' : 'huggins_question');
+      display.innerHTML = `<div class="avsi-text">${escapeHtml(T('web', 'sound_check', { index: trial.index, total: trial.total, question }))}</div>` +
         '<div class="avsi-intervals">' + [1, 2, 3].map((i) => `<div class="avsi-interval" id="avsi-interval-${i}">${i}</div>`).join('') + '</div>' +
         '<div>' + [1, 2, 3].map((i) => `<button class="jspsych-btn" data-value="${i}" disabled>${i}</button>`).join('') + '</div>' +
-        '<div class="avsi-hint">Keys 1, 2, 3: answer</div>';
+        `<div class="avsi-hint">${escapeHtml(T('web', 'screening_keys'))}</div>`;
       on_load();
       const ctx = Study.ctx;
       const online = Study.config.online;
@@ -546,14 +547,14 @@
     constructor(jsPsych) { this.jsPsych = jsPsych; }
     async trial(display, trial, on_load) {
       display.innerHTML = textHtml(trial.text) + `<button class="jspsych-btn" data-value="ok">${escapeHtml(trial.button)}</button>` +
-        `<div class="avsi-hint">Space or Enter: ${escapeHtml(trial.button.toLowerCase())}</div>`;
+        `<div class="avsi-hint">${escapeHtml(T('web', 'text_keys', { button: trial.button.toLowerCase() }))}</div>`;
       on_load();
       await waitForChoice(display, { ' ': 'ok', Enter: 'ok' });
       return { avsi_screen: 'text' };
     }
   }
   function textScreen(text, button) {
-    return { type: TextPlugin, text, button: button || 'Continue' };
+    return { type: TextPlugin, text, button: button || T('web', 'continue') };
   }
 
   // A screen that never ends (failures; the participant reloads or leaves).
@@ -581,7 +582,7 @@
       const stimulus = Study.config.stimuli[t.stimulus];
       Study.currentPosition = t.position;
       display.dataset.avsiPosition = String(t.position);
-      const progress = session.show_progress ? `<div class="avsi-progress">Sentence ${t.position} of ${Study.plan.length}</div>` : '';
+      const progress = session.show_progress ? `<div class="avsi-progress">${escapeHtml(T('runner', 'progress', { position: t.position, total: Study.plan.length }))}</div>` : '';
       display.innerHTML = '<div class="avsi-fixation">+</div>' + progress;
       on_load();
       await sleep(session.fixation_ms);
@@ -595,9 +596,9 @@
       let shown = 0;
       let confirmedEmpty = false;
       for (;;) {
-        display.innerHTML = '<div class="avsi-text">What did you hear? Type every word, then press Enter.</div>' +
+        display.innerHTML = `<div class="avsi-text">${escapeHtml(T('runner', 'answer_prompt'))}</div>` +
           '<input class="avsi-answer" id="avsi-answer" type="text" autocomplete="off" autocorrect="off" autocapitalize="off" spellcheck="false">' +
-          '<div class="avsi-hint">Enter: submit</div>' + progress;
+          `<div class="avsi-hint">${escapeHtml(T('web', 'answer_keys'))}</div>` + progress;
         const input = display.querySelector('#avsi-answer');
         input.value = text;
         input.focus();
@@ -606,8 +607,8 @@
           input.addEventListener('keydown', (e) => { if (e.key === 'Enter') { e.preventDefault(); resolve(input.value); } });
         });
         if (text.trim() !== '') break;
-        display.innerHTML = textHtml('You did not type anything. Submit an empty answer?') +
-          '<button class="jspsych-btn" data-value="yes">Yes, submit it (Y)</button><button class="jspsych-btn" data-value="no">No, type again (N)</button>';
+        display.innerHTML = textHtml(T('runner', 'empty_answer')) +
+          `<button class="jspsych-btn" data-value="yes">${escapeHtml(T('web', 'empty_yes'))}</button><button class="jspsych-btn" data-value="no">${escapeHtml(T('web', 'empty_no'))}</button>`;
         const choice = await waitForChoice(display, { y: 'yes', Y: 'yes', Enter: 'yes', n: 'no', N: 'no' });
         if (choice === 'yes') { text = ''; confirmedEmpty = true; break; }
       }
@@ -621,8 +622,9 @@
       saveState();
 
       if (t.phase === 'practice') {
-        display.innerHTML = textHtml(`The sentence was:\n\n${t.text || ''}`) + '<button class="jspsych-btn" data-value="ok">Continue</button>' +
-          '<div class="avsi-hint">Space or Enter: continue</div>' + progress;
+        display.innerHTML = textHtml(`${T('runner', 'feedback')}\n\n${t.text || ''}`) +
+          `<button class="jspsych-btn" data-value="ok">${escapeHtml(T('web', 'continue'))}</button>` +
+          `<div class="avsi-hint">${escapeHtml(T('web', 'text_keys', { button: T('web', 'continue').toLowerCase() }))}</div>` + progress;
         await waitForChoice(display, { ' ': 'ok', Enter: 'ok' });
       }
       return record;
@@ -745,9 +747,7 @@
   function screeningNodes(test) {
     const spec = Study.config.online[test];
     const nodes = [];
-    nodes.push(textScreen(test === 'antiphase'
-      ? 'First a short sound check. In each of the next trials you hear three tones, one after the other.\n\nClick the number of the tone that was the SOFTEST (the quietest).'
-      : 'Another short sound check. In each of the next trials you hear three noises.\n\nOne of them has a faint tone inside it. Click the number of the noise with the tone.', 'Begin'));
+    nodes.push(textScreen(T('web', test === 'antiphase' ? 'antiphase_intro' : 'huggins_intro'), T('web', 'begin')));
     for (let i = 1; i <= spec.trials; i++) nodes.push({ type: ScreeningPlugin, test, index: i, total: spec.trials });
     let summary = null;
     nodes.push({
@@ -770,8 +770,8 @@
     return {
       timeline: [{
         type: StopPlugin,
-        html: textHtml('Thank you. This study needs headphones, and the sound check did not confirm them, so the study ends here.') +
-          (url ? `<a class="jspsych-btn" href="${escapeHtml(url)}">Continue</a>` : ''),
+        html: textHtml(T('web', 'screening_failed')) +
+          (url ? `<a class="jspsych-btn" href="${escapeHtml(url)}">${escapeHtml(T('web', 'continue'))}</a>` : ''),
         on_start: () => { emit('end', { answered: Study.state.answered.length, total: Study.plan.length, completed: false, reason: 'screening' }); },
       }],
       conditional_function: () => Study.config.online.end_on_screening_fail && Study.screeningFailed,
@@ -798,9 +798,9 @@
     }, {
       timeline: [{
         type: StopPlugin,
-        html: '<div class="avsi-text avsi-error">The study\'s videos could not be loaded.</div>' +
-          textHtml('Please check your internet connection and reload this page. Your answers so far are saved: the study continues where it stopped.') +
-          '<button class="jspsych-btn" data-action="reload">Reload</button>',
+        html: `<div class="avsi-text avsi-error">${escapeHtml(T('web', 'videos_failed'))}</div>` +
+          textHtml(T('web', 'videos_reload_text')) +
+          `<button class="jspsych-btn" data-action="reload">${escapeHtml(T('web', 'reload'))}</button>`,
       }],
       conditional_function: () => Study.preloadFailure !== null,
     }];
@@ -816,28 +816,28 @@
         const download = !Study.jatos && !online.results_url;
         trial.html = textHtml(Study.config.session.end_text) +
           '<div id="avsi-end-status" class="avsi-hint"></div>' +
-          (download ? '<div class="avsi-text">Please download your results and send the file to the experimenter.</div><button class="jspsych-btn" data-action="download">Download results</button>' : '') +
-          '<button class="jspsych-btn" id="avsi-finish">Finish</button>';
+          (download ? `<div class="avsi-text">${escapeHtml(T('web', 'download_text'))}</div><button class="jspsych-btn" data-action="download">${escapeHtml(T('web', 'download'))}</button>` : '') +
+          `<button class="jspsych-btn" id="avsi-finish">${escapeHtml(T('web', 'finish'))}</button>`;
       },
       on_load: () => {
         const button = document.querySelector('#avsi-finish');
         const status = document.querySelector('#avsi-end-status');
         button.addEventListener('click', async () => {
           button.disabled = true;
-          status.textContent = 'Saving your answers…';
+          status.textContent = T('web', 'saving');
           const sent = await waitForOutbox(20000);
           if (!sent) {
-            status.textContent = 'Your answers could not all be sent. Please check your connection and click Finish again, or download them.';
+            status.textContent = T('web', 'send_failed');
             button.disabled = false;
             const d = document.createElement('button');
             d.className = 'jspsych-btn';
-            d.textContent = 'Download results';
+            d.textContent = T('web', 'download');
             d.addEventListener('click', downloadResults);
             button.after(d);
             return;
           }
           const url = Study.config.online.completion_url;
-          status.textContent = 'Thank you. You can close this window.';
+          status.textContent = T('web', 'thanks_close');
           if (Study.jatos) {
             if (url) jatos.endStudyAndRedirect(url, true); else jatos.endStudy(true);
           } else if (url) {
@@ -871,10 +871,10 @@
       if (!previous) {
         let message = session.instructions;
         if (t.phase !== 'warmup' && phaseText(t.phase) !== session.instructions) message += '\n\n' + phaseText(t.phase);
-        timeline.push(textScreen(message, 'Begin'));
+        timeline.push(textScreen(message, T('web', 'begin')));
         sinceBreak = 0;
       } else if (t.phase !== previous.phase) {
-        timeline.push(textScreen(phaseText(t.phase), 'Begin'));
+        timeline.push(textScreen(phaseText(t.phase), T('web', 'begin')));
         sinceBreak = 0;
       } else if ((t.phase === 'test' && t.block !== previous.block) || (session.break_every > 0 && sinceBreak >= session.break_every)) {
         timeline.push(textScreen(session.break_text));

@@ -445,6 +445,7 @@ protocol_cases = {
     "no_conditions": "\n".join(l for l in proto.splitlines() if "condition" not in l and not l.startswith("name = \"") and not l.startswith("face") and not l.startswith("audio")) + "\n",
     "missing_corpus": proto.replace('sentences = "corpus.csv"', 'sentences = "nope.csv"'),
     "nul_byte": proto.replace("exp-test", "exp\0test"),
+    "split_compounds_unknown": proto + '\n[scoring]\nsplit_compounds = "sometimes"\n',
 }
 for name, text in protocol_cases.items():
     write("protocol", name + ".toml", text)

@@ -1,6 +1,9 @@
-// The English lexicon of keyword scoring: which response words are words of
-// English, so that only non-words can be taken as misspellings of a keyword
-// (rule "typo" of the lenient rule set, scoring.h).
+// The lexicon of keyword scoring: which response words are words of the
+// language, so that only non-words can be taken as misspellings of a keyword
+// (rule "typo" of the lenient rule set, scoring.h). Below, English; Swedish
+// and German read Debian's wswedish (/usr/share/dict/swedish) and wngerman
+// (/usr/share/dict/ngerman) the same way, beside their hunspell dictionaries
+// (language.h), which add the inflected forms and compounds the lists lack.
 //
 // The default lists are SCOWL's American and British lists as Debian ships
 // them (packages wamerican and wbritish: /usr/share/dict/american-english and
@@ -24,6 +27,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <utility>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -35,13 +39,17 @@ public:
     // The Debian word lists (/usr/share/dict/american-english, british-english).
     static std::vector<std::filesystem::path> default_files();
 
-    // Reads the files (one word per line, UTF-8). Throws InputError for a
-    // missing or unreadable file, naming the Debian package that ships it.
-    static Lexicon read(const std::vector<std::filesystem::path>& files);
+    // Reads the files (one word per line, UTF-8), normalised as words of
+    // `language` (language.h). Throws InputError for a missing or unreadable
+    // file, naming the Debian package that ships it. German keeps its
+    // capitalised entries (nouns), lower-cased; other languages leave them
+    // out (names).
+    static Lexicon read(const std::vector<std::filesystem::path>& files, std::string_view language = "en");
 
     // The lexicon of `files` (empty: default_files()), read on the first call
     // in this process and shared afterwards. Thread-safe.
-    static std::shared_ptr<const Lexicon> shared(const std::vector<std::filesystem::path>& files = {});
+    static std::shared_ptr<const Lexicon> shared(const std::vector<std::filesystem::path>& files = {},
+                                                 std::string_view language = "en");
 
     // Is the normalised word in the lexicon?
     bool contains(std::string_view normalized_word) const;

@@ -13,6 +13,8 @@
 //   phonemes_glmer.csv     one row per target phone: subject, condition,
 //                          sentence, target, correct (0/1) and its voicing,
 //                          manner, place, rounding and viseme class
+// With objective_csv, a table of each model's objective viseme information
+// (cross-validated LDA accuracy and RTI of its face) beside the listeners'.
 //   glmer_phonemes.R       lme4::glmer(correct ~ condition * class + (1|subject)
 //                          + (1|sentence) + (1|target)) per grouping, reading
 //                          phonemes_glmer.csv
@@ -35,6 +37,10 @@ struct PhonemeReportSettings {
     // Report order of the conditions (the protocol's); empty or for the rest:
     // first appearance in phonemes.csv.
     std::vector<std::string> conditions;
+    // viseme_information.csv of scripts/viseme-information (optional): what
+    // each model's face carries about the viseme class, shown beside the
+    // listeners' viseme RTI.
+    std::filesystem::path objective_csv;
 };
 
 // Writes the files above and appends the section to out_dir's report.md and

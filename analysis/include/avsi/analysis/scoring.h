@@ -12,11 +12,18 @@
 //                  alternate (protocols/spelling_variants.csv: colour/color);
 //   5. homophone   a homophone of the keyword or an alternate
 //                  (protocols/homophones.csv, General American; an RP table in
-//                  homophones-rp.csv);
+//                  homophones-rp.csv; per language, language.h);
+//   5b. compound   a compound keyword typed as two or three consecutive words
+//                  ("bil nyckel" for "bilnyckel"), under the rule sets from
+//                  the protocol's [scoring] split_compounds on (never by
+//                  default; the same spoken word, written apart);
 //   6. inflection  a regular or listed inflection of the same lemma
-//                  (inflection.h: boys/boy, helped/helps, rang/ring);
+//                  (inflection.h: boys/boy, helped/helps, rang/ring); for
+//                  Swedish and German a shared hunspell stem (bilen, bilar,
+//                  bilarna for bil; Häuser for Haus);
 //   7. typo        a non-word (not in the lexicon, lexicon.h, nor in the corpus
-//                  vocabulary) within one edit (Damerau-Levenshtein, optimal
+//                  vocabulary; for Swedish and German not in the hunspell
+//                  dictionary either) within one edit (Damerau-Levenshtein, optimal
 //                  string alignment) of the keyword or an alternate, both of 5+
 //                  letters: "gardne" for "garden", never "pound" for "found".
 // A rule set names the rules that give credit (RuleSet):
@@ -63,9 +70,10 @@
 
 namespace avsi::analysis {
 
-enum class MatchRule { Exact, Number, Alternate, Variant, Homophone, Inflection, Typo, None };
+enum class MatchRule { Exact, Number, Alternate, Variant, Homophone, Compound, Inflection, Typo, None };
 
-// "exact", "number", "alternate", "variant", "homophone", "inflection", "typo", "none".
+// "exact", "number", "alternate", "variant", "homophone", "compound",
+// "inflection", "typo", "none".
 const char* rule_name(MatchRule rule);
 
 // Named rule sets, each a superset of the one before.
@@ -78,7 +86,7 @@ const char* rule_set_name(RuleSet set);
 std::optional<RuleSet> parse_rule_set(std::string_view name);
 // The names, in order (for choices and "did you mean").
 std::vector<std::string> rule_set_names();
-// Does `set` give credit by `rule`?
+// Does `set` give credit by `rule`? (Compound: as ScoringSettings::split_compounds says.)
 bool rule_set_allows(RuleSet set, MatchRule rule);
 
 // Groups of words that count as the same word (homophones, spelling
@@ -87,8 +95,9 @@ class WordGroups {
 public:
     // Reads a table with a `words` column of groups ("to|too|two"); other
     // columns are documentation; '#' lines are comments. An entry that
-    // normalises to more than one word is an error naming the line.
-    static WordGroups read(const std::filesystem::path& path);
+    // normalises to more than one word is an error naming the line. Words are
+    // normalised as words of `language` (language.h).
+    static WordGroups read(const std::filesystem::path& path, std::string_view language = "en");
     void add_group(const std::vector<std::string>& normalized_words);
     // Are a and b (different words) in one group?
     bool same_group(const std::string& a, const std::string& b) const;
@@ -105,23 +114,34 @@ using HomophoneTable = WordGroups;
 
 struct ScoringSettings {
     RuleSet rules = RuleSet::Strict;
+    // The language of the responses and keywords (language.h): its
+    // normalisation, number words, homophones, spellings, inflections and lexicon.
+    std::string language = "en";
+    // The first rule set that credits a compound keyword typed apart
+    // ("bil nyckel" for "bilnyckel"); nullopt: none does.
+    std::optional<RuleSet> split_compounds;
     std::size_t typo_min_letters = 5;
-    std::filesystem::path homophones;         // empty: protocols/homophones.csv (General American)
-    std::filesystem::path spelling_variants;  // empty: protocols/spelling_variants.csv
+    std::filesystem::path homophones;         // empty: the language's (English: protocols/homophones.csv, GA)
+    std::filesystem::path spelling_variants;  // empty: the language's (English: protocols/spelling_variants.csv)
     std::filesystem::path inflections;        // empty: protocols/inflections.csv
     std::filesystem::path parts_of_speech;    // empty: protocols/lemma_pos.tsv
-    std::vector<std::filesystem::path> lexicon;  // empty: Lexicon::default_files()
+    std::vector<std::filesystem::path> lexicon;  // empty: the language's word lists (English: Lexicon::default_files())
     // Words that count as words besides the lexicon, so they are never typos:
     // the corpus vocabulary (corpus_vocabulary()).
     std::vector<std::string> vocabulary;
 };
 
-// The scoring settings a protocol asks for: its [scoring] rule set and
-// homophone table (the loader has validated both).
+// The scoring settings a protocol asks for: its [scoring] rule set, homophone
+// table and split_compounds, and the language of its voice (espeak:sv -> sv;
+// Festival voices are English). Throws InputError at the protocol's tts line
+// for a language keyword scoring has no tables for.
 ScoringSettings scoring_settings(const Protocol& protocol);
 
+// The language code of a protocol's voice ("en" for Festival and the default).
+std::string protocol_language(const Protocol& protocol);
+
 // The normalised words of every sentence, keyword and alternate of a corpus.
-std::vector<std::string> corpus_vocabulary(const Corpus& corpus);
+std::vector<std::string> corpus_vocabulary(const Corpus& corpus, std::string_view language = "en");
 
 // The outcome for one keyword of one response.
 struct KeywordMatch {

@@ -11,6 +11,14 @@
 //   5. numbers written as words become digits ("seven" -> "7",
 //      "twenty one" -> "21", "one hundred and five" -> "105"), ordinals too
 //      ("first" -> "1st", "twenty-first" -> "21st"), so "7" and "seven" compare equal.
+// That is English (language "en"). Other languages (language.h) change steps
+// 1, 4 and 5:
+//   1. the language's own letters are kept as letters, lower-cased (Swedish
+//      å ä ö é, German ä ö ü ß; far and får, schon and schön are different
+//      words); other diacritics are folded as for English;
+//   4. no contractions; apostrophes are dropped ("geht's" -> "gehts");
+//   5. the language's number words become digits ("fem" -> "5", "tjugoen" and
+//      "tjugo en" -> "21", "einundzwanzig" -> "21"; analysis/src/number_words.h).
 #pragma once
 
 #include <string>
@@ -37,5 +45,14 @@ std::string fold_to_ascii(std::string_view text);
 
 // The normalised words joined by single spaces.
 std::string normalize_text(std::string_view text);
+
+// The same for a language code of language.h ("en" is the functions above).
+std::vector<NormalizedWord> normalize_tokens(std::string_view text, std::string_view language);
+std::vector<std::string> normalize_words(std::string_view text, std::string_view language);
+
+// A normalised word in the plain-ASCII spelling a keyboard without the
+// language's letters gives: German ä ö ü ß -> ae oe ue ss, Swedish é -> e
+// (Swedish å ä ö have no such spelling); English words are unchanged.
+std::string ascii_spelling(std::string_view normalized_word, std::string_view language);
 
 }  // namespace avsi::analysis

@@ -104,6 +104,10 @@ struct ScoringProtocol {
     // Homophone table, resolved against the protocol folder; empty: the
     // shipped General American table (protocols/homophones.csv).
     std::filesystem::path homophones;
+    // The first rule set that credits a compound keyword typed as separate
+    // words ("bil nyckel" for "bilnyckel"): "strict", "loose", "lenient",
+    // or "never" (default).
+    std::string split_compounds = "never";
 };
 
 // The rule-set names [scoring] rules accepts.
@@ -112,6 +116,9 @@ const std::vector<std::string>& protocol_rule_sets();
 enum class ResponseMode { Subject, Experimenter };
 
 struct SessionSettings {
+    // The language of what the subject reads: that of the voice
+    // (ui_strings.h); the texts below default to its table's [session].
+    std::string language = "en";
     bool fullscreen = true;
     int monitor = 0;                       // 0 = primary
     ResponseMode response_mode = ResponseMode::Subject;  // who types the answer
