@@ -33,7 +33,7 @@ struct Workflow {
 inline const std::vector<Workflow>& workflows() {
     static const std::vector<Workflow> list = {
         {"Prepare (sentence and articulatory corpora, speech, control models, planning)",
-         {"corpus", "phones", "synth", "fap2traj", "stream", "train", "evaluate", "calibrate", "power",
+         {"corpus", "markers", "phones", "synth", "fap2traj", "stream", "train", "evaluate", "calibrate", "power",
           "simulate-srt"}},
         {"Build (stimuli, their checks, the design, the online study)",
          {"vocode", "mix", "render", "contact-sheet", "measure", "export-head", "build-stimuli", "design",

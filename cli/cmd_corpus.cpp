@@ -21,12 +21,14 @@ namespace {
 struct ReferenceOptions {
     std::string out;
     std::string sentences;
+    bool voice_given = false;
     learn::ReferenceSpeakerSettings settings;
 };
 
 int run_reference(const ReferenceOptions& o) {
     learn::ReferenceSpeakerSettings s = o.settings;
     s.sentences_path = o.sentences;
+    learn::resolve_reference_language(s, o.voice_given);
     const std::size_t n = learn::write_reference_corpus(o.out, s);
     const learn::ArticulatoryCorpus corpus = learn::load_articulatory_corpus(o.out);
     const learn::CorpusSplit split = learn::split_corpus(corpus);
@@ -47,7 +49,12 @@ void add_reference(CLI::App& corpus, std::function<int()>& chosen) {
     sub->add_option("--count", o->settings.max_utterances, "Use only the first N sentences (0: all)")
         ->capture_default_str();
     sub->add_option("--fps", o->settings.fps, "Frame rate of the parameter tracks")->capture_default_str();
-    sub->add_option("--voice", o->settings.voice, "espeak-ng voice for the timing")->capture_default_str();
+    CLI::Option* voice = sub->add_option("--voice", o->settings.voice,
+                                         "espeak-ng voice for the timing (default: the language's, en-us for en)")
+                             ->capture_default_str();
+    sub->add_option("--language", o->settings.language,
+                    "The speaker's language: en, or sv (Swedish sentences and targets, espeak-ng sv timing)")
+        ->capture_default_str();
     sub->add_option("--rate-min", o->settings.rate_min_wpm, "Slowest speaking rate (words per minute)")
         ->capture_default_str();
     sub->add_option("--rate-max", o->settings.rate_max_wpm, "Fastest speaking rate (words per minute)")
@@ -58,7 +65,10 @@ void add_reference(CLI::App& corpus, std::function<int()>& chosen) {
         ->capture_default_str();
     sub->add_option("--test-fraction", o->settings.test_fraction, "Fraction of utterances in the test split")
         ->capture_default_str();
-    sub->callback([o, &chosen] { chosen = [o] { return run_reference(*o); }; });
+    sub->callback([o, voice, &chosen] {
+        o->voice_given = voice->count() > 0;
+        chosen = [o] { return run_reference(*o); };
+    });
 }
 
 const bool registered_corpus = register_command({

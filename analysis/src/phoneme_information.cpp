@@ -93,8 +93,11 @@ ConfusionMatrix matrix_of(const std::string& condition, const std::string& kind,
 ConfusionMatrix phone_matrix(const std::string& condition, const std::vector<PhonemeRow>& rows, bool vowels) {
     const PhoneInventory& inventory = PhoneInventory::builtin();
     std::vector<std::string> symbols;
-    for (const auto& p : inventory.phones())
+    // English's phones: the phoneme analysis scores English answers.
+    for (const auto& symbol : inventory.language_phones("en")) {
+        const PhoneInfo& p = inventory.info(symbol);
         if (p.phone_class != PhoneClass::Silence && is_vowel(p) == vowels) symbols.push_back(p.symbol);
+    }
     std::vector<std::pair<std::string, std::string>> pairs;
     for (const auto& row : rows) {
         if (row.target.empty() || is_vowel(inventory.info(row.target)) != vowels) continue;

@@ -850,7 +850,7 @@ PhoneSequence phones_from_intervals(const std::vector<Interval>& input, const st
     if (first_unknown < intervals.size()) {
         const Interval& iv = intervals[first_unknown];
         throw InputError(source_path, iv.line, 0, fmt::format("interval {}", first_unknown + 1),
-                         fmt::format("unknown phone label \"{}\": expected {} listed in protocols/phone_map.tsv",
+                         fmt::format("unknown phone label \"{}\": expected {} listed in protocols/languages/en/phone_map.tsv",
                                      excerpt(trim(iv.text)), phone_set_text(phone_set)));
     }
 

@@ -1,8 +1,10 @@
-// The project phone set and its mappings, loaded from protocols/phones.tsv and
-// protocols/phone_map.tsv. Features follow Beskow §4.4: consonant/vowel, six
-// place features, five manner features, four 3-valued vowel features, stress.
+// The project phone set and its mappings, loaded from the language tables
+// protocols/languages/<lang>/phones.tsv and phone_map.tsv. Features follow
+// Beskow §4.4: consonant/vowel, six place features, five manner features,
+// four 3-valued vowel features, stress.
 #include "avsi/core/phones.h"
 
+#include <algorithm>
 #include <cctype>
 #include <functional>
 #include <mutex>
@@ -139,8 +141,7 @@ const std::array<std::string_view, feature_count>& feature_names() { return k_fe
 
 const PhoneInventory& PhoneInventory::builtin() {
     static const PhoneInventory inventory =
-        load(std::filesystem::path(AVSI_PROTOCOLS_DIR) / "phones.tsv",
-             std::filesystem::path(AVSI_PROTOCOLS_DIR) / "phone_map.tsv");
+        load_languages(std::filesystem::path(AVSI_PROTOCOLS_DIR) / "languages");
     return inventory;
 }
 
@@ -230,7 +231,9 @@ PhoneInventory PhoneInventory::load(const std::filesystem::path& phones_tsv,
         PhoneInfo info = parse_phone_row(row, fixed.size(), ppath,
                                          [&](const std::string& symbol) { return inv.m_index.count(symbol) > 0; },
                                          problems);
+        info.language = "en";
         inv.m_index[info.symbol] = inv.m_phones.size();
+        inv.m_english_phones.push_back(info.symbol);
         inv.m_phones.push_back(std::move(info));
     }
     if (!inv.m_index.count("sil"))
@@ -364,13 +367,15 @@ Phone PhoneInventory::parse_label(std::string_view label, std::string_view where
 }
 
 std::pair<std::string, std::optional<bool>> PhoneInventory::split_espeak_stress(
-    std::string_view mnemonic) const {
+    std::string_view mnemonic, std::string_view variant) const {
+    const LanguageTable* language = variant == "en" ? nullptr : language_table(variant);
+    const auto& marks = language ? language->espeak_stress : m_espeak_stress;
     std::optional<bool> stress;
     // Strip the longest stress mark at the front, repeatedly ("'" then ",").
     for (;;) {
         std::size_t best = 0;
         bool best_value = false;
-        for (const auto& [mark, value] : m_espeak_stress) {
+        for (const auto& [mark, value] : marks) {
             if (mark.size() > best && mnemonic.size() > mark.size() &&
                 mnemonic.substr(0, mark.size()) == mark) {
                 best = mark.size();
@@ -386,7 +391,18 @@ std::pair<std::string, std::optional<bool>> PhoneInventory::split_espeak_stress(
 
 std::vector<Phone> PhoneInventory::from_espeak(std::string_view mnemonic, std::string_view where,
                                                std::string_view variant) const {
-    const auto [base, stress] = split_espeak_stress(mnemonic);
+    const auto [base, stress] = split_espeak_stress(mnemonic, variant);
+    if (const LanguageTable* language = variant == "en" ? nullptr : language_table(variant)) {
+        const auto it = language->espeak.find(base);
+        if (it != language->espeak.end()) return make_phones(*this, it->second, stress.value_or(false));
+        std::vector<std::string> names;
+        for (const auto& [k, v] : language->espeak) names.push_back(k);
+        const std::string close = closest_match(base, names);
+        throw InputError(std::string(where), 0, 0, "espeak phoneme",
+                         fmt::format("unknown espeak-ng phoneme mnemonic \"{}\" for language {}: not in {}{}", base,
+                                     variant, language->map_path,
+                                     close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
+    }
     const std::vector<std::string>* targets = nullptr;
     if (variant == "en") {
         const auto it = m_espeak_en.find(base);
@@ -402,7 +418,7 @@ std::vector<Phone> PhoneInventory::from_espeak(std::string_view mnemonic, std::s
         const std::string close = closest_match(base, names);
         throw InputError(std::string(where), 0, 0, "espeak phoneme",
                          fmt::format("unknown espeak-ng phoneme mnemonic \"{}\": not in "
-                                     "protocols/phone_map.tsv{}",
+                                     "protocols/languages/en/phone_map.tsv{}",
                                      base, close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
     }
     return make_phones(*this, *targets, stress.value_or(false));
@@ -416,7 +432,7 @@ std::vector<Phone> PhoneInventory::from_festival(std::string_view name, bool str
         for (const auto& [k, v] : m_festival) names.push_back(k);
         const std::string close = closest_match(std::string(name), names);
         throw InputError(std::string(where), 0, 0, "festival phone",
-                         fmt::format("unknown Festival phone \"{}\": not in protocols/phone_map.tsv{}", name,
+                         fmt::format("unknown Festival phone \"{}\": not in protocols/languages/en/phone_map.tsv{}", name,
                                      close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
     }
     return make_phones(*this, it->second, stressed);
@@ -434,7 +450,7 @@ std::vector<Phone> from_label_set(const PhoneInventory& inventory,
         for (const auto& [k, v] : table) names.push_back(k);
         const std::string close = closest_match(std::string(symbol), names);
         throw InputError(std::string(where), 0, 0, "phone",
-                         fmt::format("unknown {} phone \"{}\": not in protocols/phone_map.tsv{}", set_name, symbol,
+                         fmt::format("unknown {} phone \"{}\": not in protocols/languages/en/phone_map.tsv{}", set_name, symbol,
                                      close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close)));
     }
     return make_phones(inventory, it->second, false);
@@ -482,8 +498,248 @@ std::vector<Phone> PhoneInventory::from_ipa(std::string_view ipa, std::string_vi
     }
     throw InputError(std::string(where), 0, 0, "phone",
                      fmt::format("unknown phone label \"{}\": neither an ARPAbet phone (AA1, P, sil) "
-                                 "nor an IPA label in protocols/phone_map.tsv",
+                                 "nor an IPA label in protocols/languages/en/phone_map.tsv",
                                  ipa));
+}
+
+// ---- Languages as data (protocols/languages/<lang>/) ----
+
+PhoneInventory PhoneInventory::load_languages(const std::filesystem::path& languages_dir) {
+    PhoneInventory inv = load(languages_dir / "en" / "phones.tsv", languages_dir / "en" / "phone_map.tsv");
+    std::vector<std::string> codes;
+    std::error_code ec;
+    for (const auto& entry : std::filesystem::directory_iterator(languages_dir, ec))
+        if (entry.is_directory() && entry.path().filename() != "en") codes.push_back(entry.path().filename().string());
+    if (ec) throw InputError(languages_dir.string(), fmt::format("cannot list the language tables: {}", ec.message()));
+    std::sort(codes.begin(), codes.end());
+    for (const auto& code : codes)
+        inv.add_language(code, languages_dir / code / "phones.tsv", languages_dir / code / "phone_map.tsv");
+    return inv;
+}
+
+void PhoneInventory::add_language(const std::string& code, const std::filesystem::path& phones_tsv,
+                                  const std::filesystem::path& map_tsv) {
+    if (code.empty() || code == "en" || m_languages.count(code))
+        throw InputError(phones_tsv.string(), 0, 0, "language",
+                         fmt::format("expected a new language code, got \"{}\" (already loaded)", code));
+    LanguageTable table;
+    // Messages name a shipped table as protocols/languages/<code>/phone_map.tsv.
+    const std::string shipped = (std::filesystem::path(AVSI_PROTOCOLS_DIR) / "languages").generic_string() + "/";
+    table.map_path = map_tsv.generic_string();
+    if (table.map_path.rfind(shipped, 0) == 0)
+        table.map_path = "protocols/languages/" + table.map_path.substr(shipped.size());
+    read_language_phones(code, phones_tsv, table);
+    read_language_map(code, map_tsv, table);
+    m_languages.emplace(code, std::move(table));
+}
+
+namespace {
+
+bool is_phone_symbol_text(const std::string& symbol) {
+    if (symbol == "sil") return true;
+    if (symbol.empty() || symbol.size() > 8) return false;
+    for (char c : symbol)
+        if (c < 'A' || c > 'Z') return false;
+    return true;
+}
+
+}  // namespace
+
+// The phones of a language table: the English header with mpeg4_viseme and
+// avsi17_viseme after `example`. A phone English (or an earlier language)
+// defined must have the same class and features.
+void PhoneInventory::read_language_phones(const std::string& code, const std::filesystem::path& phones_tsv,
+                                          LanguageTable& table) {
+    DiagnosticList problems;
+    const std::string ppath = phones_tsv.generic_string();
+    const auto lines = read_tsv_lines(phones_tsv);
+    const std::vector<std::string> fixed = {"symbol", "class", "ipa", "example", "mpeg4_viseme", "avsi17_viseme"};
+    std::vector<std::string> header = fixed;
+    for (auto name : k_feature_names) header.emplace_back(name);
+    if (lines.empty()) throw InputError(phones_tsv, "expected a header line and phones, got an empty file");
+    if (lines[0].fields != header) {
+        std::string want;
+        for (const auto& h : header) want += (want.empty() ? "" : " ") + h;
+        throw InputError(ppath, lines[0].line, 0, "header", fmt::format("expected columns \"{}\"", want));
+    }
+    std::set<std::string> seen;
+    for (std::size_t li = 1; li < lines.size(); ++li) {
+        const auto& row = lines[li];
+        if (row.fields.size() != header.size()) {
+            problems.add(ppath, row.line, 0, "",
+                         fmt::format("expected {} tab-separated fields, got {}", header.size(), row.fields.size()));
+            continue;
+        }
+        PhoneInfo info = parse_phone_row(
+            row, fixed.size(), ppath, [&](const std::string& symbol) { return seen.count(symbol) > 0; }, problems);
+        if (!is_phone_symbol_text(info.symbol)) {
+            problems.add(ppath, row.line, 0, "symbol",
+                         fmt::format("expected 1 to 8 upper-case letters A-Z or sil, got \"{}\"", info.symbol));
+            continue;
+        }
+        seen.insert(info.symbol);
+        info.language = code;
+        info.mpeg4_viseme = row.fields[4];
+        info.avsi17_viseme = row.fields[5];
+        for (std::size_t v : {std::size_t{4}, std::size_t{5}})
+            if (row.fields[v].empty())
+                problems.add(ppath, row.line, 0, fixed[v], "expected a viseme class name, got nothing");
+        table.phones.push_back(info.symbol);
+        const auto it = m_index.find(info.symbol);
+        if (it == m_index.end()) {
+            m_index[info.symbol] = m_phones.size();
+            m_phones.push_back(std::move(info));
+            continue;
+        }
+        PhoneInfo& known = m_phones[it->second];
+        if (known.phone_class != info.phone_class || known.features != info.features)
+            problems.add(ppath, row.line, 0, "symbol",
+                         fmt::format("phone \"{}\" has other features than in the {} table; a phone has one "
+                                     "feature vector in every language (give this one a new symbol)",
+                                     info.symbol, known.language));
+        if (known.mpeg4_viseme.empty()) {
+            known.mpeg4_viseme = info.mpeg4_viseme;
+            known.avsi17_viseme = info.avsi17_viseme;
+        } else if (known.mpeg4_viseme != info.mpeg4_viseme || known.avsi17_viseme != info.avsi17_viseme) {
+            problems.add(ppath, row.line, 0, "mpeg4_viseme",
+                         fmt::format("phone \"{}\" is in visemes {} / {} in the {} table, got {} / {}", info.symbol,
+                                     known.mpeg4_viseme, known.avsi17_viseme, known.language, info.mpeg4_viseme,
+                                     info.avsi17_viseme));
+        }
+    }
+    if (!seen.count("sil")) problems.add(ppath, 0, 0, "symbol", "expected a phone \"sil\" (silence), got none");
+    problems.throw_if_any();
+}
+
+// The espeak-ng rows of a language's mapping table; every target must be a
+// phone of that language's own table.
+void PhoneInventory::read_language_map(const std::string& code, const std::filesystem::path& map_tsv,
+                                       LanguageTable& table) {
+    DiagnosticList problems;
+    const std::string mpath = map_tsv.generic_string();
+    const auto lines = read_tsv_lines(map_tsv);
+    const std::vector<std::string> header = {"source", "symbol", "phones", "note"};
+    if (lines.empty() || lines[0].fields != header)
+        throw InputError(mpath, lines.empty() ? 0 : lines[0].line, 0, "header",
+                         "expected columns \"source symbol phones note\"");
+    const std::set<std::string> own(table.phones.begin(), table.phones.end());
+    for (std::size_t li = 1; li < lines.size(); ++li) {
+        const auto& row = lines[li];
+        if (row.fields.size() < 3 || row.fields.size() > 4) {
+            problems.add(mpath, row.line, 0, "",
+                         fmt::format("expected 3 or 4 tab-separated fields, got {}", row.fields.size()));
+            continue;
+        }
+        const std::string& symbol = row.fields[1];
+        const std::string& phones_text = row.fields[2];
+        if (row.fields[0] == "sequence") {
+            const auto pair = split_spaces(symbol);
+            const auto result = split_spaces(phones_text);
+            const auto own_phone = [&](const std::string& p) { return own.count(p) > 0; };
+            if (pair.size() != 2 || result.size() != 1 || !own_phone(pair[0]) || !own_phone(pair[1]) ||
+                !own_phone(result[0])) {
+                problems.add(mpath, row.line, 0, "symbol",
+                             fmt::format("expected two phones of the {} table and the one they become (\"RR T\" -> "
+                                         "\"RT\"), got \"{}\" -> \"{}\"",
+                                         code, symbol, phones_text));
+                continue;
+            }
+            table.sequences.push_back({pair[0], pair[1], result[0]});
+            continue;
+        }
+        if (row.fields[0] != "espeak") {
+            problems.add(mpath, row.line, 0, "source",
+                         fmt::format("expected espeak or sequence (a language table maps espeak-ng voice {}), got "
+                                     "\"{}\"",
+                                     code, row.fields[0]));
+            continue;
+        }
+        if (table.espeak.count(symbol) || table.espeak_stress.count(symbol)) {
+            problems.add(mpath, row.line, 0, "symbol", fmt::format("duplicate espeak symbol \"{}\"", symbol));
+            continue;
+        }
+        if (phones_text == "stress=1" || phones_text == "stress=0") {
+            table.espeak_stress[symbol] = phones_text == "stress=1";
+            continue;
+        }
+        auto targets = split_spaces(phones_text);
+        if (targets.empty())
+            problems.add(mpath, row.line, 0, "phones", "expected one or more phones or '-', got nothing");
+        bool ok = !targets.empty();
+        for (const auto& target : targets) {
+            if (target == "-") continue;
+            try {
+                const Phone phone = parse_label(target, mpath);
+                if (!own.count(phone.symbol)) {
+                    problems.add(mpath, row.line, 0, "phones",
+                                 fmt::format("phone \"{}\" is not in the {} phone table ({})", phone.symbol, code,
+                                             (map_tsv.parent_path() / "phones.tsv").generic_string()));
+                    ok = false;
+                }
+            } catch (const InputError& e) {
+                problems.add(mpath, row.line, 0, "phones", e.first().message);
+                ok = false;
+            }
+        }
+        if (ok) table.espeak[symbol] = std::move(targets);
+    }
+    problems.throw_if_any();
+}
+
+const PhoneInventory::LanguageTable* PhoneInventory::language_table(std::string_view code) const {
+    if (code.empty() || code == "en") return nullptr;
+    const auto it = m_languages.find(code);
+    return it == m_languages.end() ? nullptr : &it->second;
+}
+
+std::vector<std::string> PhoneInventory::languages() const {
+    std::vector<std::string> out{"en"};
+    for (const auto& [code, table] : m_languages) out.push_back(code);
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+bool PhoneInventory::has_language(std::string_view code) const {
+    return code == "en" || m_languages.count(code) > 0;
+}
+
+const std::vector<std::string>& PhoneInventory::language_phones(std::string_view code) const {
+    if (code == "en") return m_english_phones;
+    if (const LanguageTable* table = language_table(code)) return table->phones;
+    std::string list;
+    for (const auto& l : languages()) list += (list.empty() ? "" : ", ") + l;
+    throw InputError("", 0, 0, "language",
+                     fmt::format("no phone table for language \"{}\" (protocols/languages/{}/); languages: {}", code,
+                                 code, list));
+}
+
+std::string PhoneInventory::nearest_by_features(std::string_view symbol,
+                                                const std::function<bool(const std::string&)>& has) const {
+    const FeatureVector& target = info(symbol).features;
+    std::string best;
+    double best_distance = 0.0;
+    for (const auto& candidate : m_phones) {
+        if (candidate.symbol == symbol || !has(candidate.symbol)) continue;
+        double d = 0.0;
+        for (std::size_t f = 0; f < feature_count; ++f)
+            d += double(candidate.features[f] - target[f]) * double(candidate.features[f] - target[f]);
+        if (best.empty() || d < best_distance) {
+            best = candidate.symbol;
+            best_distance = d;
+        }
+    }
+    return best;
+}
+
+const std::vector<PhoneInventory::SequenceRule>& PhoneInventory::sequence_rules(std::string_view code) const {
+    static const std::vector<SequenceRule> none;
+    const LanguageTable* table = language_table(code);
+    return table ? table->sequences : none;
+}
+
+std::string PhoneInventory::language_map_path(std::string_view code) const {
+    if (const LanguageTable* table = language_table(code)) return table->map_path;
+    return "protocols/languages/en/phone_map.tsv";
 }
 
 }  // namespace avsi

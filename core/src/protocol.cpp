@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/files.h"
+#include "avsi/core/phones.h"
 #include "avsi/core/ui_strings.h"
 
 namespace avsi {
@@ -82,6 +83,28 @@ void read_tts(const ConfigSection& corpus, CorpusSettings& out, DiagnosticList& 
     }
     out.tts_engine = settings.engine;
     out.tts_voice = settings.voice;
+}
+
+// [corpus] language: the language of the sentences, the phone table and the
+// scoring; by default the voice's (tts = "espeak:sv" -> "sv"). A language
+// other than the voice's is an error.
+void read_language(const ConfigSection& corpus, CorpusSettings& out, DiagnosticList& problems) {
+    TtsSettings settings;
+    settings.engine = out.tts_engine;
+    settings.voice = out.tts_voice;
+    const std::string voice_language = tts_voice_language(settings);
+    out.language = voice_language.empty() ? "en" : voice_language;
+    if (!corpus.find("language")) return;
+    const std::string language =
+        corpus.get_choice("language", PhoneInventory::builtin().languages(), out.language, problems);
+    if (!voice_language.empty() && language != voice_language) {
+        corpus.report("language",
+                      fmt::format("expected the voice's language \"{}\" (tts = \"{}\"), got \"{}\"",
+                                  voice_language, tts_voice_spec(settings), language),
+                      problems);
+        return;
+    }
+    out.language = language;
 }
 
 // A model condition's post-processing policy, as a reader of the methods
@@ -256,6 +279,7 @@ void read_corpus_section(const ConfigSection& root, Protocol& p, DiagnosticList&
                              ? CorpusAudio::Recordings
                              : CorpusAudio::Tts;
         read_tts(corpus, p.corpus, problems);
+        read_language(corpus, p.corpus, problems);
         p.corpus.level_dbfs = corpus.get_number("level_dbfs", p.corpus.level_dbfs, -60.0, -6.0, problems);
         if (const ConfigValue* level = corpus.find("level_dbfs")) {
             p.corpus.level_line = level->line;

@@ -2,7 +2,7 @@
 // timing from espeakEVENT_PHONEME events, stress from espeak_TextToPhonemes.
 // Festival (festival_tts.cpp): audio and the Segment relation with syllable
 // stress. Both are mapped into the project phone set through
-// protocols/phone_map.tsv and padded to the same edge silences. Each utterance
+// protocols/languages/en/phone_map.tsv and padded to the same edge silences. Each utterance
 // is synthesised in a forked child from a freshly initialised engine, so the
 // output never depends on what was spoken before (docs/tts.md). Then the
 // obstruent onsets are aligned to the audio (onsets.h).
@@ -89,14 +89,36 @@ void ensure_initialized() {
     espeak().SetSynthCallback(synth_callback);
 }
 
-// The language codes of the installed English voices ("en-us", "en-gb-x-rp", …).
+// The languages with a phone table (protocols/languages/<code>/), sorted.
+const std::vector<std::string>& table_languages() {
+    static const std::vector<std::string> codes = [] {
+        std::vector<std::string> out;
+        std::error_code ec;
+        for (const auto& e : std::filesystem::directory_iterator(std::filesystem::path(AVSI_PROTOCOLS_DIR) / "languages", ec))
+            if (e.is_directory()) out.push_back(e.path().filename().string());
+        std::sort(out.begin(), out.end());
+        return out;
+    }();
+    return codes;
+}
+
+// The phone table of an espeak-ng language code ("en-gb-x-rp" -> "en",
+// "sv" -> "sv"), or "" when there is none.
+std::string table_of_language(const std::string& language) {
+    const std::string base = language.substr(0, language.find('-'));
+    const auto& codes = table_languages();
+    return std::find(codes.begin(), codes.end(), base) != codes.end() ? base : std::string();
+}
+
+// The language codes of the installed voices the phone tables cover
+// ("de", "en-us", "en-gb-x-rp", "sv", …).
 std::vector<std::string> english_voice_languages() {
     std::vector<std::string> out;
     for (const espeak_VOICE** v = espeak().ListVoices(nullptr); v && *v; ++v) {
         // `languages`: repeated [priority byte][language\0], ending with a 0 byte.
         for (const char* p = (*v)->languages; p && *p; p += std::strlen(p + 1) + 2) {
             const std::string language(p + 1);
-            if (language.rfind("en", 0) == 0 &&
+            if (!table_of_language(language).empty() &&
                 std::find(out.begin(), out.end(), language) == out.end())
                 out.push_back(language);
         }
@@ -105,7 +127,7 @@ std::vector<std::string> english_voice_languages() {
     return out;
 }
 
-// The English voices as a list for an error message.
+// The covered voices as a list for an error message.
 std::string english_voice_list() {
     std::string list;
     for (const auto& l : english_voice_languages()) list += (list.empty() ? "" : ", ") + l;
@@ -113,25 +135,28 @@ std::string english_voice_list() {
 }
 
 // Selects the voice; returns the phone-map variant ("" for en-us tables, "en"
-// for the non-rhotic English tables). Caller holds the mutex. The installed
+// for the non-rhotic English tables, the language's code for another
+// language's table: "sv", "de"). Caller holds the mutex. The installed
 // voices are listed only for an error: espeak_SetVoiceByName lists them
 // itself unless this process already has (start_espeak).
 std::string select_voice(const std::string& voice) {
     if (voice.empty() || espeak().SetVoiceByName(voice.c_str()) != EE_OK) {
         const std::string close = closest_match(voice, english_voice_languages());
         throw InputError("tts", 0, 0, "voice",
-                         fmt::format("unknown espeak-ng voice \"{}\"{}; English voices: {}", voice,
+                         fmt::format("unknown espeak-ng voice \"{}\"{}; voices with a phone table: {}", voice,
                                      close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close),
                                      english_voice_list()));
     }
     const espeak_VOICE* current = espeak().GetCurrentVoice();
     const std::string language = current && current->languages ? std::string(current->languages + 1) : "";
     const std::string identifier = current && current->identifier ? current->identifier : "";
-    if (language.rfind("en", 0) != 0)
+    const std::string table = table_of_language(language);
+    if (table.empty())
         throw InputError("tts", 0, 0, "voice",
-                         fmt::format("voice \"{}\" speaks \"{}\"; the phone mapping covers English voices "
-                                     "only: {}",
-                                     voice, language, english_voice_list()));
+                         fmt::format("voice \"{}\" speaks \"{}\", which has no phone table "
+                                     "(protocols/languages/{}/); voices with a phone table: {}",
+                                     voice, language, language.substr(0, language.find('-')), english_voice_list()));
+    if (table != "en") return table;
     std::string id_lower = identifier;
     for (char& c : id_lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     return id_lower.find("en-us") != std::string::npos ? "" : "en";
@@ -157,7 +182,8 @@ std::vector<std::string> phoneme_clauses(const std::string& text) {
 }
 
 // The clauses split into mnemonics with their stress marks separated.
-std::vector<StressToken> stress_tokens(const std::vector<std::string>& clauses, const PhoneInventory& inventory) {
+std::vector<StressToken> stress_tokens(const std::vector<std::string>& clauses, const PhoneInventory& inventory,
+                                       const std::string& variant) {
     std::vector<StressToken> tokens;
     for (const std::string& clause : clauses) {
         std::size_t i = 0;
@@ -165,7 +191,7 @@ std::vector<StressToken> stress_tokens(const std::vector<std::string>& clauses, 
             std::size_t j = i;
             while (j < clause.size() && clause[j] != '|' && clause[j] != ' ') ++j;
             if (j > i) {
-                auto [base, stress] = inventory.split_espeak_stress(std::string_view(clause).substr(i, j - i));
+                auto [base, stress] = inventory.split_espeak_stress(std::string_view(clause).substr(i, j - i), variant);
                 tokens.push_back({std::move(base), stress});
             }
             i = j + 1;
@@ -411,6 +437,29 @@ TtsResult pad_edges(std::vector<SamplePhone> phones, std::vector<short> samples,
     return result;
 }
 
+// Two phones of one word that a sequence rule joins become its result over
+// both segments (the first's stress kept).
+std::vector<SamplePhone> apply_sequence_rules(std::vector<SamplePhone> phones,
+                                              const std::vector<PhoneInventory::SequenceRule>& rules) {
+    if (rules.empty()) return phones;
+    std::vector<SamplePhone> out;
+    for (auto& p : phones) {
+        if (!out.empty() && out.back().word == p.word && out.back().word > 0) {
+            const auto rule = std::find_if(rules.begin(), rules.end(), [&](const PhoneInventory::SequenceRule& r) {
+                return r.first == out.back().phone.symbol && r.second == p.phone.symbol;
+            });
+            if (rule != rules.end()) {
+                out.back().phone.symbol = rule->result;
+                out.back().phone.stressed = false;
+                out.back().end = p.end;
+                continue;
+            }
+        }
+        out.push_back(std::move(p));
+    }
+    return out;
+}
+
 // Step 1: checks the settings and starts the utterance in a child process
 // (see fork_child).
 EspeakChild start_espeak(const std::string& text, const TtsSettings& settings) {
@@ -436,8 +485,8 @@ TtsResult finish_espeak(EspeakChild& child, const std::string& text, const TtsSe
     const int rate_hz = child.rate_hz;
     Synthesis synthesis = collect_child(child);
     Collector& collector = synthesis.collector;
-    const std::vector<StressToken> tokens = stress_tokens(synthesis.clauses, inventory);
     const std::string& variant = synthesis.variant;
+    const std::vector<StressToken> tokens = stress_tokens(synthesis.clauses, inventory, variant);
     const std::string where = fmt::format("text \"{}\" (espeak-ng voice {})", text, settings.voice);
     if (collector.phonemes.empty() || collector.samples.empty())
         throw InputError(where, 0, 0, "text", "espeak-ng produced no speech for this text");
@@ -482,13 +531,17 @@ TtsResult finish_espeak(EspeakChild& child, const std::string& text, const TtsSe
         merged.push_back(std::move(p));
     }
 
-    // Step 4: lead and trail silence cut or padded to the settings.
+    // Step 4: the language's sequence rules within a word (Swedish r + t ->
+    // ʈ): the pair becomes one phone over both segments.
+    merged = apply_sequence_rules(std::move(merged), inventory.sequence_rules(variant));
+
+    // Step 5: lead and trail silence cut or padded to the settings.
     return pad_edges(std::move(merged), std::move(collector.samples), rate_hz, settings, where, "espeak-ng");
 }
 
 // Festival: the Segment relation gives each phone's end; it starts where the
 // previous one ends. Phones are mapped through the `festival` rows of
-// protocols/phone_map.tsv, so the voice must use the US English phone set.
+// protocols/languages/en/phone_map.tsv, so the voice must use the US English phone set.
 TtsResult synthesize_festival(const std::string& text, const TtsSettings& settings) {
     const TtsSettings defaults;
     for (const auto& [field, value, fixed] : {std::tuple{"rate_wpm", settings.rate_wpm, defaults.rate_wpm},
@@ -504,7 +557,7 @@ TtsResult synthesize_festival(const std::string& text, const TtsSettings& settin
     if (u.phone_set != "radio")
         throw InputError("tts", 0, 0, "voice",
                          fmt::format("Festival voice \"{}\" uses the phone set \"{}\"; the phone mapping "
-                                     "(protocols/phone_map.tsv) covers Festival's US English phone set \"radio\" "
+                                     "(protocols/languages/en/phone_map.tsv) covers Festival's US English phone set \"radio\" "
                                      "(voices cmu_us_slt_arctic_hts, kal_diphone, ...)",
                                      settings.voice, u.phone_set));
     if (u.segments.empty() || u.samples.empty())
@@ -573,6 +626,13 @@ std::string tts_voice_spec(const TtsSettings& settings) {
     return (settings.engine == TtsEngine::Festival ? "festival:" : "espeak:") + settings.voice;
 }
 
+std::string tts_voice_language(const TtsSettings& settings) {
+    if (settings.engine == TtsEngine::Festival) return "en";
+    std::string name = settings.voice.substr(settings.voice.rfind('/') == std::string::npos ? 0 : settings.voice.rfind('/') + 1);
+    for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return table_of_language(name);
+}
+
 TtsVoiceInfo describe_tts_voice(const TtsSettings& settings) {
     TtsVoiceInfo info;
     info.voice = settings.voice;
@@ -599,7 +659,7 @@ TtsVoiceInfo describe_tts_voice(const TtsSettings& settings) {
             for (const auto& l : english) list += (list.empty() ? "" : ", ") + l;
             const std::string close = closest_match(settings.voice, english);
             throw InputError("tts", 0, 0, "voice",
-                             fmt::format("unknown or non-English espeak-ng voice \"{}\"{}; English voices: {}",
+                             fmt::format("unknown espeak-ng voice \"{}\" or one without a phone table{}; voices with a phone table: {}",
                                          settings.voice, close.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", close), list));
         }
     }

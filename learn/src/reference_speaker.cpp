@@ -246,7 +246,16 @@ std::vector<TaskVector> simulate_tract_variables(const PhoneSequence& phones, co
                                                  const ReferenceSpeakerSettings& settings) {
     AVSI_ASSERT(!phones.empty() && settings.fps > 0 && settings.simulation_step_s > 0);
     const TaskGeometry& geometry = builtin_head_task_geometry();
-    const auto table = read_task_targets(settings.targets_path);
+    auto table = read_task_targets(settings.targets_path);
+    if (!settings.language_targets_path.empty())
+        for (auto& [phone, g] : read_task_targets(settings.language_targets_path)) {
+            if (table.count(phone))
+                throw InputError(settings.language_targets_path, 0, 0, "phone",
+                                 fmt::format("\"{}\" has a row in {} already", phone,
+                                             settings.targets_path.empty() ? "the shipped task_targets.tsv"
+                                                                           : settings.targets_path.string()));
+            table[phone] = g;
+        }
     const std::vector<Gesture> gs = gestures(phones, table, variation, geometry);
     const std::size_t frames = frame_count(phones.back().end_s, settings.fps);
     std::vector<TaskVector> out(frames);
@@ -327,6 +336,25 @@ std::vector<std::string> read_sentence_list(const fs::path& path) {
     return out;
 }
 
+void resolve_reference_language(ReferenceSpeakerSettings& s, bool voice_given) {
+    if (s.language == "en") return;
+    const fs::path dir = fs::path(AVSI_PROTOCOLS_DIR) / "languages" / s.language;
+    if (!PhoneInventory::builtin().has_language(s.language) || !fs::is_regular_file(dir / "task_targets.tsv") ||
+        !fs::is_regular_file(dir / "reference_sentences.txt")) {
+        std::string list;
+        for (const auto& l : PhoneInventory::builtin().languages())
+            if (l == "en" || fs::is_regular_file(fs::path(AVSI_PROTOCOLS_DIR) / "languages" / l / "task_targets.tsv"))
+                list += (list.empty() ? "" : ", ") + l;
+        throw InputError("", 0, 0, "language",
+                         fmt::format("no reference speaker for language \"{}\" (needs protocols/languages/{}/"
+                                     "task_targets.tsv and reference_sentences.txt); languages with one: {}",
+                                     s.language, s.language, list));
+    }
+    if (!voice_given) s.voice = s.language;
+    if (s.sentences_path.empty()) s.sentences_path = dir / "reference_sentences.txt";
+    s.language_targets_path = dir / "task_targets.tsv";
+}
+
 std::size_t write_reference_corpus(const fs::path& out_dir, const ReferenceSpeakerSettings& s) {
     if (s.rate_min_wpm < 80 || s.rate_max_wpm > 450 || s.rate_min_wpm > s.rate_max_wpm)
         throw InputError("", 0, 0, "rate_wpm",
@@ -382,15 +410,19 @@ std::size_t write_reference_corpus(const fs::path& out_dir, const ReferenceSpeak
                     "Trajectories come from a task-dynamic gesture model (Saltzman & Munhall 1989):\n"
                     "overlapping phone gestures on five lip and jaw tract variables, critically damped\n"
                     "dynamics, the parameters solved through the built-in head's geometry; targets from\n"
-                    "protocols/reference/task_targets.tsv; per-utterance speaking rate, articulation\n"
-                    "scale and posture, and sensor noise; timing from espeak-ng. The tracks are\n"
+                    "protocols/reference/task_targets.tsv{}; per-utterance speaking rate, articulation\n"
+                    "scale and posture, and sensor noise; timing from espeak-ng{}. The tracks are\n"
                     "synthetic: Table 2 on them checks the training pipeline.\n"
                     "See learn/include/avsi/learn/reference_speaker.h for the full description.\n\n"
                     "- `corpus.json`: the manifest (split seed {}, test fraction {})\n"
                     "- `tracks/<id>.csv`: the 10 parameters per frame\n"
                     "- `labels/<id>.tsv`: espeak-ng phone timing\n"
                     "- `sentences.tsv`: id, speaking rate, text\n",
-                    s.seed, entries.size(), s.fps, sentences_path.filename().string(), s.split_seed, s.test_fraction));
+                    s.seed, entries.size(), s.fps, sentences_path.filename().string(),
+                    s.language_targets_path.empty()
+                        ? std::string()
+                        : fmt::format(" and protocols/languages/{}/task_targets.tsv", s.language),
+                    s.language == "en" ? std::string() : fmt::format(" (voice {})", s.voice), s.split_seed, s.test_fraction));
     return entries.size();
 }
 

@@ -9,8 +9,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <future>
 #include <limits>
 #include <map>
@@ -440,6 +442,26 @@ void parallel_params(const Prepared& p, int threads, const std::function<void(st
     for (auto& w : workers) w.get();
 }
 
+// The start model's key to copy for a key it lacks: the nearest phone by
+// features (PhoneInventory::nearest_by_features) that the model has, with
+// the key's stress digit if it has one ("YY1" -> "UW1"); "" if none.
+std::string start_key_by_features(const std::string& key, const std::function<bool(const std::string&)>& has) {
+    const PhoneInventory& inv = PhoneInventory::builtin();
+    const bool digit = !key.empty() && std::isdigit(static_cast<unsigned char>(key.back()));
+    const std::string symbol = digit ? key.substr(0, key.size() - 1) : key;
+    const std::string suffix = digit ? key.substr(key.size() - 1) : std::string();
+    if (!inv.contains(symbol)) return {};
+    auto key_of = [&](const std::string& s) -> std::string {
+        for (const std::string& k : {s + suffix, s, s + "1", s + "0"})
+            if (has(k)) return k;
+        return {};
+    };
+    const std::string nearest = inv.nearest_by_features(symbol, [&](const std::string& s) { return !key_of(s).empty(); });
+    if (nearest.empty()) return {};
+    log_info("train: \"{}\" starts from the start model's \"{}\" (the nearest phone by features)", key, key_of(nearest));
+    return key_of(nearest);
+}
+
 fs::path default_init(Kind kind) {
     const fs::path dir = fs::path(AVSI_PROTOCOLS_DIR) / "models";
     switch (kind) {
@@ -466,12 +488,19 @@ std::unique_ptr<ControlModel> train_cohen_massaro(std::unique_ptr<ControlModel> 
     auto* model = model_as<CohenMassaroModel>(init, init_path, "cohen-massaro");
     const Prepared p = prepare(train, test, [](const Phone& ph) { return phone_key(ph, true); });
     CohenMassaroModel::Table& table = model->phones();
-    // Entries for new stress keys start as copies of their base phone's.
+    // Entries for new stress keys start as copies of their base phone's; a
+    // phone the start model lacks (another language's) from the nearest
+    // phone it has by features.
     for (const auto& key : p.keys)
         if (!table.count(key)) {
             const std::string base = key.substr(0, key.size() - 1);
-            if (!table.count(base)) throw InputError(init_path, fmt::format("the start model has no entry for \"{}\"", base));
-            table[key] = table.at(base);
+            if (table.count(base)) {
+                table[key] = table.at(base);
+                continue;
+            }
+            const std::string source = start_key_by_features(key, [&](const std::string& k) { return table.count(k) > 0; });
+            if (source.empty()) throw InputError(init_path, fmt::format("the start model has no entry for \"{}\"", base));
+            table[key] = table.at(source);
         }
     std::array<std::vector<double>, param_count> x;
     std::atomic<int> total{0};
@@ -572,11 +601,18 @@ std::unique_ptr<ControlModel> train_ohman(std::unique_ptr<ControlModel> init, co
         const std::string& key = p.keys[k];
         const std::string base = p.key_is_anchor[k] && key != "sil" ? key.substr(0, key.size() - 1) : key;
         if (p.key_is_anchor[k] && !vowels.count(key)) {
-            if (!vowels.count(base)) throw InputError(init_path, fmt::format("the start model has no vowel \"{}\"", base));
-            vowels[key] = vowels.at(base);
+            const std::string source =
+                vowels.count(base) ? base
+                                   : start_key_by_features(key, [&](const std::string& s) { return vowels.count(s) > 0; });
+            if (source.empty()) throw InputError(init_path, fmt::format("the start model has no vowel \"{}\"", base));
+            vowels[key] = vowels.at(source);
         }
-        if (!p.key_is_anchor[k] && !consonants.count(key))
-            throw InputError(init_path, fmt::format("the start model has no consonant \"{}\"", key));
+        if (!p.key_is_anchor[k] && !consonants.count(key)) {
+            const std::string source =
+                start_key_by_features(key, [&](const std::string& s) { return consonants.count(s) > 0; });
+            if (source.empty()) throw InputError(init_path, fmt::format("the start model has no consonant \"{}\"", key));
+            consonants[key] = consonants.at(source);
+        }
     }
     std::array<std::vector<double>, param_count> x;
     std::atomic<int> total{0};
@@ -674,6 +710,15 @@ std::unique_ptr<ControlModel> train_mpeg4(std::unique_ptr<ControlModel> init, co
                                           int threads, int& iterations, VisemeSet& trained_set) {
     auto* model = model_as<Mpeg4CohenMassaroModel>(init, init_path, "mpeg4-cohen-massaro");
     trained_set = model->viseme_set();
+    for (const auto* set : {&train, &test})
+        for (const auto& utt : *set)
+            for (const auto& ph : utt.phones)
+                if (!trained_set.phone_to_viseme.count(ph.symbol))
+                    throw InputError(init_path, 0, 0, "viseme_set",
+                                     fmt::format("the start model's viseme set \"{}\" (language {}) has no viseme for "
+                                                 "phone \"{}\" of utterance {}; start from a model whose set maps the "
+                                                 "corpus's language (protocols/models/<lang>/mpeg4-cohen-massaro.json)",
+                                                 trained_set.name, trained_set.language, ph.symbol, utt.id));
     const std::vector<double> alphas = model->alphas();
     // Keys are viseme indices, named by viseme so prepare() can map phones.
     const Prepared p = prepare(train, test, [&](const Phone& ph) {
@@ -776,6 +821,7 @@ std::string viseme_set_json(const VisemeSet& set, const std::string& source) {
     nlohmann::json j;
     j["name"] = set.name + "-trained";
     j["source"] = source;
+    if (set.language != "en") j["language"] = set.language;
     j["visemes"] = nlohmann::json::array();
     for (const auto& v : set.visemes) {
         nlohmann::json t = nlohmann::json::object();

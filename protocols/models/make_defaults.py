@@ -47,7 +47,7 @@ def read_targets():
 
 def read_classes():
     classes = {}
-    with open(os.path.join(PROTO, "phones.tsv")) as f:
+    with open(os.path.join(PROTO, "languages", "en", "phones.tsv")) as f:
         lines = [l for l in f if l.strip() and not l.startswith("#")]
     for r in csv.DictReader(lines, delimiter="\t"):
         classes[r["symbol"]] = r["class"]

@@ -96,8 +96,13 @@ MeasureResult run_measure(const MeasureJobSettings& s) {
     const ArticulationMeter meter(head);  // fails early, naming missing landmarks
 
     PhoneSequence phones;
-    if (!s.text.empty()) phones = synthesize_speech(s.text).phones;
-    else if (!s.phones_path.empty()) phones = read_phones(s.phones_path);
+    if (!s.text.empty()) {
+        TtsSettings tts;
+        set_tts_voice(tts, s.tts, "--tts");
+        phones = synthesize_speech(s.text, tts).phones;
+    } else if (!s.phones_path.empty()) {
+        phones = read_phones(s.phones_path);
+    }
     synth::Trajectory trajectory;
     if (!s.model_path.empty()) trajectory = synth::load_model(s.model_path)->synthesize(phones, s.fps);
     else if (!s.fap_path.empty()) trajectory = synth::fap_to_trajectory(synth::read_fap(s.fap_path));

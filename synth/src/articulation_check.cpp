@@ -28,7 +28,7 @@ std::size_t ArticulationSummary::violations() const {
     std::size_t n = interpenetrating_frames > 0 ? 1 : 0;
     for (const auto& s : segments) n += s.ok ? 0 : 1;
     if (rounding_checked && !rounding_ok) ++n;
-    return n;
+    return n + close_front_problems.size();
 }
 
 namespace {
@@ -57,6 +57,7 @@ std::vector<std::string> ArticulationSummary::problems(const ArticulationLimits&
         out.push_back(fmt::format("rounded /uw w/ do not narrow and protrude the lips relative to /iy/: width {:.1f} vs "
                                   "{:.1f} mm, protrusion {:.2f} vs {:.2f} mm",
                                   width_rounded_mm, width_spread_mm, protrusion_rounded_mm, protrusion_spread_mm));
+    out.insert(out.end(), close_front_problems.begin(), close_front_problems.end());
     return out;
 }
 
@@ -68,6 +69,41 @@ std::vector<std::string> ArticulationSummary::failures(bool closure_required, co
     if (interpenetrating_frames > 0) out.push_back(interpenetration_problem(*this));
     return out;
 }
+
+namespace {
+
+// The three-way contrast of the Swedish close front vowels (the header's rule).
+std::vector<std::string> close_front_problems(const ArticulationSummary& s, const ArticulationLimits& limits) {
+    std::vector<std::string> out;
+    const VowelLips &i = s.spread_iy, &y = s.outrounded_yy, &u = s.inrounded_ux;
+    if (y.segments > 0 && !(y.protrusion_mm >= i.protrusion_mm + limits.outrounding_mm))
+        out.push_back(fmt::format("outrounded /yː/ does not protrude the lips beyond /iː/ by {:.1f} mm: protrusion "
+                                  "{:.2f} vs {:.2f} mm",
+                                  limits.outrounding_mm, y.protrusion_mm, i.protrusion_mm));
+    if (u.segments > 0 && !(u.width_mm <= i.width_mm - limits.inrounding_mm))
+        out.push_back(fmt::format("inrounded /ʉː/ does not narrow the mouth below /iː/ by {:.1f} mm: width {:.1f} vs "
+                                  "{:.1f} mm",
+                                  limits.inrounding_mm, u.width_mm, i.width_mm));
+    if (u.segments > 0 && y.segments > 0 && !(u.protrusion_mm <= y.protrusion_mm - limits.outrounding_mm))
+        out.push_back(fmt::format("inrounded /ʉː/ protrudes the lips like /yː/: protrusion {:.2f} vs {:.2f} mm "
+                                  "(expected {:.1f} mm less)",
+                                  u.protrusion_mm, y.protrusion_mm, limits.outrounding_mm));
+    return out;
+}
+
+void add_vowel_lips(VowelLips& lips, const ArticulationMeasures& m) {
+    ++lips.segments;
+    lips.width_mm += m.mouth_width_mm;
+    lips.protrusion_mm += 0.5 * (m.upper_protrusion_mm + m.lower_protrusion_mm);
+}
+
+void average_vowel_lips(VowelLips& lips) {
+    if (lips.segments == 0) return;
+    lips.width_mm /= static_cast<double>(lips.segments);
+    lips.protrusion_mm /= static_cast<double>(lips.segments);
+}
+
+}  // namespace
 
 ArticulationSummary check_articulation(const PhoneSequence& phones, double fps,
                                        const std::vector<ArticulationMeasures>& measures,
@@ -118,6 +154,14 @@ ArticulationSummary check_articulation(const PhoneSequence& phones, double fps,
             if (c.ok) (bilabial ? summary.bilabials_closed : summary.labiodentals_reached) += 1;
             summary.segments.push_back(c);
         }
+        if (VowelLips* lips = ph.symbol == "IY"   ? &summary.spread_iy
+                              : ph.symbol == "YY" ? &summary.outrounded_yy
+                              : ph.symbol == "UX" ? &summary.inrounded_ux
+                                                  : nullptr) {
+            bool inside = false;
+            const auto [first, last] = frames_of(ph, inside);
+            add_vowel_lips(*lips, measures[(first + last - 1) / 2]);
+        }
         const bool rounded = ph.symbol == "UW" || ph.symbol == "W";
         const bool spread = ph.symbol == "IY";
         if (rounded || spread) {
@@ -145,6 +189,10 @@ ArticulationSummary check_articulation(const PhoneSequence& phones, double fps,
         summary.rounding_ok = summary.width_rounded_mm < summary.width_spread_mm &&
                               summary.protrusion_rounded_mm > summary.protrusion_spread_mm;
     }
+    for (VowelLips* lips : {&summary.spread_iy, &summary.outrounded_yy, &summary.inrounded_ux}) average_vowel_lips(*lips);
+    summary.close_front_checked =
+        summary.spread_iy.segments > 0 && (summary.outrounded_yy.segments > 0 || summary.inrounded_ux.segments > 0);
+    if (summary.close_front_checked) summary.close_front_problems = close_front_problems(summary, limits);
     return summary;
 }
 

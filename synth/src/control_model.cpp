@@ -259,15 +259,29 @@ bool is_phone_symbol(std::string_view symbol) { return PhoneInventory::builtin()
 
 std::vector<std::string> phone_symbols() {
     std::vector<std::string> out;
-    for (const auto& info : PhoneInventory::builtin().phones()) out.push_back(info.symbol);
+    for (const auto& symbol : PhoneInventory::builtin().language_phones("en")) out.push_back(symbol);
     return out;
 }
 
 json parse_json_file(const std::filesystem::path& path) { return avsi::read_json_file(path); }
 
 void missing_phone(const Phone& phone, std::size_t segment, std::string_view kind) {
+    // A phone another language added: the model was trained without it.
+    const PhoneInventory& inventory = PhoneInventory::builtin();
+    std::string languages;
+    if (inventory.contains(phone.symbol) && inventory.info(phone.symbol).language != "en")
+        for (const auto& code : inventory.languages()) {
+            const auto& table = inventory.language_phones(code);
+            if (std::find(table.begin(), table.end(), phone.symbol) != table.end())
+                languages += (languages.empty() ? "" : ", ") + code;
+        }
+    const std::string hint =
+        languages.empty() ? std::string()
+                          : fmt::format(" (a phone of the {} table: use that language's models, protocols/models/"
+                                        "<lang>/, or train one on `avsi corpus reference --language <lang>`)",
+                                        languages);
     throw InputError(Diagnostic{"", 0, 0, fmt::format("phone {} ('{}' at {:.3f} s)", segment + 1, phone.symbol, phone.start_s),
-                                fmt::format("the {} model has no entry for phone \"{}\"", kind, phone.symbol)});
+                                fmt::format("the {} model has no entry for phone \"{}\"{}", kind, phone.symbol, hint)});
 }
 
 }  // namespace detail

@@ -38,8 +38,10 @@ VisemeSet load_viseme_set(const std::filesystem::path& path) {
     DiagnosticList problems;
     JsonReader reader(path.string(), problems);
     VisemeSet set;
-    reader.check_keys(root, {"name", "source", "visemes"}, "");
+    reader.check_keys(root, {"name", "source", "language", "visemes"}, "");
     if (auto v = reader.string_field(root, "name", "/name")) set.name = *v;
+    if (root.contains("language"))
+        if (auto v = reader.string_field(root, "language", "/language")) set.language = *v;
     if (auto v = reader.string_field(root, "source", "/source")) set.source = *v;
     const json* list = reader.require(root, "visemes", "/visemes");
     std::vector<std::string> names;
@@ -94,9 +96,12 @@ VisemeSet load_viseme_set(const std::filesystem::path& path) {
             set.visemes.push_back(std::move(v));
         }
     }
-    for (const auto& sym : phone_symbols())
-        if (!set.phone_to_viseme.count(sym))
-            reader.error("/visemes", fmt::format("phone \"{}\" is not mapped to any viseme", sym));
+    if (!PhoneInventory::builtin().has_language(set.language))
+        reader.error("/language", fmt::format("no phone table for language \"{}\" (protocols/languages/)", set.language));
+    else
+        for (const auto& sym : PhoneInventory::builtin().language_phones(set.language))
+            if (!set.phone_to_viseme.count(sym))
+                reader.error("/visemes", fmt::format("phone \"{}\" is not mapped to any viseme", sym));
     problems.throw_if_any();
     return set;
 }
@@ -105,6 +110,7 @@ std::string viseme_set_json_text(const VisemeSet& set) {
     nlohmann::ordered_json root;
     root["name"] = set.name;
     root["source"] = set.source;
+    if (set.language != "en") root["language"] = set.language;
     root["visemes"] = nlohmann::ordered_json::array();
     for (const auto& v : set.visemes) {
         nlohmann::ordered_json targets = nlohmann::ordered_json::object();

@@ -193,15 +193,31 @@ std::unique_ptr<ControlModel> load_rule(const json& root, const std::filesystem:
         return nullptr;
     }
     if (external) {
-        const auto ref = reader.string_field(root, "targets_file", "/targets_file");
-        if (!ref) return nullptr;
-        std::filesystem::path p = *ref;
-        if (p.is_relative()) p = path.parent_path() / p;
-        try {
-            table = read_rule_targets_tsv(p);
-        } catch (const InputError& e) {
-            for (const auto& d : e.diagnostics()) reader.error("/targets_file", d.format());
+        // One TSV, or several (English's table and a language's additions):
+        // a phone in two of them is an error.
+        const json& ref = root["targets_file"];
+        std::vector<std::string> files;
+        if (ref.is_string()) files.push_back(ref.get<std::string>());
+        else if (ref.is_array() && !ref.empty() && std::all_of(ref.begin(), ref.end(), [](const json& f) { return f.is_string(); }))
+            for (const auto& f : ref) files.push_back(f.get<std::string>());
+        else {
+            reader.error("/targets_file", "expected a TSV file name or an array of them, got " + ref.dump());
             return nullptr;
+        }
+        for (std::size_t k = 0; k < files.size(); ++k) {
+            std::filesystem::path p = files[k];
+            if (p.is_relative()) p = path.parent_path() / p;
+            try {
+                for (auto& [phone, target] : read_rule_targets_tsv(p)) {
+                    if (table.count(phone))
+                        reader.error(ref.is_array() ? "/targets_file/" + std::to_string(k) : "/targets_file",
+                                     fmt::format("phone \"{}\" has a row in an earlier targets file too", phone));
+                    table[phone] = target;
+                }
+            } catch (const InputError& e) {
+                for (const auto& d : e.diagnostics()) reader.error("/targets_file", d.format());
+                return nullptr;
+            }
         }
     } else {
         std::vector<std::string> names;

@@ -3,7 +3,7 @@
 
 Reads the hand-built case (tests/data/analysis/phonemes: corpus.csv,
 responses.csv, pronunciations.tsv) and the phone features of
-protocols/phones.tsv, aligns every test answer as the header states
+protocols/languages/en/phones.tsv, aligns every test answer as the header states
 (words: deletion/insertion 0.5, substitution d(a, b) / (|a| + |b|); phones:
 deletion/insertion 1, substitution min(2, 0.5 + 0.25 * L1 distance of the 16
 features without stress); the backtrace from the end prefers substitution,
@@ -15,7 +15,7 @@ phoneme_information.h) and compares it with expected_information.csv. Exit statu
 all rows agree, 1 otherwise (each difference printed).
 
     tests/analysis/phoneme_reference.py --case tests/data/analysis/phonemes \
-        --phones protocols/phones.tsv [--write out.csv]
+        --phones protocols/languages/en/phones.tsv [--write out.csv]
 """
 import argparse
 import csv

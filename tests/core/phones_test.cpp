@@ -1,4 +1,4 @@
-// The phone inventory (protocols/phones.tsv): phone set, 17 features (Beskow
+// The phone inventory (protocols/languages/en/phones.tsv): phone set, 17 features (Beskow
 // §4.4), label parsing, and the espeak-ng / MFA IPA mappings (phone_map.tsv).
 #include "avsi/core/phones.h"
 
@@ -34,7 +34,7 @@ TEST(PhoneInventory, HoldsCmudictSetAndSilence) {
     const std::vector<std::string> consonants = {"B", "CH", "D",  "DH", "F", "G", "HH", "JH",
                                                  "K", "L",  "M",  "N",  "NG", "P", "R", "S",
                                                  "SH", "T", "TH", "V",  "W", "Y", "Z", "ZH"};
-    EXPECT_EQ(inv().phones().size(), vowels.size() + consonants.size() + 1);
+    EXPECT_EQ(inv().language_phones("en").size(), vowels.size() + consonants.size() + 1);
     for (const auto& v : vowels) EXPECT_TRUE(inv().is_vowel(v)) << v;
     for (const auto& c : consonants) {
         EXPECT_TRUE(inv().contains(c)) << c;

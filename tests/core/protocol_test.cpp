@@ -116,6 +116,37 @@ TEST(Protocol, TtsKeyNamesEngineAndVoice) {
     fs::remove_all(dir);
 }
 
+// [corpus] language: the voice's by default, or named; a language other than
+// the voice's, or one without a table, is refused at the key.
+TEST(Protocol, LanguageComesFromTheVoiceOrTheCorpusKey) {
+    const fs::path dir = test::temp_dir("protocol_language");
+    fs::copy_file(data_dir / "corpus.csv", dir / "corpus.csv", fs::copy_options::overwrite_existing);
+    const auto load = [&](const std::string& corpus_keys) {
+        write_text_file(dir / "p.toml", "[experiment]\nname = \"t\"\n\n[corpus]\nsentences = \"corpus.csv\"\n" +
+                                            corpus_keys + "\n[[condition]]\nname = \"a\"\n");
+        return load_protocol(dir / "p.toml");
+    };
+    const auto error = [&](const std::string& corpus_keys) -> std::string {
+        try {
+            (void)load(corpus_keys);
+        } catch (const InputError& e) {
+            return e.what();
+        }
+        return "(no error)";
+    };
+    EXPECT_EQ(load("").corpus.language, "en");
+    EXPECT_EQ(load("tts = \"espeak:sv\"\n").corpus.language, "sv");
+    EXPECT_EQ(load("tts = \"espeak:de\"\n").corpus.language, "de");
+    EXPECT_EQ(load("tts = \"festival:cmu_us_slt_arctic_hts\"\n").corpus.language, "en");
+    EXPECT_EQ(load("tts = \"espeak:sv\"\nlanguage = \"sv\"\n").corpus.language, "sv");
+    const std::string file = (dir / "p.toml").string();
+    EXPECT_EQ(error("tts = \"espeak:sv\"\nlanguage = \"de\"\n"),
+              file + ":7:12: error: corpus.language: expected the voice's language \"sv\" (tts = \"espeak:sv\"), got \"de\"");
+    EXPECT_EQ(error("language = \"fr\"\n"),
+              file + ":6:12: error: corpus.language: expected \"de\", \"en\", or \"sv\", got \"fr\" (did you mean \"de\"?)");
+    fs::remove_all(dir);
+}
+
 TEST(Protocol, GoldenErrorBadTypes) { check_golden("bad_types"); }
 TEST(Protocol, GoldenErrorUnknownKeys) { check_golden("unknown_keys"); }
 TEST(Protocol, GoldenErrorReferences) { check_golden("references"); }

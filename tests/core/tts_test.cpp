@@ -130,8 +130,8 @@ TEST(Tts, BadSettingsAreInputErrors) {
         EXPECT_EQ(e.first().field, "voice");
         EXPECT_NE(std::string(e.what()).find("\"en-usa\""), std::string::npos) << e.what();
     }
-    s.voice = "de";
-    EXPECT_THROW((void)synthesize_speech("hallo", s), InputError);  // not English
+    s.voice = "fr";
+    EXPECT_THROW((void)synthesize_speech("bonjour", s), InputError);  // no phone table (protocols/languages/fr/)
     EXPECT_THROW((void)synthesize_speech("   "), InputError);
     TtsSettings rate;
     rate.rate_wpm = 10;

@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "avsi/core/audio.h"
 #include "avsi/core/files.h"
@@ -165,6 +167,37 @@ TEST(PhonesCli, BadUsageExitsTwoAndBadVoiceOne) {
     const RunResult voice = run_avsi("phones --text hi --voice en-uss --out " + quote((work_dir() / "v.tsv").string()));
     EXPECT_EQ(voice.exit_code, 1);
     EXPECT_NE(voice.err.find("did you mean \"en-us\""), std::string::npos) << voice.err;
+}
+
+TEST(PhonesCli, SwedishAndGermanVoicesGiveOnlyTheirLanguagesPhones) {
+    // Sentences written for this test; the output's phones must all be in the
+    // language's table (protocols/languages/<lang>/phones.tsv).
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {"sv", "Kjolen hängde kvar i garderoben, och sju hungriga björnar sov i den mörka skogen."},
+        {"sv", "Fyra fina fåglar flög över den frusna sjön när Ylva åt sin gröt."},
+        {"de", "Zwölf Pfarrer möchten heute früh ein Stück Kuchen mit Sahne essen."},
+        {"de", "Die Bäckerei öffnet jeden Morgen um sechs Uhr, auch am Sonntag."}};
+    for (const auto& [language, text] : cases) {
+        SCOPED_TRACE(language + ": " + text);
+        const fs::path out = work_dir() / ("lang_" + language + ".tsv");
+        const RunResult r = run_avsi("phones --tts espeak:" + language + " --text " + quote(text) + " --out " +
+                                     quote(out.string()));
+        ASSERT_EQ(r.exit_code, 0) << r.err;
+        const auto& table = PhoneInventory::builtin().language_phones(language);
+        std::size_t speech = 0;
+        for (const auto& p : read_phones(out)) {
+            EXPECT_NE(std::find(table.begin(), table.end(), p.symbol), table.end()) << p.symbol;
+            speech += p.symbol != "sil";
+        }
+        EXPECT_GT(speech, 30u);
+    }
+}
+
+TEST(PhonesCli, AVoiceWithoutAPhoneTableExitsOneNamingTheFolder) {
+    const RunResult r = run_avsi("phones --tts espeak:fr --text " + quote("Bonjour à tous.") + " --out " +
+                                 quote((work_dir() / "fr.tsv").string()));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find("protocols/languages/fr/"), std::string::npos) << r.err;
 }
 
 TEST(PhonesCli, HelpListsEveryOptionWithDefaults) {

@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <set>
+#include <string>
 
 #include "avsi/core/files.h"
 #include "avsi/learn/reference_speaker.h"
@@ -145,3 +147,35 @@ TEST(ReferenceCorpus, CliRunsAreByteIdentical) {
     EXPECT_EQ(run("b", "2004"), a);
     EXPECT_NE(run("c", "7"), a);
 }
+
+namespace {
+
+// The Swedish speaker: espeak-ng sv timing over the Swedish list, with the
+// gestures of languages/sv/task_targets.tsv for the phones English lacks.
+TEST(ReferenceCorpus, SwedishSpeakerSpeaksSwedishPhones) {
+    const fs::path dir = test::temp_dir("refcorpus_sv");
+    const test::CliResult r =
+        test::run_avsi({"corpus", "reference", "--language", "sv", "--count", "12", "--out", dir.string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const ArticulatoryCorpus corpus = load_articulatory_corpus(dir);
+    ASSERT_EQ(corpus.entries.size(), 12u);
+    std::set<std::string> seen;
+    for (const auto& e : corpus.entries)
+        for (const auto& p : load_corpus_utterance(corpus, e).phones) seen.insert(p.symbol);
+    for (const char* phone : {"YY", "UX", "EU", "OE", "A", "RR", "SJ", "TJ"}) EXPECT_TRUE(seen.count(phone)) << phone;
+    const auto& table = PhoneInventory::builtin().language_phones("sv");
+    for (const auto& s : seen) EXPECT_NE(std::find(table.begin(), table.end(), s), table.end()) << s;
+    const std::string readme = read_text_file(dir / "README.md");
+    EXPECT_NE(readme.find("languages/sv/task_targets.tsv"), std::string::npos) << readme;
+    EXPECT_NE(readme.find("(voice sv)"), std::string::npos) << readme;
+}
+
+TEST(ReferenceCorpus, ALanguageWithoutAReferenceSpeakerIsRefused) {
+    const test::CliResult r =
+        test::run_avsi({"corpus", "reference", "--language", "fr", "--count", "1", "--out",
+                        test::temp_dir("refcorpus_fr").string()});
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find("no reference speaker for language \"fr\""), std::string::npos) << r.err;
+}
+
+}  // namespace

@@ -681,6 +681,92 @@ stimuli_shard_cases = {
 for name, text in stimuli_shard_cases.items():
     write("stimuli_shard", name + ".json", text)
 
+# ------------------------------------------------------------------ optical markers (through avsi markers)
+def c3d(points=3, frames=10, scale=0.1, rate=60.0, frames_param=None, data_start=None, cut=0, param_blocks=1,
+        next_offset=None, processor=84, units="mm"):
+    """A small Intel C3D file: header block, a POINT group, int16 data (or
+    float when scale < 0); one broken field per case."""
+    def param(name, ptype, dims, data):
+        body = struct.pack("<bB", ptype, len(dims)) + bytes(dims) + data + b"\0"
+        return struct.pack("<bb", len(name), 1) + name.encode() + struct.pack("<h", 2 + len(body)) + body
+    start = data_start if data_start is not None else 2 + param_blocks
+    labels = [f"M{i + 1:02d}" for i in range(points)]
+    fr = struct.pack("<f", frames_param) if frames_param is not None else struct.pack("<h", frames)
+    ps = b"".join([
+        param("USED", 2, [], struct.pack("<h", points)),
+        param("SCALE", 4, [], struct.pack("<f", scale)),
+        param("RATE", 4, [], struct.pack("<f", rate)),
+        param("DATA_START", 2, [], struct.pack("<h", start)),
+        param("FRAMES", 4 if frames_param is not None else 2, [], fr),
+        param("UNITS", -1, [len(units)], units.encode()),
+        param("LABELS", -1, [4, points], b"".join(l.ljust(4).encode() for l in labels)),
+    ])
+    group = struct.pack("<bb", 5, -1) + b"POINT" + struct.pack("<h", next_offset if next_offset is not None else 3) + b"\0"
+    section = struct.pack("<BBBB", 1, 0x50, param_blocks, processor) + group + ps + b"\0\0"
+    section = section.ljust(512 * param_blocks, b"\0")
+    header = struct.pack("<BBhhhhhfhhf", 2, 0x50, points, 0, 1, frames, 10, scale, start, 0, rate).ljust(512, b"\0")
+    data = b""
+    for f in range(frames):
+        for m in range(points):
+            if scale > 0:
+                data += struct.pack("<hhhh", 100 * m + f, -50 + f, 200 + m, 0x0302 if (f + m) % 4 else -1)
+            else:
+                data += struct.pack("<ffff", 10.0 * m + f, -5.0 + f, 20.0 + m, 770.0 if (f + m) % 4 else -1.0)
+    data = data.ljust((len(data) + 511) // 512 * 512, b"\0")
+    out = header + section + data
+    return out[:len(out) - cut] if cut else out
+command("c3d", "args markers {input} --out {out}/markers.csv")
+c3d_cases = {
+    "empty.c3d": b"",
+    "text.c3d": b"POINT labels, not a C3D file\n" * 30,
+    "truncated_data.c3d": c3d(frames=200, cut=512),
+    "huge_frames.c3d": c3d(frames_param=1e9),
+    "frames_nan.c3d": c3d(frames_param=float("nan")),
+    "scale_nan.c3d": c3d(scale=float("nan")),
+    "rate_zero.c3d": c3d(rate=0.0),
+    "parameter_past_end.c3d": c3d(next_offset=4000),
+    "parameter_blocks_past_end.c3d": c3d(param_blocks=200, frames=1)[:2048],
+    "data_start_in_parameters.c3d": c3d(data_start=2),
+    "processor_unknown.c3d": c3d(processor=90),
+    "units_inches.c3d": c3d(units="in"),
+    "float_coordinate_nan.c3d": c3d(scale=-0.1).replace(struct.pack("<f", 11.0), struct.pack("<f", float("nan")), 1),
+}
+for name, content in c3d_cases.items():
+    write("c3d", name, content)
+command("qualisys", "args markers {input} --out {out}/markers.csv")
+QTM = ("NO_OF_FRAMES\t2\nNO_OF_CAMERAS\t4\nNO_OF_MARKERS\t2\nFREQUENCY\t60\nNO_OF_ANALOG\t0\n"
+       "DATA_INCLUDED\t3D\nMARKER_NAMES\tA\tB\nFrame\tTime\tA X\tA Y\tA Z\tB X\tB Y\tB Z\n"
+       "1\t0.000\t1.0\t2.0\t3.0\t4.0\t5.0\t6.0\n2\t0.017\t1.1\t2.1\t3.1\t4.1\t5.1\t6.1\n")
+qualisys_cases = {
+    "empty.tsv": "",
+    "no_frequency.tsv": QTM.replace("FREQUENCY\t60\n", ""),
+    "frequency_nan.tsv": QTM.replace("FREQUENCY\t60", "FREQUENCY\tnan"),
+    "marker_count_wrong.tsv": QTM.replace("NO_OF_MARKERS\t2", "NO_OF_MARKERS\t3"),
+    "frame_count_huge.tsv": QTM.replace("NO_OF_FRAMES\t2", "NO_OF_FRAMES\t1000000000"),
+    "short_row.tsv": QTM.replace("\t6.1\n", "\n"),
+    "coordinate_word.tsv": QTM.replace("\t5.1\t", "\tfive\t"),
+    "coordinate_1e300.tsv": QTM.replace("\t5.1\t", "\t1e300\t"),
+}
+for name, content in qualisys_cases.items():
+    write("qualisys", name, content)
+command("motive", "args markers {input} --out {out}/markers.csv")
+MOTIVE = ("Format Version,1.23,Take Name,t,Export Frame Rate,120.000000,Length Units,Meters\n\n"
+          "Type,,Marker,Marker,Marker\nName,,A,A,A\nID,,1,1,1\n,,Position,Position,Position\n"
+          "Frame,Time (Seconds),X,Y,Z\n0,0.000000,0.1,0.2,0.3\n1,0.008333,0.1,0.2,0.3\n")
+motive_cases = {
+    "empty.csv": "",
+    "not_motive.csv": "time_s,a_x\n0,1\n",
+    "no_units.csv": MOTIVE.replace(",Length Units,Meters", ""),
+    "units_feet.csv": MOTIVE.replace("Meters", "Feet"),
+    "rate_negative.csv": MOTIVE.replace("120.000000", "-120"),
+    "no_frame_row.csv": MOTIVE.replace("Frame,Time", "Frames,Time"),
+    "long_row.csv": MOTIVE.replace("0.1,0.2,0.3\n1,", "0.1,0.2,0.3,0.4\n1,"),
+    "coordinate_word.csv": MOTIVE.replace("1,0.008333,0.1", "1,0.008333,x"),
+    "half_dropout.csv": MOTIVE.replace("1,0.008333,0.1,0.2,0.3", "1,0.008333,0.1,,"),
+}
+for name, content in motive_cases.items():
+    write("motive", name, content)
+
 # ------------------------------------------------------------------ pronunciation table and phonemes.csv
 ph = DATA / "analysis" / "phonemes"
 pron = (ph / "pronunciations.tsv").read_text()

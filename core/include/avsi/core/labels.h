@@ -4,7 +4,7 @@
 // (sample indices) and TSV (start end label, in seconds), and their
 // conversion to phone sequences in the project phone set. Label symbols may
 // be the project's ARPAbet, MFA IPA, Festival's radio set, TIMIT's 61 symbols
-// or MOCHA's set (protocols/phone_map.tsv; docs/labels.md).
+// or MOCHA's set (protocols/languages/en/phone_map.tsv; docs/labels.md).
 #pragma once
 
 #include <filesystem>
@@ -99,7 +99,7 @@ void check_label_times(const std::vector<Interval>& intervals, const std::string
 // header line "start_s end_s phone" is skipped).
 std::vector<Interval> read_label_tsv(const std::filesystem::path& path);
 
-// The phone set of a label file's symbols (protocols/phone_map.tsv).
+// The phone set of a label file's symbols (protocols/languages/en/phone_map.tsv).
 enum class LabelPhoneSet {
     Auto,      // per label: project ARPAbet, MFA IPA, Festival radio, TIMIT (in that
                // order); a file with a label none of these know but whose every label

@@ -1,13 +1,19 @@
-// The project phone set (ARPAbet with stress on vowels, silence `sil`), the
-// 17 phonetic features of the reference study (Beskow, §4.4), timed phone
+// The project phone set (ARPAbet with stress on vowels, silence `sil`, and
+// the phones other languages add: YY for /yː/, RT for /ʈ/, …), the 17
+// phonetic features of the reference study (Beskow, §4.4), timed phone
 // sequences, and mappings from espeak-ng mnemonics, MFA-style IPA and
 // Festival's US English phone set.
-// The data live in protocols/phones.tsv and protocols/phone_map.tsv
-// (documented in protocols/README.md).
+// The data are languages as data, one folder per language under
+// protocols/languages/<lang>/ (phones.tsv, phone_map.tsv; documented in
+// protocols/languages/README.md). English (`en`) holds the ARPAbet set and
+// every label-set mapping; another language's folder lists every phone its
+// voice uses (a phone shared with English has English's features, checked)
+// and its espeak-ng mnemonics.
 #pragma once
 
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -60,17 +66,56 @@ struct PhoneInfo {
     std::string ipa;         // primary IPA symbol
     std::string example;     // an example word
     FeatureVector features{};  // Stress is 0 here; set per Phone by features_of()
+    std::string language;    // the language table that first defined it ("en", "sv")
+    // The viseme class in the MPEG-4 set (protocols/visemes/mpeg4_14.json) and
+    // in avsi's 17 (avsi_17.json), as a language table writes it; English's
+    // phones are classed by those files themselves (empty here).
+    std::string mpeg4_viseme;
+    std::string avsi17_viseme;
 };
 
-// The project phone set, read from a TSV file (protocols/phones.tsv) with
-// mappings from espeak-ng phoneme mnemonics, IPA and Festival phones (protocols/phone_map.tsv).
+// The project phone set, read from the language tables (English's phones.tsv
+// with mappings from espeak-ng phoneme mnemonics, IPA and Festival phones in
+// its phone_map.tsv; each other language's phones and espeak-ng mnemonics).
 class PhoneInventory {
 public:
-    // The inventory shipped in protocols/ (loaded once).
+    // The inventory shipped in protocols/languages/ (loaded once): English
+    // and every other language folder.
     static const PhoneInventory& builtin();
     // Loads an inventory and its mapping table; throws InputError naming file:line.
     static PhoneInventory load(const std::filesystem::path& phones_tsv,
                                const std::filesystem::path& map_tsv);
+    // Loads languages/en/ and then every other folder of `languages_dir`
+    // (sorted) with add_language.
+    static PhoneInventory load_languages(const std::filesystem::path& languages_dir);
+    // Adds a language's table: its phones (the English columns plus
+    // mpeg4_viseme and avsi17_viseme), new ones joining the project set and
+    // shared ones checked against their first definition, and its espeak-ng
+    // mnemonics (`espeak` rows, stress marks included). Throws InputError
+    // naming file:line and field.
+    void add_language(const std::string& code, const std::filesystem::path& phones_tsv,
+                      const std::filesystem::path& map_tsv);
+
+    // The language codes with a table ("de", "en", "sv"), sorted.
+    std::vector<std::string> languages() const;
+    bool has_language(std::string_view code) const;
+    // The phones a language uses (English: its whole table), in table order.
+    // Throws InputError (field "language") for a language without a table.
+    const std::vector<std::string>& language_phones(std::string_view code) const;
+    // Among the phones `has` accepts, the one nearest `symbol` by its 17
+    // features (squared distance; ties: the first in the project set's
+    // order), for starting a model's entry for a phone it lacks; "" if none.
+    std::string nearest_by_features(std::string_view symbol,
+                                    const std::function<bool(const std::string&)>& has) const;
+    // A language's within-word sequence rules (`sequence` rows of its
+    // phone_map.tsv): two phones in a row of one word that are one phone
+    // ("RR T" -> "RT", Central Swedish retroflexion). Empty for English.
+    struct SequenceRule {
+        std::string first, second, result;
+    };
+    const std::vector<SequenceRule>& sequence_rules(std::string_view code) const;
+    // The phone table of a language, for messages ("protocols/languages/sv/phone_map.tsv").
+    std::string language_map_path(std::string_view code) const;
 
     bool contains(std::string_view symbol) const;
     // Throws InputError (path/where, field "phone") if the symbol is unknown.
@@ -89,12 +134,16 @@ public:
     // to one or more project phones (none for internal markers such as ":");
     // leading stress marks ("'V", ",aU") set the vowel stress. `variant` picks
     // table-specific rows ("en" for the non-rhotic English tables) before the
-    // shared ones. Throws InputError naming the mnemonic if it has no mapping.
+    // shared ones; another language's code ("sv", "de") uses that language's
+    // table alone. Throws InputError naming the mnemonic and the table if it
+    // has no mapping.
     std::vector<Phone> from_espeak(std::string_view mnemonic, std::string_view where,
                                    std::string_view variant = {}) const;
     // Splits leading espeak-ng stress marks off a mnemonic: ("'V") -> ("V", true),
     // ("%@") -> ("@", false), ("k") -> ("k", nullopt).
-    std::pair<std::string, std::optional<bool>> split_espeak_stress(std::string_view mnemonic) const;
+    // `variant` as for from_espeak.
+    std::pair<std::string, std::optional<bool>> split_espeak_stress(std::string_view mnemonic,
+                                                                    std::string_view variant = {}) const;
     // Maps one IPA phone label as the Montreal Forced Aligner's English models
     // write it ("ɑː", "tʃ", "ɹ", "spn", "") to project phones. A leading ˈ or ˌ
     // marks the vowel stressed; a label not in the table is retried without
@@ -116,7 +165,24 @@ public:
     bool knows_ipa(std::string_view ipa) const;
 
 private:
+    using Table = std::map<std::string, std::vector<std::string>, std::less<>>;
+    // A language's own mapping table (every language but English).
+    struct LanguageTable {
+        std::string map_path;
+        std::vector<std::string> phones;
+        Table espeak;
+        std::map<std::string, bool, std::less<>> espeak_stress;
+        std::vector<SequenceRule> sequences;
+    };
+    const LanguageTable* language_table(std::string_view code) const;
+    void read_language_phones(const std::string& code, const std::filesystem::path& phones_tsv,
+                              LanguageTable& table);
+    void read_language_map(const std::string& code, const std::filesystem::path& map_tsv,
+                           LanguageTable& table);
+
     std::vector<PhoneInfo> m_phones;
+    std::vector<std::string> m_english_phones;
+    std::map<std::string, LanguageTable, std::less<>> m_languages;
     std::map<std::string, std::size_t, std::less<>> m_index;
     // Mapping targets as written in the table ("AH0", "AY", "-" for none).
     std::map<std::string, std::vector<std::string>, std::less<>> m_espeak;

@@ -36,6 +36,10 @@ struct CorpusSettings {
     TtsEngine tts_engine = TtsEngine::Espeak;
     std::string tts_voice = "en-us";
     int tts_line = 0, tts_column = 0;  // where tts (or voice) is set (0: the default)
+    // The language of the sentences, phone table and scoring: `[corpus]
+    // language = "sv"` (a folder of protocols/languages/), by default the
+    // voice's (espeak:sv -> "sv"; espeak:en-us and Festival -> "en").
+    std::string language = "en";
     // Every stimulus's speech level after the condition's processing: the
     // active-speech RMS (vocoder::speech_level_rms, ActiveFrames) in dBFS,
     // 20·log10(RMS) with full scale 1.0; set by the stimulus builder.

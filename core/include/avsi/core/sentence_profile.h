@@ -7,7 +7,7 @@
 //                    word_table.h).
 //   keyword visemes  the keywords' phones (each keyword spoken alone) counted
 //                    per visual class of VisemeClass, from the phone features
-//                    of protocols/phones.tsv.
+//                    of protocols/languages/en/phones.tsv.
 #pragma once
 
 #include <array>

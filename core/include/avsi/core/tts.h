@@ -40,7 +40,7 @@ enum class TtsEngine { Espeak, Festival };
 
 struct TtsSettings {
     TtsEngine engine = TtsEngine::Espeak;
-    std::string voice = "en-us";    // espeak-ng: an English voice (en-us, en, en-gb-x-rp, …);
+    std::string voice = "en-us";    // espeak-ng: a voice with a phone table (en-us, en, en-gb-x-rp, sv, de, …);
                                     // Festival: a voice of voice.list (cmu_us_slt_arctic_hts, kal_diphone)
     int rate_wpm = 160;             // espeak-ng: words per minute (80–450); Festival voices
                                     // speak at their own rate and take only this default
@@ -68,6 +68,12 @@ void set_tts_voice(TtsSettings& settings, std::string_view spec, std::string_vie
 // "<engine>:<voice>" as set_tts_voice reads it.
 std::string tts_voice_spec(const TtsSettings& settings);
 
+// The phone table (protocols/languages/<code>/) a voice's name points to:
+// Festival "en"; espeak-ng "en-us" -> "en", "sv" -> "sv", "gmw/de" -> "de";
+// "" when the name names no language with a table (the voice's own language
+// is checked when it speaks).
+std::string tts_voice_language(const TtsSettings& settings);
+
 // What produced the speech, for manifests and input hashes.
 struct TtsVoiceInfo {
     std::string engine;          // "espeak-ng" or "festival"
@@ -81,7 +87,7 @@ struct TtsVoiceInfo {
 TtsVoiceInfo describe_tts_voice(const TtsSettings& settings);
 
 // The installed voices the front end can use with `engine` (espeak-ng: the
-// English voices; Festival: voice.list), sorted.
+// voices of the languages with a phone table; Festival: voice.list), sorted.
 std::vector<std::string> installed_tts_voices(TtsEngine engine);
 
 // Speech started by start_speech, to be taken with get(). Movable; destroying
@@ -110,7 +116,7 @@ private:
 PendingSpeech start_speech(const std::string& text, const TtsSettings& settings = {});
 
 // Synthesises `text`; with `align_onsets`, the phone times are the engine's
-// with each vowel-to-obstruent boundary moved to the audio's onset. Throws InputError for an unknown or non-English voice,
+// with each vowel-to-obstruent boundary moved to the audio's onset. Throws InputError for an unknown voice or one without a phone table,
 // settings out of range or not applicable to the engine, empty text, or a
 // phone the mapping does not cover.
 TtsResult synthesize_speech(const std::string& text, const TtsSettings& settings = {});

@@ -91,8 +91,14 @@ std::map<std::string, PhoneGestures, std::less<>> read_task_targets(const std::f
 
 struct ReferenceSpeakerSettings {
     std::uint64_t seed = 2004;
+    // The language (a folder of protocols/languages/): "en", or "sv" for the
+    // Swedish speaker — espeak-ng sv timing over languages/sv/reference_sentences.txt,
+    // with languages/sv/task_targets.tsv's rows for the phones English lacks
+    // added to the targets (resolve_reference_language sets these).
+    std::string language = "en";
     std::filesystem::path sentences_path;   // empty: protocols/reference/sentences.txt
     std::filesystem::path targets_path;     // empty: protocols/reference/task_targets.tsv
+    std::filesystem::path language_targets_path;  // more rows (a language's phones); empty: none
     std::size_t max_utterances = 0;          // 0: every sentence
     double fps = 60.0;
     std::string voice = "en-us";
@@ -132,6 +138,11 @@ std::vector<std::array<double, tract_variable_count>> simulate_tract_variables(
 // The parameters the geometry gives a tract-variable vector (before clamping).
 Frame parameters_of_tract_variables(const std::array<double, tract_variable_count>& z_mm,
                                     const TaskGeometry& geometry = builtin_head_task_geometry());
+
+// Fills a non-English language's defaults: the voice (unless `voice_given`),
+// the sentence list (unless set) and the added targets. Throws InputError
+// (field "language") for a language without a table or reference files.
+void resolve_reference_language(ReferenceSpeakerSettings& settings, bool voice_given);
 
 // Reads a sentence list: one sentence per line, '#' comments, blank lines skipped.
 std::vector<std::string> read_sentence_list(const std::filesystem::path& path);

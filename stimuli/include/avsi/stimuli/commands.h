@@ -58,6 +58,7 @@ struct MeasureJobSettings {
     std::filesystem::path model_path;       // a control model driven by phones_path / text
     std::filesystem::path phones_path;      // timed phones (labels and checks; required with model_path unless text)
     std::string text;                       // text through the TTS front end (with model_path)
+    std::string tts = "espeak:en-us";       // the voice that speaks `text` ("espeak:sv", "festival:…")
     double fps = 30.0;                      // frame rate of a model's trajectory
     std::filesystem::path out_path;         // measures CSV
     std::filesystem::path plot_path;        // optional SVG of the aperture over time

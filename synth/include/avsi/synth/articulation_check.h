@@ -13,7 +13,13 @@
 // rule); no frame has a negative aperture beyond rounding error (the lips
 // press, they do not pass through each other); and rounded vowels (/uw w/)
 // narrow the mouth and protrude the lips relative to spread /iy/ in the same
-// utterance (compared at the frame nearest each segment's centre).
+// utterance (compared at the frame nearest each segment's centre). In a
+// Swedish utterance the close front vowels show their three-way contrast:
+// outrounded /yː/ (YY) protrudes the lips beyond spread /iː/ (IY) by at
+// least `outrounding_mm`, inrounded /ʉː/ (UX) narrows the mouth below /iː/'s
+// width by at least `inrounding_mm` and protrudes less than /yː/ by at least
+// `outrounding_mm` (lips compressed, not pushed forward; the Swedish
+// phonetics of seed 001 §3, §4.4).
 #pragma once
 
 #include <filesystem>
@@ -47,6 +53,16 @@ struct ArticulationLimits {
     double closure_mm = 0.5;         // /p b m/: central-third aperture at most this
     double labiodental_mm = 2.0;     // /f v/: lower lip to upper incisors at most this
     double interpenetration_mm = 0.05;  // aperture below −this counts as the lips passing through
+    double outrounding_mm = 1.0;     // /yː/ protrusion beyond /iː/ (and beyond /ʉː/) at least this
+    double inrounding_mm = 3.0;      // /ʉː/ mouth width below /iː/ at least this
+};
+
+// The lips at one vowel's segments: the mean over its segments of the frame
+// nearest each centre.
+struct VowelLips {
+    std::size_t segments = 0;
+    double width_mm = 0.0;
+    double protrusion_mm = 0.0;  // mean of upper and lower lip protrusion
 };
 
 enum class SegmentClass { Bilabial, Labiodental };
@@ -79,6 +95,10 @@ struct ArticulationSummary {
     double width_rounded_mm = 0.0, width_spread_mm = 0.0;
     double protrusion_rounded_mm = 0.0, protrusion_spread_mm = 0.0;
     std::vector<SegmentCheck> segments;  // every /p b m f v/ segment
+    // The Swedish close front vowels (checked when /iː/ and /yː/ or /ʉː/ occur).
+    VowelLips spread_iy, outrounded_yy, inrounded_ux;
+    bool close_front_checked = false;
+    std::vector<std::string> close_front_problems;  // empty: the contrast holds
 
     std::size_t violations() const;
     // The largest best_mm over the segments of `kind` (0 when there are none):

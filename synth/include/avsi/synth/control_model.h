@@ -10,7 +10,7 @@
 //       …kind-specific tables, keyed by phone…
 //     }
 //
-// Phone keys are project phone symbols (protocols/phones.tsv): a base symbol
+// Phone keys are project phone symbols (protocols/languages/en/phones.tsv): a base symbol
 // ("AA", "P", "sil") applies to every token of that phone; a vowel may also
 // have stress-specific keys ("AA1" stressed, "AA0" unstressed) that take
 // precedence over the base key, as in the stress-inclusive symbol set of the

@@ -51,6 +51,9 @@ struct Viseme {
 struct VisemeSet {
     std::string name;
     std::string source;  // where the set and its phone mapping come from
+    // The language whose phones it maps (protocols/languages/<code>/): every
+    // phone of that table must be in a viseme. On disk "language", absent = "en".
+    std::string language = "en";
     std::vector<Viseme> visemes;
     std::map<std::string, std::size_t, std::less<>> phone_to_viseme;  // index into visemes
 

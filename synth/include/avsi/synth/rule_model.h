@@ -20,6 +20,9 @@
 //      "targets": {"P": {"jaw_rotation": 0.1, "lip_rounding": null, …}, …}}
 // or read from a TSV (phone, then the 10 parameters, "-" = unspecified):
 //     {…, "targets_file": "../rule_targets.tsv"}   // relative to the model file
+// or from several, a language's additions after English's (a phone in two
+// files is an error):
+//     {…, "targets_file": ["../../rule_targets.tsv", "../../languages/sv/rule_targets.tsv"]}
 #pragma once
 
 #include <array>
