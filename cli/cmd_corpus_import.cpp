@@ -19,6 +19,7 @@
 #include "avsi/core/keyword_proposals.h"
 #include "avsi/core/list_balance.h"
 #include "avsi/core/log.h"
+#include "avsi/core/tts.h"
 #include "command.h"
 
 namespace avsi::cli {
@@ -124,9 +125,19 @@ void add_balance(CLI::App& corpus, std::function<int()>& chosen) {
         ->capture_default_str();
     sub->add_option("--max-syllables", o->settings.max_syllables, "Syllable range: upper end (reported)")
         ->capture_default_str();
-    sub->add_option("--voice", o->settings.profile.voice, "espeak-ng voice for syllables and keyword phones")
+    sub->add_option("--voice", o->settings.profile.voice,
+                    "espeak-ng voice for syllables and keyword phones (sv, de, ...: no keyword frequency, whose "
+                    "counts are English's)")
         ->capture_default_str();
     sub->callback([o, sub, &chosen] {
+        // Keyword frequency is English's (SemCor): another language balances
+        // syllables and visemes only.
+        TtsSettings voice;
+        voice.voice = o->settings.profile.voice;
+        if (tts_voice_language(voice) != "en") {
+            o->settings.profile.keyword_frequency = false;
+            o->settings.frequency_weight = 0.0;
+        }
         // The command line as the user would retype it, for the report.
         std::string line = fmt::format("avsi corpus balance {} --out {}", o->input, o->out);
         if (!o->report.empty()) line += " --report " + o->report;

@@ -283,7 +283,8 @@ ListStats stats_of(const std::vector<SentenceProfile>& profiles, const std::vect
 std::string format_p(double p) { return p < 0.001 ? "< 0.001" : fmt::format("{:.3f}", p); }
 
 // The across-list comparison of one assignment (Markdown lines).
-std::string comparison(const std::vector<SentenceProfile>& profiles, const std::vector<std::vector<std::size_t>>& lists) {
+std::string comparison(const std::vector<SentenceProfile>& profiles, const std::vector<std::vector<std::size_t>>& lists,
+                       bool frequency) {
     std::vector<ListStats> stats;
     for (const auto& l : lists) stats.push_back(stats_of(profiles, l));
     std::vector<std::vector<double>> freq, syl;
@@ -326,13 +327,42 @@ std::string comparison(const std::vector<SentenceProfile>& profiles, const std::
     const double chi_p =
         chi_df > 0 ? boost::math::cdf(boost::math::complement(boost::math::chi_squared(chi_df), chi2)) : 1.0;
     std::string out;
-    out += fmt::format("| keyword log10 frequency (keywords) | F({}, {}) = {:.3f}, p = {} | {:.3f} |\n", fa.df_between,
-                       fa.df_within, fa.f, format_p(fa.p), range_of_means(freq));
+    if (frequency)
+        out += fmt::format("| keyword log10 frequency (keywords) | F({}, {}) = {:.3f}, p = {} | {:.3f} |\n",
+                           fa.df_between, fa.df_within, fa.f, format_p(fa.p), range_of_means(freq));
     out += fmt::format("| syllables (sentences) | F({}, {}) = {:.3f}, p = {} | {:.3f} |\n", sa.df_between, sa.df_within,
                        sa.f, format_p(sa.p), range_of_means(syl));
     out += fmt::format("| keyword viseme classes (phone counts) | χ²({}) = {:.2f}, p = {} | {:.1f} percentage points |\n",
                        chi_df, chi2, format_p(chi_p), 100.0 * max_share_diff);
     return out;
+}
+
+// The report's paragraph on what is measured.
+std::string measures_text(const BalanceSettings& s) {
+    std::string out = "Measures: *syllables* = vowel phones of the espeak-ng rendering (voice " + s.profile.voice + "); ";
+    if (s.profile.keyword_frequency)
+        return out + "*keyword log10 frequency* = log10(1 + SemCor tag count of the keyword's lemma) from "
+                     "`protocols/corpus/word-frequency.tsv` (WordNet 3.0, 0 for words not in WordNet); *viseme shares* = "
+                     "share of the keywords' phones (each keyword spoken alone) per visual class: bilabial P B M; "
+                     "labiodental F V; dental TH DH; rounded (rounded or protruded lips) W R SH ZH CH JH OW UW UH AO OY "
+                     "AW ER; open vowel AA AE AY; spread vowel AH EH EY IH IY; lingual (neutral lips) T D N S Z L K G "
+                     "NG HH Y.\n\n";
+    return out + "*viseme shares* = share of the keywords' phones (each keyword spoken alone) per visual class, "
+                 "from each phone's features in the voice's language table (first that applies): labiodental, "
+                 "dental, bilabial (lips closed, not rounded), rounded (rounded or protruded lips ≥ 0.5), open "
+                 "vowel (open 1), spread vowel (other vowels), lingual (other consonants). No keyword frequency: "
+                 "the frequency counts (SemCor) are English's, and this voice's language has none.\n\n";
+}
+
+// The per-list table's header.
+std::string per_list_header(bool frequency) {
+    std::string out = "## Per list\n\n| list | sentences |";
+    if (frequency) out += " keyword log10 freq. mean (SD) |";
+    out += " syllables mean (SD) |";
+    for (std::size_t c = 0; c < viseme_class_count; ++c) out += fmt::format(" {} % |", to_string(VisemeClass(c)));
+    out += frequency ? "\n|---|---|---|---|" : "\n|---|---|---|";
+    for (std::size_t c = 0; c < viseme_class_count; ++c) out += "---|";
+    return out + "\n";
 }
 
 }  // namespace
@@ -350,23 +380,14 @@ std::string balance_report(const Corpus& corpus, const std::vector<SentenceProfi
         std::accumulate(assignment.lists.begin(), assignment.lists.end(), assignment.unused.size(),
                         [](std::size_t n, const auto& l) { return n + l.size(); }),
         s.seed, s.restarts, s.iterations, assignment.cost, s.frequency_weight, s.syllable_weight, s.viseme_weight);
-    out += "Measures: *syllables* = vowel phones of the espeak-ng rendering (voice " + s.profile.voice +
-           "); *keyword log10 frequency* = log10(1 + SemCor tag count of the keyword's lemma) from "
-           "`protocols/corpus/word-frequency.tsv` (WordNet 3.0, 0 for words not in WordNet); *viseme shares* = "
-           "share of the keywords' phones (each keyword spoken alone) per visual class: bilabial P B M; "
-           "labiodental F V; dental TH DH; rounded (rounded or protruded lips) W R SH ZH CH JH OW UW UH AO OY AW ER; "
-           "open vowel AA AE AY; spread vowel AH EH EY IH IY; lingual (neutral lips) T D N S Z L K G NG HH Y.\n\n";
-
-    out += "## Per list\n\n| list | sentences | keyword log10 freq. mean (SD) | syllables mean (SD) |";
-    for (std::size_t c = 0; c < viseme_class_count; ++c) out += fmt::format(" {} % |", to_string(VisemeClass(c)));
-    out += "\n|---|---|---|---|";
-    for (std::size_t c = 0; c < viseme_class_count; ++c) out += "---|";
-    out += "\n";
+    out += measures_text(s);
+    const bool frequency = s.profile.keyword_frequency;
+    out += per_list_header(frequency);
     auto row = [&](const std::string& name, const std::vector<std::size_t>& list) {
         const ListStats st = stats_of(profiles, list);
-        std::string r = fmt::format("| {} | {} | {:.3f} ({:.3f}) | {:.2f} ({:.2f}) |", name, list.size(),
-                                    mean(st.keyword_frequency), sd(st.keyword_frequency), mean(st.syllables),
-                                    sd(st.syllables));
+        std::string r = fmt::format("| {} | {} |", name, list.size());
+        if (frequency) r += fmt::format(" {:.3f} ({:.3f}) |", mean(st.keyword_frequency), sd(st.keyword_frequency));
+        r += fmt::format(" {:.2f} ({:.2f}) |", mean(st.syllables), sd(st.syllables));
         for (std::size_t c = 0; c < viseme_class_count; ++c)
             r += fmt::format(" {:.1f} |", st.phones > 0 ? 100.0 * st.visemes[c] / st.phones : 0.0);
         return r + "\n";
@@ -389,7 +410,7 @@ std::string balance_report(const Corpus& corpus, const std::vector<SentenceProfi
     if (!assignment.unused.empty()) out += row("unused", assignment.unused);
 
     out += "\n## Across the test lists\n\n| measure | test | largest difference between list means |\n|---|---|---|\n";
-    out += comparison(profiles, assignment.lists);
+    out += comparison(profiles, assignment.lists, frequency);
     std::vector<std::size_t> candidates = all_test;
     candidates.insert(candidates.end(), assignment.unused.begin(), assignment.unused.end());
     std::sort(candidates.begin(), candidates.end());
@@ -399,9 +420,10 @@ std::string balance_report(const Corpus& corpus, const std::vector<SentenceProfi
         "\nFor comparison, a seeded random assignment of the same candidates (cost {:.3f}):\n\n"
         "| measure | test | largest difference between list means |\n|---|---|---|\n",
         balance_cost(profiles, random.lists, candidates, s));
-    out += comparison(profiles, random.lists);
+    out += comparison(profiles, random.lists, frequency);
 
-    out += "\n## Sentences\n\n| list | id | syllables | keywords (log10 freq.) | text |\n|---|---|---|---|---|\n";
+    out += fmt::format("\n## Sentences\n\n| list | id | syllables | keywords{} | text |\n|---|---|---|---|---|\n",
+                       frequency ? " (log10 freq.)" : "");
     std::vector<std::pair<std::string, std::size_t>> order;
     for (std::size_t l = 0; l < assignment.lists.size(); ++l)
         for (const auto i : assignment.lists[l]) order.emplace_back(std::to_string(l + 1), i);
@@ -413,8 +435,9 @@ std::string balance_report(const Corpus& corpus, const std::vector<SentenceProfi
         const auto& sentence = corpus.sentences[i];
         std::string kws;
         for (std::size_t k = 0; k < sentence.keywords.size(); ++k)
-            kws += fmt::format("{}{} ({:.2f})", k ? ", " : "", sentence.keywords[k].word,
-                               profiles[i].keyword_log_frequency[k]);
+            kws += frequency ? fmt::format("{}{} ({:.2f})", k ? ", " : "", sentence.keywords[k].word,
+                                           profiles[i].keyword_log_frequency[k])
+                             : fmt::format("{}{}", k ? ", " : "", sentence.keywords[k].word);
         out += fmt::format("| {} | {} | {} | {} | {} |\n", name, sentence.id, profiles[i].syllables, kws, sentence.text);
     }
     std::string outside;

@@ -75,7 +75,8 @@ SentenceProfile profile_sentence(const Sentence& sentence, const WordTable& word
         // A multi-word keyword: the mean over its words.
         const auto parts = text_words(k.word);
         std::vector<double> f;
-        for (const auto& w : parts) f.push_back(words.log_frequency(w));
+        if (settings.keyword_frequency)
+            for (const auto& w : parts) f.push_back(words.log_frequency(w));
         p.keyword_log_frequency.push_back(mean_or_zero(f));
         for (const Phone& ph : synthesize_speech(k.word, tts).phones)
             if (const PhoneInfo* info = phone_info(ph))

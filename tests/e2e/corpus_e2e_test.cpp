@@ -171,6 +171,28 @@ TEST(ShippedCorpus, BalanceCommandReproducesTheCommittedListsAndReport) {
     EXPECT_EQ(body(read_text_file(dir / "balance.md")), body(read_text_file(corpus / "balance.md")));
 }
 
+TEST(ShippedCorpus, SwedishBalanceReproducesTheCommittedListsWithoutFrequency) {
+    // The command in protocols/languages/sv/sentences/README.md: espeak-ng's
+    // Swedish voice, no keyword frequency (English's counts), the same lists
+    // and report as committed.
+    const fs::path dir = work_dir("shipped_sv");
+    const fs::path corpus = fs::path(AVSI_PROTOCOLS_DIR) / "languages" / "sv" / "sentences";
+    const RunResult r = run_avsi("corpus balance " + quote((corpus / "sentences.csv").string()) + " --out " +
+                                 quote((dir / "sentences.csv").string()) + " --report " +
+                                 quote((dir / "balance.md").string()) + " --voice sv");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const Corpus shipped = read_corpus(corpus / "sentences.csv");
+    const Corpus again = read_corpus(dir / "sentences.csv");
+    ASSERT_EQ(again.sentences.size(), shipped.sentences.size());
+    for (std::size_t i = 0; i < shipped.sentences.size(); ++i)
+        EXPECT_EQ(again.sentences[i].list, shipped.sentences[i].list) << shipped.sentences[i].id;
+    const std::string report = read_text_file(dir / "balance.md");
+    EXPECT_EQ(report.find("log10"), std::string::npos) << report;
+    EXPECT_NE(report.find("No keyword frequency"), std::string::npos) << report;
+    auto body = [](const std::string& text) { return text.substr(text.find("## Per list")); };
+    EXPECT_EQ(body(report), body(read_text_file(corpus / "balance.md")));
+}
+
 TEST(ShippedProtocol, DesignsListsForTheStudysTwentyFiveSubjects) {
     const fs::path dir = work_dir("design");
     const RunResult r = run_avsi("design " + quote(std::string(AVSI_PROTOCOLS_DIR) + "/beskow2004-en.toml") +

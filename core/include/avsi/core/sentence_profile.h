@@ -5,9 +5,10 @@
 //                    keyword's lemma (WordNet 3.0 cntlist.rev, derived into
 //                    protocols/corpus/word-frequency.tsv by scripts/make-word-frequency;
 //                    word_table.h).
+//                    English only (ProfileSettings::keyword_frequency).
 //   keyword visemes  the keywords' phones (each keyword spoken alone) counted
 //                    per visual class of VisemeClass, from the phone features
-//                    of protocols/languages/en/phones.tsv.
+//                    of the voice's language table (protocols/languages/<lang>/phones.tsv).
 #pragma once
 
 #include <array>
@@ -43,7 +44,7 @@ VisemeClass viseme_class(const PhoneInfo& phone);
 struct SentenceProfile {
     std::string id;
     int syllables = 0;
-    std::vector<double> keyword_log_frequency;  // one per keyword
+    std::vector<double> keyword_log_frequency;  // one per keyword (0 without keyword_frequency)
     std::array<int, viseme_class_count> keyword_visemes{};  // keyword phones per class
 
     // Mean keyword log frequency (0 without keywords).
@@ -53,6 +54,10 @@ struct SentenceProfile {
 
 struct ProfileSettings {
     std::string voice = "en-us";   // espeak-ng voice for syllables and keyword phones
+    // Keyword frequency from the word table (English's SemCor counts); false
+    // for another language, whose keywords get no frequency (an English
+    // count of a Swedish "hand" or "bok" would be wrong).
+    bool keyword_frequency = true;
 };
 
 // Vowel phones in the espeak-ng rendering of `text`.
