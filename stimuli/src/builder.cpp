@@ -1389,8 +1389,12 @@ void write_manifest(const Plan& plan, const BuildSettings& settings,
         }
         manifest["conditions"].push_back(j);
     }
+    // The methods paragraph goes into the manifest (`avsi analyze --stimuli`
+    // puts it in the study report) and beside it as methods.md.
+    const std::string methods = methods_text(plan, manifest, settings.out_dir);
+    manifest["methods"] = methods;
     write_text_file(settings.out_dir / "manifest.json", manifest.dump(2) + "\n");
-    write_text_file(settings.out_dir / "methods.md", methods_text(plan, manifest, settings.out_dir));
+    write_text_file(settings.out_dir / "methods.md", methods);
 }
 
 // A shard's manifest: the entries of its jobs (shards.h).
