@@ -188,7 +188,7 @@ ScoringSettings scoring_settings(const Protocol& protocol) {
     return s;
 }
 
-std::string protocol_language(const Protocol& protocol) { return protocol.session.language; }
+std::string protocol_language(const Protocol& protocol) { return protocol.corpus.language; }
 
 std::vector<std::string> corpus_vocabulary(const Corpus& corpus, std::string_view language) {
     std::set<std::string> words;

@@ -85,15 +85,27 @@ void read_tts(const ConfigSection& corpus, CorpusSettings& out, DiagnosticList& 
     out.tts_voice = settings.voice;
 }
 
-// [corpus] language: the language of the sentences, the phone table and the
-// scoring; by default the voice's (tts = "espeak:sv" -> "sv"). A language
-// other than the voice's is an error.
+// [corpus] language: the language of the sentences, the phone table, the
+// scoring and what the subject reads (session.language is this one); by
+// default the voice's (tts = "espeak:sv" -> "sv"). A language other than the
+// voice's, or an espeak-ng voice of a language without tables, is an error.
 void read_language(const ConfigSection& corpus, CorpusSettings& out, DiagnosticList& problems) {
     TtsSettings settings;
     settings.engine = out.tts_engine;
     settings.voice = out.tts_voice;
     const std::string voice_language = tts_voice_language(settings);
     out.language = voice_language.empty() ? "en" : voice_language;
+    const char* voice_key = corpus.find("tts") ? "tts" : corpus.find("voice") ? "voice" : nullptr;
+    if (voice_language.empty() && voice_key) {
+        std::string tables;
+        for (const auto& code : PhoneInventory::builtin().languages()) tables += (tables.empty() ? "" : ", ") + code;
+        corpus.report(voice_key,
+                      fmt::format("voice \"{}\" speaks no language with tables in protocols/languages/ ({}): no "
+                                  "phones, scoring or texts of what the subject reads for it",
+                                  out.tts_voice, tables),
+                      problems);
+        return;
+    }
     if (!corpus.find("language")) return;
     const std::string language =
         corpus.get_choice("language", PhoneInventory::builtin().languages(), out.language, problems);
@@ -426,17 +438,18 @@ void read_render_section(const ConfigSection& root, Protocol& p, DiagnosticList&
 }
 
 // [session]: the runner's screen, response mode, timing and texts.
-// The session texts' defaults in the language of the voice (ui_strings.h).
+// The session texts' defaults in the protocol's language ([corpus] language,
+// by default the voice's: read_language; ui_strings.h).
 void read_language_strings(Protocol& p, DiagnosticList& problems) {
     SessionSettings& s = p.session;
-    s.language = language_of_voice(p.corpus.tts_engine == TtsEngine::Espeak, p.corpus.tts_voice);
+    s.language = p.corpus.language;
     // After an error elsewhere (a malformed tts among them) the voice may be
     // no voice at all: that error is the one to fix first.
     if (!problems.empty()) return;
     if (!fs::is_regular_file(ui_strings_file(s.language))) {
         problems.add(p.path.string(), p.corpus.tts_line, p.corpus.tts_column, "corpus.tts",
-                     fmt::format("no table of what the subject reads in language '{}' of voice \"{}\" (expected {})",
-                                 s.language, p.corpus.tts_voice, ui_strings_file(s.language).string()));
+                     fmt::format("no table of what the subject reads in language '{}' (expected {})", s.language,
+                                 ui_strings_file(s.language).string()));
         return;
     }
     try {

@@ -30,7 +30,7 @@ void check_radio_phone_set(const std::string& phone_set, const std::string& voic
     if (phone_set != "radio")
         throw InputError("tts", 0, 0, "voice",
                          fmt::format("Festival voice \"{}\" uses the phone set \"{}\"; the phone mapping "
-                                     "(protocols/phone_map.tsv) covers Festival's US English phone set \"radio\"",
+                                     "(protocols/languages/en/phone_map.tsv) covers Festival's US English phone set \"radio\"",
                                      voice, phone_set));
 }
 

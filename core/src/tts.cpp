@@ -629,6 +629,7 @@ std::string tts_voice_spec(const TtsSettings& settings) {
 std::string tts_voice_language(const TtsSettings& settings) {
     if (settings.engine == TtsEngine::Festival) return "en";
     std::string name = settings.voice.substr(settings.voice.rfind('/') == std::string::npos ? 0 : settings.voice.rfind('/') + 1);
+    name = name.substr(0, name.find('+'));  // a variant: "sv+m3" speaks sv
     for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     return table_of_language(name);
 }

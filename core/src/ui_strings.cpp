@@ -128,9 +128,4 @@ const UiStrings& ui_strings(const std::string& language) {
     return *slot;
 }
 
-std::string language_of_voice(bool espeak, std::string_view voice) {
-    if (!espeak) return "en";
-    return std::string(voice.substr(0, voice.find_first_of("-+")));
-}
-
 }  // namespace avsi

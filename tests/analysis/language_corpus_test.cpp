@@ -71,5 +71,29 @@ TEST(LanguageCorpus, ProtocolsScoreInTheLanguageOfTheirVoice) {
     EXPECT_EQ(scoring_settings(en).split_compounds, std::nullopt);
 }
 
+// Each language's protocol shows that language's own models
+// (protocols/models/<lang>/), not the English ones whose per-phone tables
+// lack its phones; German has no ANNs, so its protocol has no ANN condition.
+void expect_models_of_language(const Protocol& p, const std::string& language, std::size_t model_conditions) {
+    std::size_t models = 0;
+    for (const auto& c : p.conditions) {
+        if (c.face != FaceMode::Model) continue;
+        ++models;
+        SCOPED_TRACE(c.name);
+        EXPECT_TRUE(std::filesystem::equivalent(c.model.parent_path(), kProtocols / "models" / language))
+            << c.model;
+        EXPECT_TRUE(std::filesystem::is_regular_file(c.model)) << c.model;
+    }
+    EXPECT_EQ(models, model_conditions);
+}
+
+TEST(LanguageCorpus, ProtocolsShowTheModelsOfTheirLanguage) {
+    const Protocol sv = load_protocol(kProtocols / "beskow2004-sv.toml");
+    const Protocol en = load_protocol(kProtocols / "beskow2004-en.toml");
+    EXPECT_EQ(sv.condition_names(), en.condition_names());  // the reference study's six
+    expect_models_of_language(sv, "sv", 5);
+    expect_models_of_language(load_protocol(kProtocols / "german-small.toml"), "de", 2);
+}
+
 }  // namespace
 }  // namespace avsi::analysis

@@ -16,6 +16,7 @@
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/text.h"
+#include "avsi/core/tts.h"
 #include "avsi/core/ui_strings.h"
 
 namespace avsi::analysis {
@@ -151,10 +152,19 @@ TEST(ScoringLanguage, UnknownLanguageIsAClearError) {
         EXPECT_NE(std::string(e.what()).find("no tables for language 'fr' (known: en, sv, de)"), std::string::npos)
             << e.what();
     }
-    EXPECT_EQ(language_of_voice(true, "sv"), "sv");
-    EXPECT_EQ(language_of_voice(true, "en-us"), "en");
-    EXPECT_EQ(language_of_voice(true, "sv+m3"), "sv");
-    EXPECT_EQ(language_of_voice(false, "cmu_us_slt_arctic_hts"), "en");
+    // The voice's language, the one source of the protocol's (read_language).
+    const auto voice_language = [](TtsEngine engine, const std::string& voice) {
+        TtsSettings t;
+        t.engine = engine;
+        t.voice = voice;
+        return tts_voice_language(t);
+    };
+    EXPECT_EQ(voice_language(TtsEngine::Espeak, "sv"), "sv");
+    EXPECT_EQ(voice_language(TtsEngine::Espeak, "en-us"), "en");
+    EXPECT_EQ(voice_language(TtsEngine::Espeak, "sv+m3"), "sv");
+    EXPECT_EQ(voice_language(TtsEngine::Espeak, "gmw/de"), "de");
+    EXPECT_EQ(voice_language(TtsEngine::Espeak, "fr"), "");
+    EXPECT_EQ(voice_language(TtsEngine::Festival, "cmu_us_slt_arctic_hts"), "en");
 }
 
 }  // namespace

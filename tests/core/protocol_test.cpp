@@ -144,6 +144,16 @@ TEST(Protocol, LanguageComesFromTheVoiceOrTheCorpusKey) {
               file + ":7:12: error: corpus.language: expected the voice's language \"sv\" (tts = \"espeak:sv\"), got \"de\"");
     EXPECT_EQ(error("language = \"fr\"\n"),
               file + ":6:12: error: corpus.language: expected \"de\", \"en\", or \"sv\", got \"fr\" (did you mean \"de\"?)");
+    // One language per protocol: what the subject reads is the corpus's.
+    EXPECT_EQ(load("tts = \"espeak:sv+m3\"\n").corpus.language, "sv");
+    EXPECT_EQ(load("tts = \"espeak:sv+m3\"\n").session.language, "sv");
+    EXPECT_EQ(load("tts = \"espeak:de\"\nlanguage = \"de\"\n").session.language, "de");
+    EXPECT_EQ(error("tts = \"festival:cmu_us_slt_arctic_hts\"\nlanguage = \"sv\"\n"),
+              file + ":7:12: error: corpus.language: expected the voice's language \"en\" (tts = "
+                     "\"festival:cmu_us_slt_arctic_hts\"), got \"sv\"");
+    EXPECT_EQ(error("tts = \"espeak:fr\"\n"),
+              file + ":6:7: error: corpus.tts: voice \"fr\" speaks no language with tables in protocols/languages/ "
+                     "(de, en, sv): no phones, scoring or texts of what the subject reads for it");
     fs::remove_all(dir);
 }
 

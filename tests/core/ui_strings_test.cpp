@@ -81,8 +81,8 @@ TEST(UiStrings, AVoiceOfALanguageWithoutATableIsRefusedAtItsLine) {
         (void)parse_protocol(text, "/tmp/fr.toml");
         FAIL() << "expected InputError";
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("/tmp/fr.toml:5:7: error: corpus.tts: no table of what the subject reads "
-                                             "in language 'fr'"),
+        EXPECT_NE(std::string(e.what()).find("/tmp/fr.toml:5:7: error: corpus.tts: voice \"fr\" speaks no language "
+                                             "with tables in protocols/languages/ (de, en, sv)"),
                   std::string::npos)
             << e.what();
     }

@@ -342,15 +342,15 @@
     if (fromUrl !== null) {
       subject = /^[0-9]+$/.test(fromUrl) ? Number(fromUrl) : NaN;
       if (!available.includes(subject))
-        throw new Error(`The link's subject number "${fromUrl}" is not one of this study's subjects (${available[0]}–${available[available.length - 1]}).`);
+        throw new Error(T('web', 'subject_unknown', { subject: fromUrl, first: available[0], last: available[available.length - 1] }));
       return subject;
     }
     if (Study.jatos) {
       subject = await jatosSubject(available);
-      if (subject === null) throw new Error('Every subject list of this study is in use. Please contact the experimenter.');
+      if (subject === null) throw new Error(T('web', 'subjects_in_use'));
       return subject;
     }
-    throw new Error('This link has no subject number. The experimenter\'s link ends in ?subject=N.');
+    throw new Error(T('web', 'subject_missing'));
   }
 
   // Claims the subject for this browser's run: under JATOS in the batch
@@ -445,7 +445,7 @@
     for (const url of urls) {
       if (Study.sounds.has(url)) continue;
       const response = await fetch(url);
-      if (!response.ok) throw new Error(`Cannot load ${url} (HTTP ${response.status}).`);
+      if (!response.ok) throw new Error(T('web', 'sound_load_failed', { file: url, status: response.status }));
       Study.sounds.set(url, await Study.ctx.decodeAudioData(await response.arrayBuffer()));
     }
   }
@@ -654,15 +654,15 @@
           if (!ended) video.requestVideoFrameCallback(onFrame);
         };
         if (haveCallbacks) video.requestVideoFrameCallback(onFrame);
-        const stall = setTimeout(() => fail('The video stopped playing.'), (stimulus.frames / stimulus.fps + 15) * 1000);
+        const stall = setTimeout(() => fail(T('web', 'video_stalled')), (stimulus.frames / stimulus.fps + 15) * 1000);
         const fail = (why) => {
           ended = true;
           emit('preload-failed', { stimulus: stimulus.file, reason: why });
-          display.innerHTML = textHtml(`${why} Please check your connection and reload this page: the study continues where it stopped.`) +
-            '<button class="jspsych-btn" data-action="reload">Reload</button>';
+          display.innerHTML = textHtml(`${why} ${T('web', 'video_reload_text')}`) +
+            `<button class="jspsych-btn" data-action="reload">${escapeHtml(T('web', 'reload'))}</button>`;
           display.querySelector('button').addEventListener('click', () => location.reload());
         };
-        video.addEventListener('error', () => { clearTimeout(stall); fail('The video could not be played.'); });
+        video.addEventListener('error', () => { clearTimeout(stall); fail(T('web', 'video_failed')); });
         video.addEventListener('ended', () => {
           clearTimeout(stall);
           ended = true;
@@ -672,7 +672,7 @@
           video.removeAttribute('src');
           video.load();
         });
-        video.play().catch((e) => { clearTimeout(stall); fail(`The video could not start (${e.name}).`); });
+        video.play().catch((e) => { clearTimeout(stall); fail(T('web', 'video_not_started', { error: e.name })); });
       });
     }
   }
@@ -784,7 +784,7 @@
       type: jsPsychPreload,
       video: urls,
       show_progress_bar: true,
-      message: '<div class="avsi-text">Loading the next part of the study…</div>',
+      message: `<div class="avsi-text">${escapeHtml(T('web', 'preload_text'))}</div>`,
       max_load_time: Study.config.online.preload_timeout_s * 1000,
       continue_after_error: true,
       show_detailed_errors: false,
@@ -897,6 +897,7 @@
     try {
       Study.jatos = typeof jatos !== 'undefined' && typeof jatos.appendResultData === 'function' && !!jatos.studyResultId;
       const response = await fetch('study.json');
+      // English: the study's texts come in study.json itself.
       if (!response.ok) throw new Error(`The study's settings (study.json) could not be loaded (HTTP ${response.status}).`);
       Study.config = await response.json();
       Study.subject = await resolveSubject();

@@ -17,7 +17,7 @@
 //    phones are all deleted, an inserted word's all inserted): weighted edit
 //    distance, deletion and insertion 1, substitution of phone b for a
 //        s(a, b) = 0 if a = b, else min(2, 0.5 + 0.25 · Σ_f |a_f − b_f|)
-//    over the 16 phonetic features of protocols/phones.tsv (the 17 of the
+//    over the 16 phonetic features of protocols/languages/en/phones.tsv (the 17 of the
 //    reference study without stress; the vowel features count 0.5 a step),
 //    so /p/→/b/ costs 0.75, /p/→/k/ 1.0, and a phone far away in features
 //    is no cheaper to substitute than to delete and insert. Phones compare

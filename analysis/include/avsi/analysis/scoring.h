@@ -137,7 +137,8 @@ struct ScoringSettings {
 // for a language keyword scoring has no tables for.
 ScoringSettings scoring_settings(const Protocol& protocol);
 
-// The language code of a protocol's voice ("en" for Festival and the default).
+// The protocol's language: [corpus] language, by default its voice's ("en"
+// for Festival and the default voice); session.language is the same.
 std::string protocol_language(const Protocol& protocol);
 
 // The normalised words of every sentence, keyword and alternate of a corpus.

@@ -124,8 +124,9 @@ const std::vector<std::string>& protocol_rule_sets();
 enum class ResponseMode { Subject, Experimenter };
 
 struct SessionSettings {
-    // The language of what the subject reads: that of the voice
-    // (ui_strings.h); the texts below default to its table's [session].
+    // The language of what the subject reads: corpus.language, the one
+    // language of a protocol (by default its voice's; ui_strings.h); the
+    // texts below default to its table's [session].
     std::string language = "en";
     bool fullscreen = true;
     int monitor = 0;                       // 0 = primary

@@ -9,7 +9,7 @@
 //   (`lex.lookup_all` says whether it holds the word, `lex.lookup` gives the
 //   entry, by the voice's letter-to-sound rules when it does not), stress
 //   from the syllables; no post-lexical rules (the words are citation forms).
-//   Phones mapped through the `festival` rows of protocols/phone_map.tsv.
+//   Phones mapped through the `festival` rows of protocols/languages/en/phone_map.tsv.
 // - espeak-ng: refused. Its dictionary lookup and its rules are one step in
 //   espeak_TextToPhonemes, which does not say which of the two gave a word,
 //   so an answer could not be marked as letter-to-sound.

@@ -69,7 +69,7 @@ void set_tts_voice(TtsSettings& settings, std::string_view spec, std::string_vie
 std::string tts_voice_spec(const TtsSettings& settings);
 
 // The phone table (protocols/languages/<code>/) a voice's name points to:
-// Festival "en"; espeak-ng "en-us" -> "en", "sv" -> "sv", "gmw/de" -> "de";
+// Festival "en"; espeak-ng "en-us" -> "en", "sv" -> "sv", "sv+m3" -> "sv", "gmw/de" -> "de";
 // "" when the name names no language with a table (the voice's own language
 // is checked when it speaks).
 std::string tts_voice_language(const TtsSettings& settings);

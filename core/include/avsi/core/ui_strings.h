@@ -52,8 +52,5 @@ std::filesystem::path ui_strings_file(const std::string& language);
 // without a table. Thread-safe.
 const UiStrings& ui_strings(const std::string& language);
 
-// The language code of a protocol voice: the espeak-ng voice name up to its
-// first '-' or '+' ("sv" -> "sv", "en-us" -> "en"); "en" for Festival voices.
-std::string language_of_voice(bool espeak, std::string_view voice);
 
 }  // namespace avsi
