@@ -74,8 +74,8 @@ const bool registered_analyze = register_command({
                        "maps, information transmitted per feature with bootstrap CIs, glmer_phonemes.R)")
             ->check(CLI::ExistingFile);
         sub.add_option("--viseme-information", o->viseme_information,
-                       "viseme_information.csv of scripts/viseme-information: each model's objective viseme "
-                       "information beside the listeners' (with --phonemes)")
+                       "qc/viseme_information.csv of a stimulus set (build-stimuli writes it): each model's "
+                       "objective viseme information beside the listeners' (with --phonemes)")
             ->check(CLI::ExistingFile);
         sub.add_option("--stimuli", o->stimuli,
                        "The stimulus set the subjects saw (the folder of `avsi build-stimuli --out`): adds its "

@@ -373,8 +373,8 @@ void append_phoneme_section(const PhonemeReportSettings& s) {
     if (!s.objective_csv.empty()) {
         const std::string table = objective_table_md(s.objective_csv, info);
         const std::string intro = fmt::format(
-            "What each model's face carries about the viseme class before any listener ({}: scripts/viseme-information, "
-            "cross-validated LDA on the articulation measures of each phone), beside what the listeners got.",
+            "What each model's face carries about the viseme class before any listener ({}: build-stimuli's "
+            "cross-validated LDA on the rendered articulation measures of each phone), beside what the listeners got.",
             s.objective_csv.filename().string());
         md += "\n### Objective viseme information\n\n" + intro + "\n\n" + table;
         html += "<h3>Objective viseme information</h3>\n<p>" + xml_escape(intro) + "</p>\n" + md_table_to_html(table);

@@ -335,7 +335,7 @@ std::string worst_rows(const std::vector<WorstSegment>& worst, const char* measu
 }  // namespace
 
 std::string articulation_qc_html(const std::string& title, const std::vector<QcStimulus>& stimuli,
-                                 const ArticulationLimits& limits) {
+                                 const ArticulationLimits& limits, const std::string& viseme_page) {
     const auto conditions = articulation_by_condition(stimuli);
     std::size_t failing = 0;
     for (const auto& c : conditions) failing += c.failing;
@@ -355,6 +355,11 @@ std::string articulation_qc_html(const std::string& title, const std::vector<QcS
         "through each other, or when its condition asked for closure (<code>closure = \"hold\"</code>) and did not "
         "get it. <b class=\"{}\">{} of {} stimuli fail.</b></p>\n",
         limits.closure_mm, limits.labiodental_mm, failing ? "bad" : "ok", failing, stimuli.size());
+    if (!viseme_page.empty())
+        html += fmt::format("<p>What each model's face carries about the viseme class of each phone (a "
+                            "cross-validated classifier on these measures, with its confusions): <a href=\"{0}\">{0}</a>."
+                            "</p>\n",
+                            xml_escape(viseme_page));
     html += "<table><tr><th>condition</th><th>policy</th><th>stimuli</th><th>/p b m/ closed</th><th>/f v/ in "
             "contact</th><th>rounding contrast</th><th>aperture range (mm)</th><th>frames changed by the hold</th>"
             "<th>failing stimuli</th></tr>\n";

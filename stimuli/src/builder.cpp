@@ -34,6 +34,7 @@
 #include "avsi/stimuli/layers.h"
 #include "avsi/stimuli/lod.h"
 #include "avsi/stimuli/video.h"
+#include "avsi/stimuli/viseme_information.h"
 #include "avsi/synth/control_model.h"
 #include "avsi/synth/closure_constraint.h"
 #include "avsi/vocoder/masking.h"
@@ -837,12 +838,84 @@ json condition_articulation_json(const ConditionArticulation& c) {
     return j;
 }
 
+// The manifest's record of a condition's objective viseme information.
+json viseme_information_json(const VisemeInformation& v) {
+    const auto round6 = [](double x) { return std::round(x * 1e6) / 1e6; };
+    return {{"segments", v.segments},
+            {"sentences", v.sentences},
+            {"folds", viseme_folds},
+            {"lda_accuracy", round6(v.accuracy)},
+            {"majority_class", round6(v.majority_class)},
+            {"t_bits", round6(v.t.t_corrected)},
+            {"h_x_bits", round6(v.t.h_x_corrected)},
+            {"rti", round6(v.t.rti)},
+            {"classes", v.classes},
+            {"confusion", v.confusion}};
+}
+
+// Writes <out>/qc/viseme_information.html (.csv, viseme_confusions.csv,
+// viseme_segments.csv): what each model condition's face carries about the
+// viseme class of each phone, from the measures of every model stimulus
+// (viseme_information.h). Returns the conditions that could be cross-validated.
+std::vector<VisemeInformation> write_viseme_qc(const Plan& plan, const std::filesystem::path& out_dir,
+                                               const std::vector<QcStimulus>& stimuli) {
+    std::vector<VisemeSegment> all;
+    std::vector<VisemeInformation> results;
+    for (const auto& c : plan.protocol.conditions) {
+        if (c.face != FaceMode::Model) continue;
+        std::vector<VisemeSegment> segments;
+        for (const auto& q : stimuli)
+            if (q.condition == c.name)
+                for (auto& s : viseme_segments(q.condition, q.sentence, q.phones, q.measures, plan.fps))
+                    segments.push_back(std::move(s));
+        auto r = viseme_information(c.name, segments);
+        if (r) {
+            log_info("viseme information: {}: LDA accuracy {:.1f} % of {} segments (majority class {:.1f} %), "
+                     "RTI {:.3f}",
+                     c.name, 100.0 * r->accuracy, r->segments, 100.0 * r->majority_class, r->t.rti);
+            results.push_back(std::move(*r));
+        } else {
+            log_info("viseme information: {}: not computed ({} segments in fewer than two sentences, or a fold "
+                     "without training data)",
+                     c.name, segments.size());
+        }
+        all.insert(all.end(), std::make_move_iterator(segments.begin()), std::make_move_iterator(segments.end()));
+    }
+    const auto qc = out_dir / "qc";
+    write_viseme_segments_csv(qc / "viseme_segments.csv", all, results);
+    write_viseme_information_csv(qc / "viseme_information.csv", results);
+    write_viseme_confusions_csv(qc / "viseme_confusions.csv", results);
+    const std::string intro = fmt::format(
+        "What each model condition's face carries about the viseme class of each phone, before any listener: for "
+        "every model stimulus of the set, each speech phone is one segment, the mean over its frames ({:g} fps) of "
+        "six articulation measures as rendered (closure hold and animation layers included): midline lip aperture, "
+        "mouth width, upper and lower lip protrusion, jaw opening, lower lip to upper incisors (mm), labelled with "
+        "its viseme class (core's VisemeClass from the phone's features). Per condition, a linear discriminant "
+        "analysis (pooled within-class covariance, ridge {:g} of its mean variance, priors from the training "
+        "folds), cross-validated over {} folds of sentences (sentence ids sorted by name, the i-th in fold i mod "
+        "{}); T and RTI of its confusion matrix with the Miller-Madow correction, as avsi analyze --phonemes "
+        "computes them for listeners. The majority class is the chance level.",
+        plan.fps, viseme_ridge, viseme_folds, viseme_folds);
+    write_text_file(qc / "viseme_information.html",
+                    viseme_information_html("Objective viseme information — " + plan.protocol.name, intro, results));
+    return results;
+}
+
+// What write_articulation_qc returns for the manifest.
+struct SetArticulation {
+    std::vector<ConditionArticulation> conditions;
+    std::vector<VisemeInformation> visemes;
+};
+
 // Writes <out>/qc/articulation.html: the set's articulation by condition,
 // every failure, each condition's worst segments, and the aperture plots of
-// the worst stimuli. Returns the per-condition record for the manifest.
-std::vector<ConditionArticulation> write_articulation_qc(const Plan& plan, const std::filesystem::path& out_dir,
-                                                         std::map<std::string, PhoneSequence> phones) {
+// the worst stimuli; and the objective viseme information beside it
+// (write_viseme_qc). Returns the per-condition records for the manifest.
+SetArticulation write_articulation_qc(const Plan& plan, const std::filesystem::path& out_dir,
+                                      std::map<std::string, PhoneSequence> phones) {
     auto stimuli = measure_set(plan, true, std::move(phones));
+    SetArticulation out;
+    out.visemes = write_viseme_qc(plan, out_dir, stimuli);
     std::vector<std::size_t> order(stimuli.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
@@ -862,10 +935,11 @@ std::vector<ConditionArticulation> write_articulation_qc(const Plan& plan, const
         page.push_back(std::move(q));
     }
     const auto path = out_dir / "qc" / "articulation.html";
-    write_text_file(path, articulation_qc_html("Articulation QC — " + plan.protocol.name, page));
-    auto conditions = articulation_by_condition(page);
+    write_text_file(path, articulation_qc_html("Articulation QC — " + plan.protocol.name, page, {},
+                                               "viseme_information.html"));
+    out.conditions = articulation_by_condition(page);
     std::size_t failing = 0;
-    for (const auto& c : conditions) {
+    for (const auto& c : out.conditions) {
         failing += c.failing;
         log_info("articulation: {} ({}): /p b m/ closed {} of {}, /f v/ in contact {} of {}", c.condition, c.policy,
                  c.bilabials_closed, c.bilabials, c.labiodentals_reached, c.labiodentals);
@@ -875,7 +949,7 @@ std::vector<ConditionArticulation> write_articulation_qc(const Plan& plan, const
                     failing, page.size(), path.string());
     else
         log_info("articulation: no model stimulus fails (QC page {})", path.string());
-    return conditions;
+    return out;
 }
 
 // describe()'s "Label:      text" lines as a Markdown list of "Label: text".
@@ -894,6 +968,30 @@ std::string methods_list(const std::string& lines) {
         a = b + 1;
     }
     return m;
+}
+
+// The methods sentence on the objective viseme information ("" when no
+// condition has it): each model's cross-validated accuracy and RTI.
+std::string methods_visemes(const json& manifest) {
+    std::vector<std::string> parts;
+    double majority = 0.0;
+    for (const auto& c : manifest["conditions"]) {
+        const json v = c.value("viseme_information", json());
+        if (!v.is_object()) continue;
+        parts.push_back(fmt::format("{} {:.1f} % (RTI {:.3f})", c["name"].get<std::string>(),
+                                    100.0 * v["lda_accuracy"].get<double>(), v["rti"].get<double>()));
+        majority = std::max(majority, v["majority_class"].get<double>());
+    }
+    if (parts.empty()) return "";
+    std::string list;
+    for (std::size_t i = 0; i < parts.size(); ++i)
+        list += (i == 0 ? "" : i + 1 == parts.size() ? " and " : ", ") + parts[i];
+    return fmt::format(
+        "Before any listener, the information each face carries about the viseme class of each phone was "
+        "measured on the rendered articulation: a linear discriminant analysis of six lip and jaw measures per "
+        "speech phone, cross-validated over {} folds of sentences, classified the viseme class correctly in {} "
+        "(majority class {:.1f} %; RTI with the Miller-Madow correction; qc/viseme_information.html).\n\n",
+        viseme_folds, list, 100.0 * majority);
 }
 
 // The stimuli's methods paragraph (methods.md beside the manifest): the
@@ -934,7 +1032,7 @@ std::string methods_text(const Plan& plan, const json& manifest, const std::file
                              a["labiodentals"].get<std::size_t>(), 100.0 * a["contact_rate"].get<double>());
         m += ".\n";
     }
-    m += "\n";
+    m += "\n" + methods_visemes(manifest);
     if (held.empty())
         m += "Every control model was shown as trained (or as hand-set); no condition post-processed its model.\n";
     else if (plain.empty())
@@ -1366,12 +1464,13 @@ void write_manifest(const Plan& plan, const BuildSettings& settings,
                      {"settings", plan.settings_json},
                      {"stimuli", json::array()}};
     for (const auto& job : plan.jobs) manifest["stimuli"].push_back(job.entry);
-    std::map<std::string, json> articulation_of;
+    std::map<std::string, json> articulation_of, visemes_of;
     if (plan.meter) {
         std::map<std::string, PhoneSequence> phones;
         for (const auto& [id, sp] : speech) phones[id] = sp.phones;
-        for (const auto& c : write_articulation_qc(plan, settings.out_dir, std::move(phones)))
-            articulation_of[c.condition] = condition_articulation_json(c);
+        const SetArticulation set = write_articulation_qc(plan, settings.out_dir, std::move(phones));
+        for (const auto& c : set.conditions) articulation_of[c.condition] = condition_articulation_json(c);
+        for (const auto& v : set.visemes) visemes_of[v.condition] = viseme_information_json(v);
     }
     manifest["conditions"] = json::array();
     for (const auto& c : protocol.conditions) {
@@ -1386,6 +1485,8 @@ void write_manifest(const Plan& plan, const BuildSettings& settings,
             if (plan.closure.count(c.name)) j["closure_constraint"] = closure_json(plan.closure.at(c.name));
             const auto a = articulation_of.find(c.name);
             j["articulation"] = a != articulation_of.end() ? a->second : json();
+            const auto v = visemes_of.find(c.name);
+            j["viseme_information"] = v != visemes_of.end() ? v->second : json();
         }
         manifest["conditions"].push_back(j);
     }

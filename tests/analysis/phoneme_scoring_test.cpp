@@ -234,7 +234,7 @@ TEST(PhonemeScoringCli, ScoreWithPronunciationTableWritesPhonemesCsv) {
                           "phonemes_glmer.csv"})
         EXPECT_TRUE(fs::exists(dir / "report" / f)) << f;
     EXPECT_EQ(avsi::read_csv(dir / "report" / "phonemes_glmer.csv").rows.size(), 40u);  // target phones
-    // The objective viseme information beside the listeners' (scripts/viseme-information's file).
+    // The objective viseme information beside the listeners' (build-stimuli's qc/viseme_information.csv).
     avsi::write_text_file(dir / "viseme_information.csv",
                           "condition,segments,lda_accuracy,majority_class,t_bits,rti\nface,100,0.61,0.36,0.9,0.389\n");
     const auto objective = avsi::test::run_avsi(

@@ -45,6 +45,7 @@
 #include <vector>
 
 #include "avsi/analysis/phoneme_scoring.h"
+#include "avsi/core/information.h"
 #include "avsi/core/phones.h"
 
 namespace avsi::analysis {
@@ -68,14 +69,10 @@ std::vector<ConfusionMatrix> confusion_matrices(const std::string& condition, co
 ConfusionMatrix feature_matrix(const std::string& condition, const std::string& grouping,
                                const std::vector<PhonemeRow>& rows);
 
-// T, H and RTI of a count table, as the header states.
-struct Transmission {
-    double n = 0.0;
-    double h_x = 0.0, t_plugin = 0.0;               // bits, plug-in
-    double h_x_corrected = 0.0, t_corrected = 0.0;  // Miller-Madow
-    double rti = 0.0;                               // t_corrected / h_x_corrected (0 when h_x is 0)
-};
-Transmission information_transmitted(const std::vector<std::vector<double>>& counts);
+// T, H and RTI of a count table, as the header states: core's
+// (information.h), shared with the stimulus set's objective viseme information.
+using avsi::Transmission;
+using avsi::information_transmitted;
 
 struct InformationSettings {
     std::size_t bootstrap = 2000;  // bootstrap replicates (0: no intervals, no comparisons)

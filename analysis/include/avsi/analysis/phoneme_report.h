@@ -37,7 +37,8 @@ struct PhonemeReportSettings {
     // Report order of the conditions (the protocol's); empty or for the rest:
     // first appearance in phonemes.csv.
     std::vector<std::string> conditions;
-    // viseme_information.csv of scripts/viseme-information (optional): what
+    // qc/viseme_information.csv of a stimulus set (build-stimuli writes it,
+    // stimuli/viseme_information.h; optional): what
     // each model's face carries about the viseme class, shown beside the
     // listeners' viseme RTI.
     std::filesystem::path objective_csv;

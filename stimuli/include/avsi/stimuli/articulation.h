@@ -156,8 +156,10 @@ std::vector<ConditionArticulation> articulation_by_condition(const std::vector<Q
 // stimuli (results of the models, not constraints), the aperture range and
 // the failures; each condition's worst segments (time, sentence, distance);
 // every stimulus that fails, named with its segments; and the aperture plots
-// of the stimuli given with measures (the worst ones).
+// of the stimuli given with measures (the worst ones). With `viseme_page`
+// (a path relative to the page), a link to the set's objective viseme
+// information (viseme_information.h).
 std::string articulation_qc_html(const std::string& title, const std::vector<QcStimulus>& stimuli,
-                                 const ArticulationLimits& limits = {});
+                                 const ArticulationLimits& limits = {}, const std::string& viseme_page = {});
 
 }  // namespace avsi::stimuli
