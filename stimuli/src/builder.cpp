@@ -859,6 +859,7 @@ json viseme_information_json(const VisemeInformation& v) {
 // (viseme_information.h). Returns the conditions that could be cross-validated.
 std::vector<VisemeInformation> write_viseme_qc(const Plan& plan, const std::filesystem::path& out_dir,
                                                const std::vector<QcStimulus>& stimuli) {
+    const auto started = std::chrono::steady_clock::now();
     std::vector<VisemeSegment> all;
     std::vector<VisemeInformation> results;
     for (const auto& c : plan.protocol.conditions) {
@@ -898,6 +899,9 @@ std::vector<VisemeInformation> write_viseme_qc(const Plan& plan, const std::file
         plan.fps, viseme_ridge, viseme_folds, viseme_folds);
     write_text_file(qc / "viseme_information.html",
                     viseme_information_html("Objective viseme information — " + plan.protocol.name, intro, results));
+    log_info("viseme information: {} segments of {} conditions in {:.2f} s (QC page {})", all.size(), results.size(),
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
+             (qc / "viseme_information.html").string());
     return results;
 }
 
