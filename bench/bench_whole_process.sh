@@ -4,7 +4,9 @@
 #   start-up      avsi --version
 #   synth         avsi synth of a short sentence (from its phones, and from text through espeak-ng)
 #   vocode        avsi vocode of 9 minutes of 22.05 kHz speech  vs  the numpy/scipy vocoder
-#                 (bench/reference_vocoder.py, same settings) and sox reading + writing the same file
+#                 (bench/reference_vocoder.py, same settings) and sox reading + writing the same file;
+#                 and with each other carrier (sine, low-noise, pulse-train, Poisson) and a CI
+#                 simulation (8 bands, 250 pulses/s, 8 dB/octave spread, 2 mm shift, 4-of-8)
 #   stoi          avsi stoi of those 9 minutes against their vocoded version
 #   render        avsi render of a sentence to MP4  vs  ffmpeg encoding the same frames (PNG, libx264)
 #   score         avsi score of a 25-subject study (simulated answers to the default protocol's lists)
@@ -121,6 +123,11 @@ tasks=(
   "synth, text of a sentence (espeak-ng)|$avsi synth --text '$sentence' --out s2.csv"
   "vocode 9 min|$avsi vocode speech9.wav v.wav"
   "vocode 9 min: numpy/scipy|$python $repo/bench/reference_vocoder.py speech9.wav r.wav"
+  "vocode 9 min, sine carrier|$avsi vocode --carrier sine speech9.wav vs.wav"
+  "vocode 9 min, low-noise carrier|$avsi vocode --carrier low-noise speech9.wav vl.wav"
+  "vocode 9 min, pulse-train carrier|$avsi vocode --carrier pulse-train speech9.wav vp.wav"
+  "vocode 9 min, poisson carrier|$avsi vocode --carrier poisson speech9.wav vq.wav"
+  "vocode 9 min, CI simulation|$avsi vocode --bands 8 --low-hz 250 --high-hz 8000 --carrier pulse-train --pulse-rate 250 --current-spread db-per-octave --spread-slope-db 8 --insertion-shift-mm 2 --n-of-m 4 speech9.wav vc.wav"
   "read + write 9 min: sox|sox speech9.wav x.wav"
   "stoi 9 min|$avsi stoi speech9.wav vocoded9.wav"
   "render a sentence (MP4)|$avsi render --traj sentence.csv --audio sentence.wav --out m.mp4"

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "avsi/analysis/adaptive_report.h"
+#include "avsi/analysis/methods_report.h"
 #include "avsi/analysis/phoneme_report.h"
 #include "avsi/analysis/report.h"
 #include "avsi/core/error.h"
@@ -24,7 +25,7 @@ struct AnalyzeOptions {
     bool include_unconverged = false;
     std::string timing_certificate;
     bool exclude_timing_fail = false;
-    std::string phonemes, viseme_information;
+    std::string phonemes, viseme_information, stimuli;
     std::size_t bootstrap = 2000;
 };
 
@@ -76,6 +77,10 @@ const bool registered_analyze = register_command({
                        "qc/viseme_information.csv of a stimulus set (build-stimuli writes it): each model's "
                        "objective viseme information beside the listeners' (with --phonemes)")
             ->check(CLI::ExistingFile);
+        sub.add_option("--stimuli", o->stimuli,
+                       "The stimulus set the subjects saw (the folder of `avsi build-stimuli --out`): adds its "
+                       "methods (speech, models, every vocoder parameter) as \"Stimuli and audio processing\"")
+            ->check(CLI::ExistingDirectory);
         sub.add_option("--bootstrap", o->bootstrap, "Subject-bootstrap replicates of the RTI intervals (with --phonemes)")
             ->capture_default_str()
             ->check(CLI::Range(std::size_t{0}, std::size_t{100000}));
@@ -95,6 +100,7 @@ const bool registered_analyze = register_command({
                 a.include_unconverged = o->include_unconverged;
                 if (title->count() > 0) a.title = o->title;
                 const auto result = analysis::analyze_adaptive_file(a);
+                if (!o->stimuli.empty()) analysis::append_methods_section(a.out_dir, o->stimuli, result.conditions);
                 if (result.excluded_tracks > 0)
                     fmt::print("{} of {} tracks did not converge ({}): {}\n", result.excluded_tracks,
                                result.tracks.size(), o->include_unconverged ? "kept" : "left out",
@@ -121,6 +127,7 @@ const bool registered_analyze = register_command({
             s.conditions = o->conditions;
             s.timing_certificate = o->timing_certificate;
             s.exclude_timing_fail = o->exclude_timing_fail;
+            s.stimuli_dir = o->stimuli;
             if (!o->protocol.empty()) {
                 for (const auto& c : load_protocol(o->protocol).conditions) s.conditions.push_back(c.name);
                 s.conditions_source = o->protocol;

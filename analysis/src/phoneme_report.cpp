@@ -265,18 +265,6 @@ struct PhonemeFigure {
     std::string file, caption;
 };
 
-void append_to_report(const fs::path& out_dir, const std::string& md, const std::string& html) {
-    const fs::path md_path = out_dir / "report.md", html_path = out_dir / "index.html";
-    write_text_file(md_path, read_text_file(md_path) + md);
-    std::string page = read_text_file(html_path);
-    const auto body = page.rfind("</body>");
-    if (body == std::string::npos)
-        page += html;
-    else
-        page.insert(body, html);
-    write_text_file(html_path, page);
-}
-
 std::string section_intro(const InformationResult& info, const std::vector<PhonemeRow>& rows) {
     std::size_t targets = 0, correct = 0;
     for (const auto& r : rows) {
@@ -391,7 +379,7 @@ void append_phoneme_section(const PhonemeReportSettings& s) {
         md += "\n### Objective viseme information\n\n" + intro + "\n\n" + table;
         html += "<h3>Objective viseme information</h3>\n<p>" + xml_escape(intro) + "</p>\n" + md_table_to_html(table);
     }
-    append_to_report(s.out_dir, md, html);
+    detail::append_to_report(s.out_dir, md, html);
     log_info("phoneme section: {} conditions, {} figures, RTI of {} features", conditions.size(), figures.size() + 1,
              feature_grouping_names().size());
 }

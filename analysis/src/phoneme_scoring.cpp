@@ -17,6 +17,7 @@
 #include "avsi/core/csv.h"
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
+#include "avsi/core/labels.h"
 #include "avsi/core/log.h"
 
 namespace avsi::analysis {
@@ -183,6 +184,13 @@ struct AnswerScorer {
 
     void add_word_pair(std::size_t word, const WordItem* t, const WordItem* r) {
         append_word_boundary(audit);
+        // A word typed as the target is spelled conveys the target's phones:
+        // a recording's reduced or dialectal phones (with_recorded_phones)
+        // are not substitutions when the listener got the word.
+        const WordItem same = t && r && t->transcription->word == r->transcription->word
+                                  ? WordItem{r->transcription, t->phones}
+                                  : WordItem{};
+        if (same.transcription) r = &same;
         if (t && r) {
             const Alignment phones = align_phones(t->phones, r->phones);
             for (const auto& p : phones.pairs) add(word, t, r, p.target, p.response);
@@ -383,8 +391,56 @@ std::vector<std::string> words_to_transcribe(const Corpus& corpus, const std::ve
     return out;
 }
 
+std::vector<std::vector<std::string>> recorded_phones_by_word(const std::vector<std::vector<std::string>>& words,
+                                                              const std::vector<std::string>& recorded) {
+    std::vector<std::string> lexical;
+    std::vector<std::size_t> word_of;
+    for (std::size_t w = 0; w < words.size(); ++w)
+        for (const auto& p : words[w]) {
+            lexical.push_back(p);
+            word_of.push_back(w);
+        }
+    std::vector<std::vector<std::string>> out(words.size());
+    if (words.empty()) return out;
+    std::size_t word = 0;
+    for (const auto& pair : align_phones(lexical, recorded).pairs) {
+        if (pair.target >= 0) word = word_of[static_cast<std::size_t>(pair.target)];
+        if (pair.response >= 0) out[word].push_back(recorded[static_cast<std::size_t>(pair.response)]);
+    }
+    return out;
+}
+
+RecordedPhones read_recorded_phones(const Corpus& corpus) {
+    RecordedPhones out;
+    for (const auto& s : corpus.sentences) {
+        if (s.labels.empty()) continue;
+        std::vector<std::string>& phones = out[s.id];
+        for (const auto& p : read_phones(s.labels))
+            if (p.symbol != "sil") phones.push_back(p.symbol);
+    }
+    return out;
+}
+
+namespace {
+
+// A recorded sentence's words with the recording's phones (recorded_phones_by_word).
+std::vector<WordItem> with_recorded_phones(std::vector<WordItem> words, const std::vector<std::string>& recorded) {
+    std::vector<std::vector<std::string>> lexical;
+    for (const auto& w : words) lexical.push_back(w.phones);
+    auto split = recorded_phones_by_word(lexical, recorded);
+    for (std::size_t w = 0; w < words.size(); ++w) words[w].phones = std::move(split[w]);
+    return words;
+}
+
+}  // namespace
+
 PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Response>& responses,
                                     const Pronunciations& pronunciations) {
+    return score_phonemes(corpus, responses, pronunciations, {});
+}
+
+PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Response>& responses,
+                                    const Pronunciations& pronunciations, const RecordedPhones& recorded) {
     std::map<std::string, const Sentence*, std::less<>> by_id;
     for (const auto& s : corpus.sentences) by_id.emplace(s.id, &s);
     PhonemeScoringResult out;
@@ -397,8 +453,11 @@ PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Resp
                                fmt::format("\"{}\" is not in the corpus {}", r.sentence, corpus.path.string())});
             continue;
         }
+        std::vector<WordItem> target = transcribed(spoken_words(it->second->text), pronunciations);
+        if (const auto rec = recorded.find(r.sentence); rec != recorded.end())
+            target = with_recorded_phones(std::move(target), rec->second);
         AnswerScorer a{r,
-                       transcribed(spoken_words(it->second->text), pronunciations),
+                       std::move(target),
                        transcribed(spoken_words(r.response), pronunciations),
                        out.rows,
                        {},
@@ -452,9 +511,10 @@ PhonemeScoringResult score_phoneme_files(const PhonemeFilesSettings& s) {
             std::string word = w.word;
             pronunciations.emplace(std::move(word), std::move(w));
         }
+    const RecordedPhones recorded = read_recorded_phones(corpus);
     PhonemeScoringResult result;
     try {
-        result = score_phonemes(corpus, responses, pronunciations);
+        result = score_phonemes(corpus, responses, pronunciations, recorded);
     } catch (const InputError& e) {
         std::vector<Diagnostic> d = e.diagnostics();
         for (auto& x : d)
@@ -472,9 +532,10 @@ PhonemeScoringResult score_phoneme_files(const PhonemeFilesSettings& s) {
     }
     log_info(
         "phonemes: {} answers, {} target phones, {} correct ({:.1f} %); {} words transcribed by {} ({} by "
-        "letter-to-sound), {} from the pronunciation table",
+        "letter-to-sound), {} from the pronunciation table; {} sentences' target phones from their recordings' "
+        "labels",
         result.answers.size(), targets, correct, targets ? 100.0 * double(correct) / double(targets) : 0.0,
-        needed.size(), tts_voice_spec(s.tts), lts, pronunciations.size() - needed.size());
+        needed.size(), tts_voice_spec(s.tts), lts, pronunciations.size() - needed.size(), recorded.size());
     return result;
 }
 

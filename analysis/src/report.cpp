@@ -1,6 +1,7 @@
 // The analysis report: anova.json first, then HTML, Markdown and CSVs drawn
 // from the same JSON values, so every number shown equals the one stored.
 #include "avsi/analysis/report.h"
+#include "avsi/analysis/methods_report.h"
 #include "avsi/analysis/timing_report.h"
 
 #include <algorithm>
@@ -46,6 +47,18 @@ std::string base64(std::string_view bytes) {
         out += '=';
     }
     return out;
+}
+
+void append_to_report(const std::filesystem::path& out_dir, const std::string& md, const std::string& html) {
+    const std::filesystem::path md_path = out_dir / "report.md", html_path = out_dir / "index.html";
+    if (!md.empty() && std::filesystem::exists(md_path)) write_text_file(md_path, read_text_file(md_path) + md);
+    std::string page = read_text_file(html_path);
+    const auto body = page.rfind("</body>");
+    if (body == std::string::npos)
+        page += html;
+    else
+        page.insert(body, html);
+    write_text_file(html_path, page);
 }
 
 }  // namespace detail
@@ -614,7 +627,8 @@ std::optional<AnalysisResult> analyze_file(const AnalyzeSettings& s) {
             log_warning("{}: subject {} left out: its presentation timing failed the tolerances ({})",
                         s.timing_certificate.string(), subject, s.timing_certificate.filename().string());
     }
-    auto add_timing = [&] {
+    auto add_sections = [&](const std::vector<std::string>& conditions) {
+        if (!s.stimuli_dir.empty()) append_methods_section(s.out_dir, s.stimuli_dir, conditions);
         if (!s.timing_certificate.empty()) append_timing_section(s.out_dir, timing, timing_excluded, s.timing_certificate);
     };
     ReportSettings rs;
@@ -641,13 +655,13 @@ std::optional<AnalysisResult> analyze_file(const AnalyzeSettings& s) {
                     "writing the descriptive pilot report",
                     s.input.string(), complete, complete == 1 ? "" : "s");
         write_pilot_report(scores, rs, complete);
-        add_timing();
+        add_sections(conditions);
         return std::nullopt;
     }
     const WithinData data = make_within_data(scores, s.input.string());
     AnalysisResult result = analyze(data, s.confidence);
     write_report(result, rs);
-    add_timing();
+    add_sections(conditions);
     return result;
 }
 

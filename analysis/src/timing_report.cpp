@@ -11,6 +11,7 @@
 #include "avsi/core/error.h"
 #include "avsi/core/files.h"
 #include "avsi/core/text.h"
+#include "report_html.h"
 
 namespace avsi::analysis {
 
@@ -164,12 +165,7 @@ void append_timing_section(const fs::path& out_dir, const std::vector<TimingCert
         h += "</table>\n";
     }
     h += "<p>" + xml_escape(excluded_text) + "</p>\n";
-    const fs::path html_path = out_dir / "index.html";
-    std::string html = read_text_file(html_path);
-    const auto body = html.rfind("</body>");
-    if (body == std::string::npos) html += h;
-    else html.insert(body, h);
-    write_text_file(html_path, html);
+    detail::append_to_report(out_dir, "", h);
 }
 
 }  // namespace avsi::analysis

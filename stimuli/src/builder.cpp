@@ -859,6 +859,7 @@ json viseme_information_json(const VisemeInformation& v) {
 // (viseme_information.h). Returns the conditions that could be cross-validated.
 std::vector<VisemeInformation> write_viseme_qc(const Plan& plan, const std::filesystem::path& out_dir,
                                                const std::vector<QcStimulus>& stimuli) {
+    const auto started = std::chrono::steady_clock::now();
     std::vector<VisemeSegment> all;
     std::vector<VisemeInformation> results;
     for (const auto& c : plan.protocol.conditions) {
@@ -898,6 +899,9 @@ std::vector<VisemeInformation> write_viseme_qc(const Plan& plan, const std::file
         plan.fps, viseme_ridge, viseme_folds, viseme_folds);
     write_text_file(qc / "viseme_information.html",
                     viseme_information_html("Objective viseme information — " + plan.protocol.name, intro, results));
+    log_info("viseme information: {} segments of {} conditions in {:.2f} s (QC page {})", all.size(), results.size(),
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
+             (qc / "viseme_information.html").string());
     return results;
 }
 
@@ -1490,8 +1494,12 @@ void write_manifest(const Plan& plan, const BuildSettings& settings,
         }
         manifest["conditions"].push_back(j);
     }
+    // The methods paragraph goes into the manifest (`avsi analyze --stimuli`
+    // puts it in the study report) and beside it as methods.md.
+    const std::string methods = methods_text(plan, manifest, settings.out_dir);
+    manifest["methods"] = methods;
     write_text_file(settings.out_dir / "manifest.json", manifest.dump(2) + "\n");
-    write_text_file(settings.out_dir / "methods.md", methods_text(plan, manifest, settings.out_dir));
+    write_text_file(settings.out_dir / "methods.md", methods);
 }
 
 // A shard's manifest: the entries of its jobs (shards.h).

@@ -155,6 +155,59 @@ TEST(PhonemeScoring, BadPronunciationTableNamesLineAndField) {
     fs::remove_all(dir);
 }
 
+// Recorded speech: the target phones come from the recording's labels, split
+// into the sentence's words by aligning them to the lexicon's phones.
+TEST(RecordedPhones, LabelPhonesAreSplitIntoTheSentencesWords) {
+    const std::vector<std::vector<std::string>> words = {{"DH", "AH"}, {"B", "IH", "G"}, {"D", "AO", "G"}};
+    // Reduced and dialectal vowels: each phone to the word of its lexical partner.
+    EXPECT_EQ(recorded_phones_by_word(words, {"DH", "IH", "B", "IH", "G", "D", "AA", "G"}),
+              (std::vector<std::vector<std::string>>{{"DH", "IH"}, {"B", "IH", "G"}, {"D", "AA", "G"}}));
+    // An elided word gets no phones.
+    EXPECT_EQ(recorded_phones_by_word(words, {"B", "IH", "G", "D", "AO", "G"}),
+              (std::vector<std::vector<std::string>>{{}, {"B", "IH", "G"}, {"D", "AO", "G"}}));
+    // An epenthetic phone belongs to the word of the phone before it.
+    EXPECT_EQ(recorded_phones_by_word(words, {"DH", "AH", "B", "IH", "G", "AH", "D", "AO", "G"}),
+              (std::vector<std::vector<std::string>>{{"DH", "AH"}, {"B", "IH", "G", "AH"}, {"D", "AO", "G"}}));
+    // Before the first lexical phone: the first word.
+    EXPECT_EQ(recorded_phones_by_word({{"AH"}, {"D", "AO", "G"}}, {"HH", "AH", "D", "AO", "G"}),
+              (std::vector<std::vector<std::string>>{{"HH", "AH"}, {"D", "AO", "G"}}));
+}
+
+TEST(RecordedPhones, TargetsFromTimitLabelsAndWordsTypedRightStayCorrect) {
+    const fs::path dir = avsi::test::temp_dir("phoneme_recorded");
+    // "The big dog." as TIMIT labels it (16 kHz samples): a reduced vowel in
+    // "the" (ix -> IH) and /ɑ/ in "dog" (aa), closures merged with releases.
+    avsi::write_text_file(dir / "s1.phn",
+                          "0 2000 h#\n2000 2800 dh\n2800 3600 ix\n3600 4200 bcl\n4200 4800 b\n4800 6000 ih\n"
+                          "6000 6600 gcl\n6600 7200 g\n7200 7800 dcl\n7800 8400 d\n8400 10400 aa\n10400 11000 gcl\n"
+                          "11000 11600 g\n11600 13000 h#\n");
+    avsi::write_text_file(dir / "s1.wav", "");
+    avsi::write_text_file(dir / "corpus.csv", "id,text,keywords,audio,labels\ns1,The big dog.,big;dog,s1.wav,s1.phn\n");
+    avsi::write_text_file(dir / "responses.csv",
+                          "subject,session,trial,phase,condition,list,sentence,response\n"
+                          "a,1,1,test,audio,1,s1,the big dog\n"
+                          "a,1,2,test,audio,1,s1,a big dot\n");
+    const auto corpus = avsi::read_corpus(dir / "corpus.csv");
+    const RecordedPhones recorded = read_recorded_phones(corpus);
+    ASSERT_EQ(recorded.size(), 1u);
+    EXPECT_EQ(recorded.at("s1"), (std::vector<std::string>{"DH", "IH", "B", "IH", "G", "D", "AA", "G"}));
+    const PhonemeScoringResult result = score_phonemes(corpus, read_responses(dir / "responses.csv"),
+                                                       read_pronunciations(kCase / "pronunciations.tsv"), recorded);
+    ASSERT_EQ(result.answers.size(), 2u);
+    // Every word typed right: the talker's phones, all correct.
+    EXPECT_EQ(result.answers[0].target_tier, "DH IH | B IH G | D AA G");
+    EXPECT_EQ(result.answers[0].correct, 8u);
+    EXPECT_EQ(result.answers[0].substituted, 0u);
+    // "a" for "the": the recorded DH deleted, IH heard as AH; "dot" for "dog":
+    // AA matches the talker's vowel, G -> T.
+    EXPECT_EQ(result.answers[1].target_tier, "DH IH | B IH G | D AA G");
+    EXPECT_EQ(result.answers[1].response_tier, "-  AH | B IH G | D AA T");
+    EXPECT_EQ(result.answers[1].deleted, 1u);
+    EXPECT_EQ(result.answers[1].substituted, 2u);
+    EXPECT_EQ(result.answers[1].correct, 5u);
+    fs::remove_all(dir);
+}
+
 TEST(PhonemeScoringCli, ScoreWithPronunciationTableWritesPhonemesCsv) {
     if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
     const fs::path dir = avsi::test::temp_dir("phoneme_cli");

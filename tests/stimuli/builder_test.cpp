@@ -524,6 +524,7 @@ TEST_F(BuilderFixture, AConditionsOwnVocoderIsAppliedRecordedAndDescribed) {
     EXPECT_NE(methods.find("Audio of the vocoded conditions:"), std::string::npos) << methods;
     EXPECT_NE(methods.find("Audio of condition blank (its own vocoder):"), std::string::npos) << methods;
     EXPECT_NE(methods.find("- Channel selection: 4-of-8"), std::string::npos) << methods;
+    EXPECT_EQ(mb["methods"], methods) << "the manifest carries the methods paragraph";
     const Audio rule = read_audio(b.out_dir / entry(mb, "rule")["wav"].get<std::string>());
     const Audio pulses = read_audio(b.out_dir / entry(mb, "blank")["wav"].get<std::string>());
     EXPECT_NE(rule.samples, pulses.samples);

@@ -125,6 +125,30 @@ std::vector<std::string> words_to_transcribe(const Corpus& corpus, const std::ve
 PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Response>& responses,
                                     const Pronunciations& pronunciations);
 
+// The speech phones a recording's labels give, per sentence id (base
+// symbols, in order, pauses left out).
+using RecordedPhones = std::map<std::string, std::vector<std::string>, std::less<>>;
+
+// The same with the target phones of the sentences in `recorded` taken from
+// their recordings: what the talker said rather than the lexicon's citation
+// form. The labels have no word boundaries, so the recorded phones are
+// aligned (step 3's weighted edit distance) to the lexicon's phones of the
+// sentence's words, and each recorded phone belongs to the word of the
+// phone it is aligned with (a phone aligned to none, to the word of the
+// phone before it; at the start, to the first word).
+PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Response>& responses,
+                                    const Pronunciations& pronunciations, const RecordedPhones& recorded);
+
+// The recorded phones split into the words of `words` as above: one list per
+// word (a word the talker elided gets none).
+std::vector<std::vector<std::string>> recorded_phones_by_word(const std::vector<std::vector<std::string>>& words,
+                                                              const std::vector<std::string>& recorded);
+
+// The speech phones of every sentence of the corpus with label files
+// (recorded speech: the corpus's labels column), read as build-stimuli reads
+// them (labels.h).
+RecordedPhones read_recorded_phones(const Corpus& corpus);
+
 // phonemes.csv: subject,condition,sentence,position,target,response,outcome,
 // word,target_word,response_word,target_letter_to_sound,
 // response_letter_to_sound,session,trial.
@@ -136,6 +160,7 @@ void write_phoneme_alignment_csv(const std::filesystem::path& path, const std::v
 
 // `avsi score --phonemes`: reads corpus and responses, transcribes every
 // word not in the pronunciation table with the front end (one request),
+// takes the target phones of recorded sentences from their label files,
 // scores and writes phonemes.csv and phoneme_alignment.csv into out_dir,
 // then the confusion matrices and information transmitted per condition
 // (phoneme_information.h): confusions.csv, information.csv,

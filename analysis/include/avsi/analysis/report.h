@@ -80,6 +80,9 @@ struct AnalyzeSettings {
     // whose timing failed are left out of the analysis (and named).
     std::filesystem::path timing_certificate;
     bool exclude_timing_fail = false;
+    // The stimulus set the subjects saw (`avsi build-stimuli --out`): adds
+    // its methods as "Stimuli and audio processing" (methods_report.h).
+    std::filesystem::path stimuli_dir;
 };
 
 // The descriptive report of a dry run or pilot too small to test: fewer than
