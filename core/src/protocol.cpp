@@ -88,7 +88,8 @@ void read_tts(const ConfigSection& corpus, CorpusSettings& out, DiagnosticList& 
 // [corpus] language: the language of the sentences, the phone table, the
 // scoring and what the subject reads (session.language is this one); by
 // default the voice's (tts = "espeak:sv" -> "sv"). A language other than the
-// voice's, or an espeak-ng voice of a language without tables, is an error.
+// voice's, or an espeak-ng voice of a language without tables, is an error
+// (recordings with no voice named take the key's language).
 void read_language(const ConfigSection& corpus, CorpusSettings& out, DiagnosticList& problems) {
     TtsSettings settings;
     settings.engine = out.tts_engine;
@@ -109,10 +110,17 @@ void read_language(const ConfigSection& corpus, CorpusSettings& out, DiagnosticL
     if (!corpus.find("language")) return;
     const std::string language =
         corpus.get_choice("language", PhoneInventory::builtin().languages(), out.language, problems);
-    if (!voice_language.empty() && language != voice_language) {
+    // Recordings without a voice named: the default voice speaks none of
+    // the stimuli, so the key alone says the language.
+    const bool voice_speaks = voice_key || out.audio == CorpusAudio::Tts;
+    if (!voice_language.empty() && language != voice_language && voice_speaks) {
         corpus.report("language",
-                      fmt::format("expected the voice's language \"{}\" (tts = \"{}\"), got \"{}\"",
-                                  voice_language, tts_voice_spec(settings), language),
+                      voice_key ? fmt::format("expected the voice's language \"{}\" (tts = \"{}\"), got \"{}\"",
+                                              voice_language, tts_voice_spec(settings), language)
+                                : fmt::format("expected the default voice's language \"{}\" ({}), got \"{}\": the "
+                                              "sentences are synthesised, so name a voice of it in tts (tts = "
+                                              "\"espeak:{}\")",
+                                              voice_language, tts_voice_spec(settings), language, language),
                       problems);
         return;
     }

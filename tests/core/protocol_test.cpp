@@ -144,6 +144,16 @@ TEST(Protocol, LanguageComesFromTheVoiceOrTheCorpusKey) {
               file + ":7:12: error: corpus.language: expected the voice's language \"sv\" (tts = \"espeak:sv\"), got \"de\"");
     EXPECT_EQ(error("language = \"fr\"\n"),
               file + ":6:12: error: corpus.language: expected \"de\", \"en\", or \"sv\", got \"fr\" (did you mean \"de\"?)");
+    // Recordings with no voice named: the key says the language; synthesised
+    // speech in the default voice cannot be Swedish.
+    EXPECT_EQ(load("audio = \"recordings\"\nlanguage = \"sv\"\n").corpus.language, "sv");
+    EXPECT_EQ(load("audio = \"recordings\"\nlanguage = \"sv\"\n").session.language, "sv");
+    EXPECT_EQ(error("language = \"sv\"\n"),
+              file + ":6:12: error: corpus.language: expected the default voice's language \"en\" (espeak:en-us), "
+                     "got \"sv\": the sentences are synthesised, so name a voice of it in tts (tts = \"espeak:sv\")");
+    EXPECT_EQ(error("audio = \"recordings\"\ntts = \"espeak:de\"\nlanguage = \"sv\"\n"),
+              file + ":8:12: error: corpus.language: expected the voice's language \"de\" (tts = \"espeak:de\"), got "
+                     "\"sv\"");
     // One language per protocol: what the subject reads is the corpus's.
     EXPECT_EQ(load("tts = \"espeak:sv+m3\"\n").corpus.language, "sv");
     EXPECT_EQ(load("tts = \"espeak:sv+m3\"\n").session.language, "sv");
