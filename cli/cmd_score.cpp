@@ -86,6 +86,7 @@ const bool registered_score = register_command({
                 rules = protocol.scoring.rules;
                 p.tts.engine = protocol.corpus.tts_engine;
                 p.tts.voice = protocol.corpus.tts_voice;
+                p.recorded_targets = protocol.corpus.audio == CorpusAudio::Recordings;
             }
             if (!o->phonemes && (!o->tts.empty() || !o->pronunciations.empty()))
                 throw UsageError("--tts and --pronunciations apply to --phonemes; add --phonemes");

@@ -511,7 +511,7 @@ PhonemeScoringResult score_phoneme_files(const PhonemeFilesSettings& s) {
             std::string word = w.word;
             pronunciations.emplace(std::move(word), std::move(w));
         }
-    const RecordedPhones recorded = read_recorded_phones(corpus);
+    const RecordedPhones recorded = s.recorded_targets ? read_recorded_phones(corpus) : RecordedPhones{};
     PhonemeScoringResult result;
     try {
         result = score_phonemes(corpus, responses, pronunciations, recorded);

@@ -173,10 +173,11 @@ TEST(RecordedPhones, LabelPhonesAreSplitIntoTheSentencesWords) {
               (std::vector<std::vector<std::string>>{{"HH", "AH"}, {"D", "AO", "G"}}));
 }
 
-TEST(RecordedPhones, TargetsFromTimitLabelsAndWordsTypedRightStayCorrect) {
-    const fs::path dir = avsi::test::temp_dir("phoneme_recorded");
-    // "The big dog." as TIMIT labels it (16 kHz samples): a reduced vowel in
-    // "the" (ix -> IH) and /ɑ/ in "dog" (aa), closures merged with releases.
+// "The big dog." recorded, as TIMIT labels it (16 kHz samples): a reduced
+// vowel in "the" (ix -> IH) and /ɑ/ in "dog" (aa), closures merged with
+// releases; two answers. Returns the folder.
+fs::path write_recorded_case(const std::string& name) {
+    const fs::path dir = avsi::test::temp_dir(name);
     avsi::write_text_file(dir / "s1.phn",
                           "0 2000 h#\n2000 2800 dh\n2800 3600 ix\n3600 4200 bcl\n4200 4800 b\n4800 6000 ih\n"
                           "6000 6600 gcl\n6600 7200 g\n7200 7800 dcl\n7800 8400 d\n8400 10400 aa\n10400 11000 gcl\n"
@@ -187,6 +188,11 @@ TEST(RecordedPhones, TargetsFromTimitLabelsAndWordsTypedRightStayCorrect) {
                           "subject,session,trial,phase,condition,list,sentence,response\n"
                           "a,1,1,test,audio,1,s1,the big dog\n"
                           "a,1,2,test,audio,1,s1,a big dot\n");
+    return dir;
+}
+
+TEST(RecordedPhones, TargetsFromTimitLabelsAndWordsTypedRightStayCorrect) {
+    const fs::path dir = write_recorded_case("phoneme_recorded");
     const auto corpus = avsi::read_corpus(dir / "corpus.csv");
     const RecordedPhones recorded = read_recorded_phones(corpus);
     ASSERT_EQ(recorded.size(), 1u);
@@ -205,6 +211,23 @@ TEST(RecordedPhones, TargetsFromTimitLabelsAndWordsTypedRightStayCorrect) {
     EXPECT_EQ(result.answers[1].deleted, 1u);
     EXPECT_EQ(result.answers[1].substituted, 2u);
     EXPECT_EQ(result.answers[1].correct, 5u);
+    fs::remove_all(dir);
+}
+
+// score_phoneme_files takes the labels only when asked (`avsi score
+// --protocol` of a synthesised protocol does not: its stimuli ignore them).
+TEST(RecordedPhones, FilesUseTheLabelsOnlyForRecordings) {
+    const fs::path dir = write_recorded_case("phoneme_recorded_files");
+    PhonemeFilesSettings s;
+    s.corpus = dir / "corpus.csv";
+    s.responses = dir / "responses.csv";
+    s.pronunciations = kCase / "pronunciations.tsv";
+    s.bootstrap = 0;
+    s.out_dir = dir / "recorded";
+    EXPECT_EQ(score_phoneme_files(s).answers[0].target_tier, "DH IH | B IH G | D AA G");
+    s.recorded_targets = false;
+    s.out_dir = dir / "synthesised";
+    EXPECT_EQ(score_phoneme_files(s).answers[0].target_tier, "DH AH | B IH G | D AO G");
     fs::remove_all(dir);
 }
 

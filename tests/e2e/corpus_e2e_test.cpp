@@ -153,44 +153,37 @@ TEST(CorpusBalance, AssignsBalancedListsAndWritesTheReport) {
     EXPECT_EQ(read_text_file(dir / "out.csv"), first);
 }
 
-TEST(ShippedCorpus, BalanceCommandReproducesTheCommittedListsAndReport) {
-    // The command in protocols/corpus/README.md, written elsewhere: the same
-    // lists and, but for the paths in its first lines, the same report.
-    const fs::path dir = work_dir("shipped");
-    const fs::path corpus = fs::path(AVSI_PROTOCOLS_DIR) / "corpus";
+// Runs `avsi corpus balance` on a shipped corpus folder into `dir`, expects
+// the committed lists and, but for the paths in its first lines, the
+// committed report; returns the new report.
+std::string rebalance_shipped(const fs::path& corpus, const fs::path& dir, const std::string& extra) {
     const RunResult r = run_avsi("corpus balance " + quote((corpus / "sentences.csv").string()) + " --out " +
-                                     quote((dir / "sentences.csv").string()) + " --report " +
-                                     quote((dir / "balance.md").string()));
-    ASSERT_EQ(r.exit_code, 0) << r.err;
+                                 quote((dir / "sentences.csv").string()) + " --report " +
+                                 quote((dir / "balance.md").string()) + extra);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
     const Corpus shipped = read_corpus(corpus / "sentences.csv");
     const Corpus again = read_corpus(dir / "sentences.csv");
-    ASSERT_EQ(again.sentences.size(), shipped.sentences.size());
-    for (std::size_t i = 0; i < shipped.sentences.size(); ++i)
+    EXPECT_EQ(again.sentences.size(), shipped.sentences.size());
+    for (std::size_t i = 0; i < std::min(shipped.sentences.size(), again.sentences.size()); ++i)
         EXPECT_EQ(again.sentences[i].list, shipped.sentences[i].list) << shipped.sentences[i].id;
-    auto body = [](const std::string& report) { return report.substr(report.find("## Per list")); };
-    EXPECT_EQ(body(read_text_file(dir / "balance.md")), body(read_text_file(corpus / "balance.md")));
+    const std::string report = read_text_file(dir / "balance.md");
+    auto body = [](const std::string& text) { return text.substr(text.find("## Per list")); };
+    EXPECT_EQ(body(report), body(read_text_file(corpus / "balance.md")));
+    return report;
+}
+
+TEST(ShippedCorpus, BalanceCommandReproducesTheCommittedListsAndReport) {
+    // The command in protocols/corpus/README.md, written elsewhere.
+    rebalance_shipped(fs::path(AVSI_PROTOCOLS_DIR) / "corpus", work_dir("shipped"), "");
 }
 
 TEST(ShippedCorpus, SwedishBalanceReproducesTheCommittedListsWithoutFrequency) {
     // The command in protocols/languages/sv/sentences/README.md: espeak-ng's
-    // Swedish voice, no keyword frequency (English's counts), the same lists
-    // and report as committed.
-    const fs::path dir = work_dir("shipped_sv");
-    const fs::path corpus = fs::path(AVSI_PROTOCOLS_DIR) / "languages" / "sv" / "sentences";
-    const RunResult r = run_avsi("corpus balance " + quote((corpus / "sentences.csv").string()) + " --out " +
-                                 quote((dir / "sentences.csv").string()) + " --report " +
-                                 quote((dir / "balance.md").string()) + " --voice sv");
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    const Corpus shipped = read_corpus(corpus / "sentences.csv");
-    const Corpus again = read_corpus(dir / "sentences.csv");
-    ASSERT_EQ(again.sentences.size(), shipped.sentences.size());
-    for (std::size_t i = 0; i < shipped.sentences.size(); ++i)
-        EXPECT_EQ(again.sentences[i].list, shipped.sentences[i].list) << shipped.sentences[i].id;
-    const std::string report = read_text_file(dir / "balance.md");
+    // Swedish voice, no keyword frequency (English's counts).
+    const std::string report = rebalance_shipped(fs::path(AVSI_PROTOCOLS_DIR) / "languages" / "sv" / "sentences",
+                                                 work_dir("shipped_sv"), " --voice sv");
     EXPECT_EQ(report.find("log10"), std::string::npos) << report;
     EXPECT_NE(report.find("No keyword frequency"), std::string::npos) << report;
-    auto body = [](const std::string& text) { return text.substr(text.find("## Per list")); };
-    EXPECT_EQ(body(report), body(read_text_file(corpus / "balance.md")));
 }
 
 TEST(ShippedProtocol, DesignsListsForTheStudysTwentyFiveSubjects) {

@@ -169,6 +169,11 @@ struct PhonemeFilesSettings {
     std::filesystem::path corpus, responses, out_dir;
     std::filesystem::path pronunciations;  // optional table (read_pronunciations)
     TtsSettings tts;                       // the protocol's front end
+    // Target phones from the label files of the sentences that have them (a
+    // protocol with audio = "recordings", or a bare corpus with labels); off
+    // for a synthesised protocol, whose stimuli ignore the labels as
+    // build-stimuli does.
+    bool recorded_targets = true;
     std::size_t bootstrap = 2000;          // subject-bootstrap replicates of the RTI intervals
     std::uint64_t seed = 42;               // of the bootstrap
 };
