@@ -70,7 +70,8 @@ const bool registered_score = register_command({
                      "(letter-to-sound words marked), words then phones aligned by feature-weighted edit distance; "
                      "writes phonemes.csv and phoneme_alignment.csv (docs/phoneme-analysis.md)");
         sub.add_option("--tts", o->tts,
-                       "Front end for --phonemes, festival:<voice> (default: the protocol's [corpus] tts)");
+                       "Front end for --phonemes, festival:<voice> or espeak:<voice> (default: the protocol's "
+                       "[corpus] tts, or espeak-ng's voice of the scoring language when that voice speaks another)");
         sub.add_option("--pronunciations", o->pronunciations,
                        "Pronunciation table for --phonemes (word<TAB>phones, e.g. \"garden\tG AA1 R D AH0 N\"); "
                        "its words take precedence over the front end")
@@ -112,6 +113,20 @@ const bool registered_score = register_command({
             if (!o->language.empty()) s.scoring.language = o->language;
             analysis::score_files(s);
             if (o->phonemes) {
+                // The front end speaks the scoring language: without --tts, a
+                // voice of another language (recordings with language = "sv"
+                // and no tts; --language sv) gives way to espeak-ng's voice of it.
+                if (tts_voice_language(p.tts) != s.scoring.language) {
+                    const std::string spoken = tts_voice_language(p.tts);
+                    if (!o->tts.empty())
+                        throw UsageError(fmt::format(
+                            "--tts {} speaks {}, but the answers are scored as \"{}\"; give a voice of \"{}\"{}", o->tts,
+                            spoken.empty() ? "no language with a phone table" : "\"" + spoken + "\"",
+                            s.scoring.language, s.scoring.language, spoken.empty() ? "" : " or --language " + spoken));
+                    p.tts.engine = TtsEngine::Espeak;
+                    p.tts.voice = s.scoring.language;
+                }
+                p.language = s.scoring.language;
                 p.corpus = s.corpus;
                 p.responses = s.responses;
                 p.out_dir = s.out_dir;

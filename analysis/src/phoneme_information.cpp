@@ -88,16 +88,32 @@ ConfusionMatrix matrix_of(const std::string& condition, const std::string& kind,
     return m;
 }
 
-// The phone matrix of consonant (vowel) targets: every phone of that class
-// in the inventory as a row and a column, then "other" and "-".
-ConfusionMatrix phone_matrix(const std::string& condition, const std::vector<PhonemeRow>& rows, bool vowels) {
+// The language the rows' phones are of: the first of English and then the
+// other tables (sorted) whose phones hold every target and response. One
+// front end transcribes a study's answers, so its language holds them all.
+std::string language_of_rows(const std::vector<PhonemeRow>& rows) {
     const PhoneInventory& inventory = PhoneInventory::builtin();
-    std::vector<std::string> symbols;
-    // English's phones: the phoneme analysis scores English answers.
-    for (const auto& symbol : inventory.language_phones("en")) {
-        const PhoneInfo& p = inventory.info(symbol);
-        if (p.phone_class != PhoneClass::Silence && is_vowel(p) == vowels) symbols.push_back(p.symbol);
+    std::vector<std::string> codes = {"en"};
+    for (const auto& code : inventory.languages())
+        if (code != "en") codes.push_back(code);
+    for (const auto& code : codes) {
+        const auto& phones = inventory.language_phones(code);
+        const auto holds = [&](const std::string& symbol) {
+            return symbol.empty() || std::find(phones.begin(), phones.end(), symbol) != phones.end();
+        };
+        if (std::all_of(rows.begin(), rows.end(),
+                        [&](const PhonemeRow& r) { return holds(r.target) && holds(r.response); }))
+            return code;
     }
+    throw InputError("phonemes", 0, 0, "target",
+                     "the phones of these answers are of no one language table (protocols/languages/)");
+}
+
+// The phone matrix of consonant (vowel) targets: every phone of that class
+// in `language` as a row and a column, then "other" and "-".
+ConfusionMatrix phone_matrix(const std::string& condition, const std::vector<PhonemeRow>& rows, bool vowels,
+                             const std::string& language) {
+    const PhoneInventory& inventory = PhoneInventory::builtin();
     std::vector<std::pair<std::string, std::string>> pairs;
     for (const auto& row : rows) {
         if (row.target.empty() || is_vowel(inventory.info(row.target)) != vowels) continue;
@@ -105,6 +121,11 @@ ConfusionMatrix phone_matrix(const std::string& condition, const std::vector<Pho
                         : is_vowel(inventory.info(row.response)) == vowels ? row.response
                                                                            : k_other;
         pairs.emplace_back(row.target, std::move(y));
+    }
+    std::vector<std::string> symbols;
+    for (const auto& symbol : inventory.language_phones(language)) {
+        const PhoneInfo& p = inventory.info(symbol);
+        if (p.phone_class != PhoneClass::Silence && is_vowel(p) == vowels) symbols.push_back(p.symbol);
     }
     std::vector<std::string> columns = symbols;
     columns.emplace_back(k_other);
@@ -286,7 +307,9 @@ std::vector<ConfusionMatrix> confusion_matrices(const std::string& condition, co
     std::vector<PhonemeRow> mine;
     for (const auto& r : rows)
         if (r.condition == condition && r.outcome != PhoneOutcome::Inserted) mine.push_back(r);
-    std::vector<ConfusionMatrix> out = {phone_matrix(condition, mine, false), phone_matrix(condition, mine, true)};
+    const std::string language = language_of_rows(rows);  // of the whole study, so all conditions share rows
+    std::vector<ConfusionMatrix> out = {phone_matrix(condition, mine, false, language),
+                                        phone_matrix(condition, mine, true, language)};
     std::vector<std::string> classes;
     for (int c = 0; c < static_cast<int>(VisemeClass::Count); ++c)
         classes.emplace_back(to_string(static_cast<VisemeClass>(c)));

@@ -252,7 +252,9 @@ std::string format_cost(double cost) { return fmt::format("{:.3f}", cost); }
 
 }  // namespace
 
-std::vector<std::string> spoken_words(std::string_view text) {
+std::vector<std::string> spoken_words(std::string_view text, std::string_view language) {
+    if (language != "en")
+        if (auto words = words_keeping_letters(text, language)) return std::move(*words);
     const std::string ascii = fold_to_ascii(text);
     std::vector<std::string> out;
     std::size_t i = 0;
@@ -321,7 +323,7 @@ Alignment align_phones(const std::vector<std::string>& target, const std::vector
         1.0);
 }
 
-Pronunciations read_pronunciations(const std::filesystem::path& path) {
+Pronunciations read_pronunciations(const std::filesystem::path& path, std::string_view language) {
     CsvOptions options;
     options.delimiter = '\t';
     options.has_header = false;
@@ -337,7 +339,7 @@ Pronunciations read_pronunciations(const std::filesystem::path& path) {
             problem(row.line, "word", fmt::format("expected word<TAB>phones, got {} fields", row.fields.size()));
             continue;
         }
-        const auto words = spoken_words(row.fields[0]);
+        const auto words = spoken_words(row.fields[0], language);
         if (words.size() != 1 || words.front() != row.fields[0]) {
             problem(row.line, "word", fmt::format("expected one lower-case word, got \"{}\"", row.fields[0]));
             continue;
@@ -373,11 +375,12 @@ const char* outcome_name(PhoneOutcome outcome) {
     return "?";
 }
 
-std::vector<std::string> words_to_transcribe(const Corpus& corpus, const std::vector<Response>& responses) {
+std::vector<std::string> words_to_transcribe(const Corpus& corpus, const std::vector<Response>& responses,
+                                             std::string_view language) {
     std::vector<std::string> out;
     std::set<std::string, std::less<>> seen;
     const auto add = [&](std::string_view text) {
-        for (auto& w : spoken_words(text))
+        for (auto& w : spoken_words(text, language))
             if (seen.insert(w).second) out.push_back(std::move(w));
     };
     std::set<std::string, std::less<>> sentences;
@@ -440,7 +443,8 @@ PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Resp
 }
 
 PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Response>& responses,
-                                    const Pronunciations& pronunciations, const RecordedPhones& recorded) {
+                                    const Pronunciations& pronunciations, const RecordedPhones& recorded,
+                                    std::string_view language) {
     std::map<std::string, const Sentence*, std::less<>> by_id;
     for (const auto& s : corpus.sentences) by_id.emplace(s.id, &s);
     PhonemeScoringResult out;
@@ -453,12 +457,12 @@ PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Resp
                                fmt::format("\"{}\" is not in the corpus {}", r.sentence, corpus.path.string())});
             continue;
         }
-        std::vector<WordItem> target = transcribed(spoken_words(it->second->text), pronunciations);
+        std::vector<WordItem> target = transcribed(spoken_words(it->second->text, language), pronunciations);
         if (const auto rec = recorded.find(r.sentence); rec != recorded.end())
             target = with_recorded_phones(std::move(target), rec->second);
         AnswerScorer a{r,
                        std::move(target),
-                       transcribed(spoken_words(r.response), pronunciations),
+                       transcribed(spoken_words(r.response, language), pronunciations),
                        out.rows,
                        {},
                        0};
@@ -500,9 +504,9 @@ PhonemeScoringResult score_phoneme_files(const PhonemeFilesSettings& s) {
     const Corpus corpus = read_corpus(s.corpus);
     const auto responses = read_responses(s.responses);
     Pronunciations pronunciations;
-    if (!s.pronunciations.empty()) pronunciations = read_pronunciations(s.pronunciations);
+    if (!s.pronunciations.empty()) pronunciations = read_pronunciations(s.pronunciations, s.language);
     std::vector<std::string> needed;
-    for (auto& w : words_to_transcribe(corpus, responses))
+    for (auto& w : words_to_transcribe(corpus, responses, s.language))
         if (!pronunciations.count(w)) needed.push_back(std::move(w));
     std::size_t lts = 0;
     if (!needed.empty())
@@ -514,7 +518,7 @@ PhonemeScoringResult score_phoneme_files(const PhonemeFilesSettings& s) {
     const RecordedPhones recorded = s.recorded_targets ? read_recorded_phones(corpus) : RecordedPhones{};
     PhonemeScoringResult result;
     try {
-        result = score_phonemes(corpus, responses, pronunciations, recorded);
+        result = score_phonemes(corpus, responses, pronunciations, recorded, s.language);
     } catch (const InputError& e) {
         std::vector<Diagnostic> d = e.diagnostics();
         for (auto& x : d)

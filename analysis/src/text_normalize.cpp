@@ -352,6 +352,12 @@ std::vector<NormalizedWord> normalize_tokens(std::string_view text, std::string_
     return language_numbers_to_digits(split_words_keeping(text, *kept), *grammar);
 }
 
+std::optional<std::vector<std::string>> words_keeping_letters(std::string_view text, std::string_view language) {
+    const auto* kept = kept_letters(language);
+    if (!kept) return std::nullopt;
+    return split_words_keeping(text, *kept);
+}
+
 std::vector<std::string> normalize_words(std::string_view text, std::string_view language) {
     std::vector<std::string> out;
     for (auto& t : normalize_tokens(text, language)) out.push_back(std::move(t.text));

@@ -35,6 +35,7 @@ EspeakLibrary load() {
     bind(library.GetCurrentVoice, "espeak_GetCurrentVoice");
     bind(library.SetParameter, "espeak_SetParameter");
     bind(library.TextToPhonemes, "espeak_TextToPhonemes");
+    bind(library.SetPhonemeTrace, "espeak_SetPhonemeTrace");
     bind(library.Synth, "espeak_Synth");
     bind(library.Synchronize, "espeak_Synchronize");
     bind(library.Info, "espeak_Info");

@@ -17,6 +17,7 @@ struct EspeakLibrary {
     decltype(&::espeak_GetCurrentVoice) GetCurrentVoice = nullptr;
     decltype(&::espeak_SetParameter) SetParameter = nullptr;
     decltype(&::espeak_TextToPhonemes) TextToPhonemes = nullptr;
+    decltype(&::espeak_SetPhonemeTrace) SetPhonemeTrace = nullptr;
     decltype(&::espeak_Synth) Synth = nullptr;
     decltype(&::espeak_Synchronize) Synchronize = nullptr;
     decltype(&::espeak_Info) Info = nullptr;

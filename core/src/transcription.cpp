@@ -1,11 +1,13 @@
-// Dictionary transcription of words through the Festival voice's lexicon and
-// letter-to-sound rules (transcription.h); the lookups run in the Festival
-// server (festival_server.cpp, request Transcribe).
+// Dictionary transcription of words through the voice's lexicon and
+// letter-to-sound rules (transcription.h): Festival's lookups run in the
+// Festival server (festival_server.cpp, request Transcribe), espeak-ng's in a
+// child process of tts.cpp (espeak_tts.h).
 #include "avsi/core/transcription.h"
 
 #include <fmt/format.h>
 
 #include "avsi/core/error.h"
+#include "espeak_tts.h"
 #include "festival_tts.h"
 
 namespace avsi {
@@ -34,26 +36,26 @@ void check_radio_phone_set(const std::string& phone_set, const std::string& voic
                                      voice, phone_set));
 }
 
+// Throws unless every word is one word without spaces.
+void check_words(const std::vector<std::string>& words) {
+    for (const auto& word : words)
+        if (word.empty() || word.find_first_of(" \t\r\n") != std::string::npos)
+            throw InputError("tts", 0, 0, "word", fmt::format("expected one word without spaces, got \"{}\"", word));
+}
+
 }  // namespace
 
 std::vector<WordTranscription> transcribe_words(const std::vector<std::string>& words, const TtsSettings& settings) {
-    if (settings.engine != TtsEngine::Festival)
-        throw InputError("tts", 0, 0, "tts",
-                         fmt::format("phoneme transcription needs a Festival voice (festival:<voice>), got \"{}\": "
-                                     "espeak-ng does not say which words its dictionary lacks, so letter-to-sound "
-                                     "words could not be marked",
-                                     tts_voice_spec(settings)));
+    check_words(words);
+    if (words.empty()) return {};
+    if (settings.engine == TtsEngine::Espeak) return detail::espeak_transcribe(words, settings);
     std::vector<WordTranscription> out;
     out.reserve(words.size());
     std::size_t begin = 0;
     while (begin < words.size()) {
         std::size_t end = begin, bytes = 0;
-        for (; end < words.size() && (end == begin || bytes + words[end].size() + 1 <= k_batch_bytes); ++end) {
-            if (words[end].empty() || words[end].find_first_of(" \t\r\n") != std::string::npos)
-                throw InputError("tts", 0, 0, "word",
-                                 fmt::format("expected one word without spaces, got \"{}\"", words[end]));
+        for (; end < words.size() && (end == begin || bytes + words[end].size() + 1 <= k_batch_bytes); ++end)
             bytes += words[end].size() + 1;
-        }
         const std::vector<std::string> batch(words.begin() + static_cast<long>(begin),
                                              words.begin() + static_cast<long>(end));
         const auto [phone_set, festival] = detail::festival_transcribe(batch, settings.voice);

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -32,6 +33,7 @@
 #include "avsi/core/log.h"
 #include "avsi/core/onsets.h"
 #include "espeak_library.h"
+#include "espeak_tts.h"
 #include "festival_tts.h"
 #include "wire.h"
 
@@ -248,6 +250,19 @@ struct Synthesis {
 
 enum : std::int64_t { kOk = 0, kInputError = 1, kFailure = 2 };
 
+// Serialises the child's error in place of its answer.
+void write_error(detail::WireWriter& w, const std::exception& e) {
+    w.clear();
+    if (const auto* input = dynamic_cast<const InputError*>(&e)) {
+        w.i64(kInputError);
+        w.str(input->first().field);
+        w.str(input->first().message);
+    } else {
+        w.i64(kFailure);
+        w.str(e.what());
+    }
+}
+
 // In the child: the whole synthesis, serialised.
 std::string child_synthesis(const std::string& text, const TtsSettings& settings) {
     detail::WireWriter w;
@@ -276,15 +291,8 @@ std::string child_synthesis(const std::string& text, const TtsSettings& settings
         w.i64(r.collector.end_sample);
         w.i64(static_cast<std::int64_t>(r.collector.samples.size()));
         w.bytes(r.collector.samples.data(), r.collector.samples.size() * sizeof(short));
-    } catch (const InputError& e) {
-        w.clear();
-        w.i64(kInputError);
-        w.str(e.first().field);
-        w.str(e.first().message);
     } catch (const std::exception& e) {
-        w.clear();
-        w.i64(kFailure);
-        w.str(e.what());
+        write_error(w, e);
     }
     return w.data();
 }
@@ -305,12 +313,13 @@ namespace {
 
 using detail::EspeakChild;
 
-// Forks the child for `text`. Caller holds the mutex and has initialised
+// Forks a child that runs `work` (its answer: a serialised message that
+// starts with kOk, kInputError or kFailure). Caller holds the mutex and has initialised
 // espeak-ng. Both pipe ends are close-on-exec and the parent's write end is
 // closed before the mutex is released, so no other child (all are forked
 // under the mutex) or executed program holds it: the answer ends at the
 // child's exit.
-EspeakChild fork_child(const std::string& text, const TtsSettings& settings) {
+EspeakChild fork_child(const std::function<std::string()>& work) {
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error(fmt::format("tts: pipe failed: {}", std::strerror(errno)));
     const pid_t pid = ::fork();
@@ -321,7 +330,7 @@ EspeakChild fork_child(const std::string& text, const TtsSettings& settings) {
     }
     if (pid == 0) {  // child
         ::close(fds[0]);
-        const std::string message = child_synthesis(text, settings);
+        const std::string message = work();
         std::size_t done = 0;
         while (done < message.size()) {
             const ssize_t n = ::write(fds[1], message.data() + done, message.size() - done);
@@ -346,8 +355,8 @@ void abandon_child(EspeakChild& child) {
     child = {};
 }
 
-// Reads the child's answer and reaps it.
-Synthesis collect_child(EspeakChild& child) {
+// Reads the child's answer and reaps it; throws the child's error.
+std::string read_child(EspeakChild& child) {
     std::string message;
     char buffer[1 << 16];
     for (;;) {
@@ -364,8 +373,11 @@ Synthesis collect_child(EspeakChild& child) {
     child.pid = -1;
     if (!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0 || message.empty())
         throw std::runtime_error(fmt::format("tts: the espeak-ng child process failed (status {})", wstatus));
+    return message;
+}
 
-    detail::WireReader r(message, "espeak-ng child");
+// Reads the answer's kind; throws the child's error.
+void check_answer(detail::WireReader& r) {
     const std::int64_t kind = r.i64();
     if (kind == kInputError) {
         std::string field = r.str();
@@ -373,6 +385,12 @@ Synthesis collect_child(EspeakChild& child) {
         throw InputError("tts", 0, 0, std::move(field), std::move(what));
     }
     if (kind != kOk) throw std::runtime_error(r.str());
+}
+
+Synthesis collect_child(EspeakChild& child) {
+    const std::string message = read_child(child);
+    detail::WireReader r(message, "espeak-ng child");
+    check_answer(r);
     Synthesis out;
     out.variant = r.str();
     out.clauses.resize(r.count(sizeof(std::int64_t)));
@@ -460,6 +478,24 @@ std::vector<SamplePhone> apply_sequence_rules(std::vector<SamplePhone> phones,
     return out;
 }
 
+// Within each word: an R after R or ER is the r-colouring already written
+// (en-us "our" = aU 3 r- -> AW ER R) and joins the phone before; then the
+// language's sequence rules (Swedish r + t -> ʈ) make their pairs one phone
+// over both segments.
+std::vector<SamplePhone> join_within_words(std::vector<SamplePhone> phones, const PhoneInventory& inventory,
+                                           const std::string& variant) {
+    std::vector<SamplePhone> merged;
+    for (auto& p : phones) {
+        if (!merged.empty() && p.phone.symbol == "R" && merged.back().word == p.word &&
+            (merged.back().phone.symbol == "R" || merged.back().phone.symbol == "ER")) {
+            merged.back().end = p.end;
+            continue;
+        }
+        merged.push_back(std::move(p));
+    }
+    return apply_sequence_rules(std::move(merged), inventory.sequence_rules(variant));
+}
+
 // Step 1: checks the settings and starts the utterance in a child process
 // (see fork_child).
 EspeakChild start_espeak(const std::string& text, const TtsSettings& settings) {
@@ -476,7 +512,7 @@ EspeakChild start_espeak(const std::string& text, const TtsSettings& settings) {
     // lists them itself while this process goes on; before the second, this
     // process lists them once, and every later child finds the list made.
     if (g_children_forked++ == 1) espeak().ListVoices(nullptr);
-    return fork_child(text, settings);
+    return fork_child([&] { return child_synthesis(text, settings); });
 }
 
 // Steps 2 to 4: the child's samples, events and stress as phones.
@@ -519,24 +555,119 @@ TtsResult finish_espeak(EspeakChild& child, const std::string& text, const TtsSe
     }
     if (phones.back().end < total) append_phone(phones, {{"sil"}, phones.back().end, total, phones.back().word});
 
-    // Step 3: an R after R or ER in the same word is the r-colouring already
-    // written (en-us "our" = aU 3 r- -> AW ER R): it joins the phone before.
-    std::vector<SamplePhone> merged;
-    for (auto& p : phones) {
-        if (!merged.empty() && p.phone.symbol == "R" && merged.back().word == p.word &&
-            (merged.back().phone.symbol == "R" || merged.back().phone.symbol == "ER")) {
-            merged.back().end = p.end;
-            continue;
-        }
-        merged.push_back(std::move(p));
-    }
-
-    // Step 4: the language's sequence rules within a word (Swedish r + t ->
-    // ʈ): the pair becomes one phone over both segments.
-    merged = apply_sequence_rules(std::move(merged), inventory.sequence_rules(variant));
+    // Steps 3 and 4: the r-colouring already written joins the phone before,
+    // and the language's sequence rules join their pairs.
+    std::vector<SamplePhone> merged = join_within_words(std::move(phones), inventory, variant);
 
     // Step 5: lead and trail silence cut or padded to the settings.
     return pad_edges(std::move(merged), std::move(collector.samples), rate_hz, settings, where, "espeak-ng");
+}
+
+// --- Dictionary transcription of single words --------------------------------
+//
+// espeak_TextToPhonemes gives a word's phonemes; the phoneme trace it writes
+// meanwhile (espeak_SetPhonemeTrace) says where they came from: "Found:
+// 'och' [Ok]" for a dictionary entry (numbers too: "Found: '_5'"),
+// "Translate 'bilnyckel'" followed by the rules it matched for a word spelled
+// out by the language's rules (a compound, an inflection, an unknown word).
+// A word is in the dictionary when its trace has no "Translate" line.
+
+// In the child: per word, the TextToPhonemes clauses and whether the trace
+// found it, serialised.
+std::string child_transcription(const std::vector<std::string>& words, const TtsSettings& settings) {
+    detail::WireWriter w;
+    char* trace_text = nullptr;
+    std::size_t trace_size = 0;
+    FILE* trace = nullptr;
+    try {
+        const std::string variant = select_voice(settings.voice);
+        trace = ::open_memstream(&trace_text, &trace_size);
+        if (!trace) throw std::runtime_error(fmt::format("tts: open_memstream failed: {}", std::strerror(errno)));
+        espeak().SetPhonemeTrace(espeakPHONEMES_TRACE, trace);
+        w.i64(kOk);
+        w.str(variant);
+        w.i64(static_cast<std::int64_t>(words.size()));
+        for (const std::string& word : words) {
+            std::fflush(trace);
+            const std::size_t before = trace_size;
+            const std::vector<std::string> clauses = phoneme_clauses(word);
+            std::fflush(trace);
+            const std::string log(trace_text + before, trace_size - before);
+            const bool translated = log.rfind("Translate '", 0) == 0 || log.find("\nTranslate '") != std::string::npos;
+            w.i64(static_cast<std::int64_t>(clauses.size()));
+            for (const auto& c : clauses) w.str(c);
+            w.i64(translated ? 0 : 1);
+        }
+        espeak().SetPhonemeTrace(0, nullptr);
+    } catch (const std::exception& e) {
+        write_error(w, e);
+    }
+    if (trace) std::fclose(trace);
+    std::free(trace_text);
+    return w.data();
+}
+
+// One word's phones mapped as a synthesised word's phoneme events are
+// (finish_espeak, steps 2 to 4), and whether espeak-ng switched language
+// for it.
+struct WordPhones {
+    PhoneSequence phones;
+    bool switched = false;
+};
+
+// The table variant of the voice's (`variant`) or a switched-to language
+// ("en", "de"); "" when it has no phone table.
+std::string switched_variant(const std::string& code, const std::string& variant) {
+    if (code == "en") return variant.empty() || variant == "en" ? variant : "en";
+    return table_of_language(code) == code ? code : std::string();
+}
+
+// One mnemonic's phones; TextToPhonemes writes the length mark ':' (a
+// phoneme of its own, mapped to nothing) onto the phoneme before it:
+// Swedish "ck" is "k:", whose phoneme event is "k".
+std::vector<Phone> token_phones(const PhoneInventory& inventory, const std::string& mnemonic,
+                                const std::string& where, const std::string& variant) {
+    try {
+        return inventory.from_espeak(mnemonic, where, variant);
+    } catch (const InputError&) {
+        if (mnemonic.size() < 2 || mnemonic.back() != ':') throw;
+        return inventory.from_espeak(mnemonic.substr(0, mnemonic.size() - 1), where, variant);
+    }
+}
+
+// The phones of a word's TextToPhonemes clauses. espeak-ng's dictionary
+// gives some words to another language ("(en)h'az(sv)": Swedish "has" is
+// English): those phones are mapped with that language's table and each
+// replaced by the nearest phone of the voice's language by features, so an
+// answer's stray English word is scored in the study's phone set.
+WordPhones word_phones(const std::vector<std::string>& clauses, const PhoneInventory& inventory,
+                       const std::string& variant, const std::string& where) {
+    const std::string language = variant.empty() ? "en" : variant;
+    const std::vector<std::string>& own = inventory.language_phones(language);
+    const auto is_own = [&](const std::string& symbol) { return std::find(own.begin(), own.end(), symbol) != own.end(); };
+    WordPhones out;
+    std::string current = variant;  // the table of the language speaking now
+    std::vector<SamplePhone> phones;
+    for (const StressToken& token : stress_tokens(clauses, inventory, variant)) {
+        if (token.base.size() > 2 && token.base.front() == '(' && token.base.back() == ')') {
+            const std::string code = token.base.substr(1, token.base.size() - 2);
+            current = code == language ? variant : switched_variant(code, variant);
+            if (current.empty() && code != language)
+                throw InputError("tts", 0, 0, "word",
+                                 fmt::format("espeak-ng speaks the {} in \"{}\", which has no phone table "
+                                             "(protocols/languages/); give its phones with --pronunciations",
+                                             where, code));
+            out.switched = out.switched || code != language;
+            continue;
+        }
+        for (auto& p : token_phones(inventory, (token.stress.value_or(false) ? "'" : "") + token.base, where, current)) {
+            if (p.symbol == "sil") continue;
+            if (!is_own(p.symbol)) p.symbol = inventory.nearest_by_features(p.symbol, is_own);
+            phones.push_back({std::move(p), 0, 0, 1});
+        }
+    }
+    for (auto& p : join_within_words(std::move(phones), inventory, variant)) out.phones.push_back(std::move(p.phone));
+    return out;
 }
 
 // Festival: the Segment relation gives each phone's end; it starts where the
@@ -600,6 +731,37 @@ std::string directory_sha256(const std::filesystem::path& dir) {
 }
 
 }  // namespace
+
+std::vector<WordTranscription> detail::espeak_transcribe(const std::vector<std::string>& words,
+                                                         const TtsSettings& settings) {
+    EspeakChild child;
+    {
+        std::lock_guard lock(g_espeak_mutex);
+        ensure_initialized();
+        child = fork_child([&] { return child_transcription(words, settings); });
+    }
+    const PhoneInventory& inventory = PhoneInventory::builtin();
+    const std::string message = read_child(child);
+    detail::WireReader r(message, "espeak-ng child");
+    check_answer(r);
+    const std::string variant = r.str();
+    if (r.count(sizeof(std::int64_t)) != words.size()) throw std::runtime_error("espeak-ng child: malformed message");
+    std::vector<WordTranscription> out;
+    out.reserve(words.size());
+    for (const std::string& word : words) {
+        std::vector<std::string> clauses(r.count(sizeof(std::int64_t)));
+        for (auto& c : clauses) c = r.str();
+        const bool in_dictionary = r.i64() != 0;
+        const std::string where = fmt::format("word \"{}\" (espeak-ng voice {})", word, settings.voice);
+        WordPhones phones = word_phones(clauses, inventory, variant, where);
+        if (phones.phones.empty())
+            throw InputError("tts", 0, 0, "word", fmt::format("espeak-ng gives no phones for the {}", where));
+        // A word of another language is marked as the rules' words are: its
+        // phones are not the language's dictionary's.
+        out.push_back({word, std::move(phones.phones), in_dictionary && !phones.switched});
+    }
+    return out;
+}
 
 void set_tts_voice(TtsSettings& settings, std::string_view spec, std::string_view where) {
     const auto colon = spec.find(':');

@@ -3,6 +3,7 @@
 // outcomes were worked out by hand (expected_phonemes.csv); the numpy
 // reference tests/analysis/phoneme_reference.py checks the same file.
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,16 @@ TEST(SpokenWords, DigitsReadOutAndApostrophesKept) {
     EXPECT_EQ(spoken_words("1,305 boats"),
               (std::vector<std::string>{"one", "thousand", "three", "hundred", "five", "boats"}));
     EXPECT_EQ(spoken_words("the 12th"), (std::vector<std::string>{"the", "twelfth"}));
+}
+
+// Swedish and German keep their letters (läste is not laste) and leave
+// digits to the language's front end.
+TEST(SpokenWords, SwedishAndGermanKeepTheirLettersAndDigits) {
+    EXPECT_EQ(spoken_words("Flickan läste 5 böcker i Åre.", "sv"),
+              (std::vector<std::string>{"flickan", "läste", "5", "böcker", "i", "åre"}));
+    EXPECT_EQ(spoken_words("Die Straße, geht's? Über 21 Brötchen!", "de"),
+              (std::vector<std::string>{"die", "straße", "gehts", "über", "21", "brötchen"}));
+    EXPECT_EQ(spoken_words("läste", "en"), (std::vector<std::string>{"laste"}));
 }
 
 PhonemeScoringResult score_case() {
@@ -228,6 +239,73 @@ TEST(RecordedPhones, FilesUseTheLabelsOnlyForRecordings) {
     s.recorded_targets = false;
     s.out_dir = dir / "synthesised";
     EXPECT_EQ(score_phoneme_files(s).answers[0].target_tier, "DH AH | B IH G | D AO G");
+    fs::remove_all(dir);
+}
+
+// Swedish answers transcribed by espeak-ng's Swedish voice: its phones,
+// features and visemes, the words its rules spelled out marked.
+TEST(PhonemeScoringCli, SwedishAnswersAreScoredWithTheSwedishVoice) {
+    if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
+    const fs::path dir = avsi::test::temp_dir("phoneme_sv");
+    avsi::write_text_file(dir / "corpus.csv",
+                          "id,text,keywords\ns1,Pojken sprang snabbt till bussen.,pojken;sprang;bussen\n"
+                          "s2,Han läste en bok om barn.,läste;bok;barn\n");
+    avsi::write_text_file(dir / "responses.csv",
+                          "subject,session,trial,phase,condition,list,sentence,response\n"
+                          "a,1,1,test,audio,1,s1,pojken sprang till bussen\n"
+                          "a,1,2,test,face,1,s2,han läste en bock om barn\n"
+                          "b,1,1,test,face,1,s1,pojken sprang snabbt till bussen\n"
+                          "b,1,2,test,audio,1,s2,han läste en bok om barn\n");
+    const auto r = avsi::test::run_avsi(fmt::format(
+        "score --corpus {0}/corpus.csv --responses {0}/responses.csv --language sv --phonemes --out {0}/out",
+        dir.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    EXPECT_NE(r.output().find("transcribed by espeak:sv"), std::string::npos) << r.output();
+    const avsi::CsvTable alignment = avsi::read_csv(dir / "out" / "phoneme_alignment.csv");
+    ASSERT_EQ(alignment.rows.size(), 4u);
+    // "snabbt" left out: its five phones deleted.
+    EXPECT_EQ(alignment.rows[0].fields[alignment.require_column("deleted")], "5");
+    // "bock" for "bok": long /uː/ heard as short /ɔ/; barn's r + n is one
+    // retroflex nasal.
+    EXPECT_EQ(alignment.rows[1].fields[alignment.require_column("target_phones")],
+              "HH A N | L EH S T AH | EH N | B UW K | AO M | B AA RN");
+    EXPECT_EQ(alignment.rows[1].fields[alignment.require_column("response_phones")],
+              "HH A N | L EH S T AH | EH N | B AO K | AO M | B AA RN");
+    const avsi::CsvTable phonemes = avsi::read_csv(dir / "out" / "phonemes.csv");
+    std::size_t substituted = 0;
+    for (const auto& row : phonemes.rows) {
+        const auto field = [&](const char* name) { return row.fields[phonemes.require_column(name)]; };
+        if (field("outcome") != "substituted") continue;
+        ++substituted;
+        EXPECT_EQ(field("target") + ">" + field("response"), "UW>AO");
+    }
+    EXPECT_EQ(substituted, 1u);
+    // espeak-ng's dictionary gives the phones of "han" and "en"; "om" has
+    // only flags there and "pojken" (an inflected form) none, so the rules
+    // spell them out.
+    std::map<std::string, std::string> letter_to_sound;
+    for (const auto& row : phonemes.rows)
+        letter_to_sound[row.fields[phonemes.require_column("target_word")]] =
+            row.fields[phonemes.require_column("target_letter_to_sound")];
+    EXPECT_EQ(letter_to_sound["han"], "0");
+    EXPECT_EQ(letter_to_sound["en"], "0");
+    EXPECT_EQ(letter_to_sound["om"], "1");
+    EXPECT_EQ(letter_to_sound["pojken"], "1");
+    EXPECT_EQ(letter_to_sound["läste"], "1");  // the word as written: läste, not laste
+    // The consonant matrix's rows are Swedish's: the retroflexes are there.
+    const std::string confusions = avsi::read_text_file(dir / "out" / "confusions.csv");
+    EXPECT_NE(confusions.find("face,consonants,RN,RN,1,100.00"), std::string::npos);
+    EXPECT_NE(confusions.find("audio,consonants,SJ,"), std::string::npos);
+    EXPECT_EQ(avsi::read_csv(dir / "out" / "information.csv").rows.size(), 10u);  // 2 conditions x 5 groupings
+    // A front end of another language than the scoring's is refused.
+    const auto mismatch = avsi::test::run_avsi(fmt::format(
+        "score --corpus {0}/corpus.csv --responses {0}/responses.csv --language sv --phonemes --tts espeak:de "
+        "--out {0}/bad",
+        dir.string()));
+    EXPECT_EQ(mismatch.exit_code, 2) << mismatch.output();
+    EXPECT_NE(mismatch.output().find("--tts espeak:de speaks \"de\", but the answers are scored as \"sv\""),
+              std::string::npos)
+        << mismatch.output();
     fs::remove_all(dir);
 }
 

@@ -63,7 +63,10 @@ const std::vector<std::string>& feature_grouping_names();
 // apply to it as a target (a vowel under voicing), "other" as a response.
 std::string feature_category(const std::string& grouping, const PhoneInfo& phone, bool as_response);
 
-// Consonant, vowel and viseme matrices of one condition's rows.
+// Consonant, vowel and viseme matrices of one condition's rows. `rows` may
+// hold the whole study: the phone matrices' rows and columns are the phones
+// of the language all its phones are of (English first, then the other
+// tables), so every condition's matrix has the same ones.
 std::vector<ConfusionMatrix> confusion_matrices(const std::string& condition, const std::vector<PhonemeRow>& rows);
 // The target × response table of one grouping (only the categories seen).
 ConfusionMatrix feature_matrix(const std::string& condition, const std::string& grouping,

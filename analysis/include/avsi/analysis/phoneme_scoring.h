@@ -45,12 +45,15 @@
 
 namespace avsi::analysis {
 
-// The words of a text as they are spoken, for transcription: Latin letters
-// folded to ASCII, lower case, split at anything but letters, digits and
-// apostrophes, apostrophes kept inside words ("don't") and dropped at the
-// edges; numbers in digits read out ("7" -> "seven", "21st" -> "twenty
-// first"; up to 999,999, larger ones kept as written).
-std::vector<std::string> spoken_words(std::string_view text);
+// The words of a text as they are spoken, for transcription. English: Latin
+// letters folded to ASCII, lower case, split at anything but letters,
+// digits and apostrophes, apostrophes kept inside words ("don't") and
+// dropped at the edges; numbers in digits read out ("7" -> "seven", "21st"
+// -> "twenty first"; up to 999,999, larger ones kept as written). Swedish
+// and German (text_normalize.h): the language's letters kept (läste, not
+// laste), apostrophes dropped, digits kept for the language's front end to
+// read ("5" -> fem).
+std::vector<std::string> spoken_words(std::string_view text, std::string_view language = "en");
 
 // Substitution cost s(a, b) of step 3 (a, b base symbols of the inventory).
 double phone_substitution_cost(const PhoneInfo& a, const PhoneInfo& b);
@@ -83,7 +86,8 @@ using Pronunciations = std::map<std::string, WordTranscription, std::less<>>;
 // precedence over the front end and count as in the lexicon. Throws
 // InputError naming file, line and field for an unknown phone, an empty or
 // repeated word.
-Pronunciations read_pronunciations(const std::filesystem::path& path);
+// `language` splits the words as spoken_words does.
+Pronunciations read_pronunciations(const std::filesystem::path& path, std::string_view language = "en");
 
 enum class PhoneOutcome { Correct, Substituted, Deleted, Inserted };
 // "correct", "substituted", "deleted", "inserted".
@@ -116,7 +120,8 @@ struct PhonemeScoringResult {
 
 // The spoken words of every sentence of the corpus used by a test-phase
 // response and of those responses, each once, in first-appearance order.
-std::vector<std::string> words_to_transcribe(const Corpus& corpus, const std::vector<Response>& responses);
+std::vector<std::string> words_to_transcribe(const Corpus& corpus, const std::vector<Response>& responses,
+                                             std::string_view language = "en");
 
 // Aligns every test-phase response with its sentence; every spoken word
 // must be in `pronunciations`. Throws InputError for a sentence missing from
@@ -136,8 +141,10 @@ using RecordedPhones = std::map<std::string, std::vector<std::string>, std::less
 // sentence's words, and each recorded phone belongs to the word of the
 // phone it is aligned with (a phone aligned to none, to the word of the
 // phone before it; at the start, to the first word).
+// `language` splits the words as spoken_words does.
 PhonemeScoringResult score_phonemes(const Corpus& corpus, const std::vector<Response>& responses,
-                                    const Pronunciations& pronunciations, const RecordedPhones& recorded);
+                                    const Pronunciations& pronunciations, const RecordedPhones& recorded,
+                                    std::string_view language = "en");
 
 // The recorded phones split into the words of `words` as above: one list per
 // word (a word the talker elided gets none).
@@ -169,6 +176,7 @@ struct PhonemeFilesSettings {
     std::filesystem::path corpus, responses, out_dir;
     std::filesystem::path pronunciations;  // optional table (read_pronunciations)
     TtsSettings tts;                       // the protocol's front end
+    std::string language = "en";           // of the answers (spoken_words); the front end's
     // Target phones from the label files of the sentences that have them (a
     // protocol with audio = "recordings", or a bare corpus with labels); off
     // for a synthesised protocol, whose stimuli ignore the labels as

@@ -21,6 +21,7 @@
 //      "tjugo en" -> "21", "einundzwanzig" -> "21"; analysis/src/number_words.h).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -49,6 +50,11 @@ std::string normalize_text(std::string_view text);
 // The same for a language code of language.h ("en" is the functions above).
 std::vector<NormalizedWord> normalize_tokens(std::string_view text, std::string_view language);
 std::vector<std::string> normalize_words(std::string_view text, std::string_view language);
+
+// Steps 1-3 alone for a language that keeps letters of its own (Swedish,
+// German): its words, lower case, its letters kept, apostrophes dropped,
+// digits as written; nullopt for a language that keeps none (English).
+std::optional<std::vector<std::string>> words_keeping_letters(std::string_view text, std::string_view language);
 
 // A normalised word in the plain-ASCII spelling a keyboard without the
 // language's letters gives: German ä ö ü ß -> ae oe ue ss, Swedish é -> e

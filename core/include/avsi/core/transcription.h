@@ -10,9 +10,13 @@
 //   entry, by the voice's letter-to-sound rules when it does not), stress
 //   from the syllables; no post-lexical rules (the words are citation forms).
 //   Phones mapped through the `festival` rows of protocols/languages/en/phone_map.tsv.
-// - espeak-ng: refused. Its dictionary lookup and its rules are one step in
-//   espeak_TextToPhonemes, which does not say which of the two gave a word,
-//   so an answer could not be marked as letter-to-sound.
+// - espeak-ng (the Swedish and German protocols' voices, any espeak-ng
+//   voice with a phone table): espeak_TextToPhonemes gives the phones, with
+//   stress, mapped as the synthesised stimuli's phoneme events are (the
+//   language's table and sequence rules). Its phoneme trace says whether
+//   the dictionary holds the word ("Found") or the language's rules spelled
+//   it out ("Translate": compounds and inflections too, so in English most
+//   words, whose dictionary espeak-ng keeps small, count as letter-to-sound).
 //
 //   auto words = avsi::transcribe_words({"garden", "blorf"}, settings);
 //   // words[0].phones: G AA1 R D AH0 N, in_lexicon; words[1]: letter-to-sound
@@ -35,9 +39,9 @@ struct WordTranscription {
 // One transcription per word, in order, with the voice of `settings`; words
 // are lower-case orthographic words without spaces (normalize_words gives
 // them). One request to the front end for all words. Throws InputError
-// (field "tts") for an espeak-ng voice or a Festival voice whose phone set
-// the mapping does not cover, (field "voice") for a voice not installed, and
-// (field "word") for a word with an unmapped phone.
+// (field "tts") for a Festival voice whose phone set the mapping does not
+// cover, (field "voice") for a voice not installed, and (field "word") for a
+// word with spaces, an unmapped phone or no phones.
 std::vector<WordTranscription> transcribe_words(const std::vector<std::string>& words, const TtsSettings& settings);
 
 }  // namespace avsi
