@@ -309,6 +309,47 @@ TEST(PhonemeScoringCli, SwedishAnswersAreScoredWithTheSwedishVoice) {
     fs::remove_all(dir);
 }
 
+// A Swedish recording: the target phones are its labels' (the talker's
+// full [ɛ] at the end of "läste", where espeak-ng's citation form has a
+// schwa), the answers transcribed by the Swedish voice.
+TEST(PhonemeScoringCli, SwedishRecordingIsScoredAgainstItsLabels) {
+    if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
+    const fs::path dir = avsi::test::temp_dir("phoneme_sv_recorded");
+    std::string labels = "0.00\t0.20\tsil\n";
+    double t = 0.2;
+    for (const char* phone : {"HH", "A", "N", "L", "EH1", "S", "T", "EH0", "EH0", "N", "B", "UW1", "K"}) {
+        labels += fmt::format("{:.2f}\t{:.2f}\t{}\n", t, t + 0.08, phone);
+        t += 0.08;
+    }
+    avsi::write_text_file(dir / "s1.tsv", labels + fmt::format("{:.2f}\t{:.2f}\tsil\n", t, t + 0.2));
+    avsi::write_text_file(dir / "s1.wav", "");
+    avsi::write_text_file(dir / "corpus.csv", "id,text,keywords,audio,labels\ns1,Han läste en bok.,läste;bok,s1.wav,s1.tsv\n");
+    avsi::write_text_file(dir / "responses.csv",
+                          "subject,session,trial,phase,condition,list,sentence,response\n"
+                          "a,1,1,test,audio,1,s1,han läste en bok\n"
+                          "a,1,2,test,audio,1,s1,han läser en bock\n");
+    const auto r = avsi::test::run_avsi(fmt::format(
+        "score --corpus {0}/corpus.csv --responses {0}/responses.csv --language sv --phonemes --out {0}/out",
+        dir.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    EXPECT_NE(r.output().find("1 sentences' target phones from their recordings' labels"), std::string::npos)
+        << r.output();
+    const avsi::CsvTable alignment = avsi::read_csv(dir / "out" / "phoneme_alignment.csv");
+    ASSERT_EQ(alignment.rows.size(), 2u);
+    const auto field = [&](std::size_t row, const char* name) {
+        return alignment.rows[row].fields[alignment.require_column(name)];
+    };
+    EXPECT_EQ(field(0, "target_phones"), "HH A N | L EH S T EH | EH N | B UW K");
+    EXPECT_EQ(field(0, "correct"), "13");  // every word typed as spelled: the talker's phones, all correct
+    // läser (L EH S AH RR in espeak-ng's Swedish) for läste: T deleted,
+    // the talker's EH heard as AH, RR inserted; bock's short AO for UW.
+    EXPECT_EQ(field(1, "response_phones"), "HH A N | L EH S - AH RR | EH N | B AO K");
+    EXPECT_EQ(field(1, "substituted"), "2");
+    EXPECT_EQ(field(1, "deleted"), "1");
+    EXPECT_EQ(field(1, "inserted"), "1");
+    fs::remove_all(dir);
+}
+
 TEST(PhonemeScoringCli, ScoreWithPronunciationTableWritesPhonemesCsv) {
     if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
     const fs::path dir = avsi::test::temp_dir("phoneme_cli");
