@@ -11,7 +11,8 @@
 #   render        avsi render of a sentence to MP4  vs  ffmpeg encoding the same frames (PNG, libx264)
 #   score         avsi score of a 25-subject study (simulated answers to the default protocol's lists)
 #   phonemes      avsi score --phonemes of the same 25 subjects with all 111 answers each (warm-up and
-#                 practice counted as test): keywords, Festival transcription, alignment, information
+#                 practice counted as test): keywords, Festival transcription, alignment, information;
+#                 and of the Swedish protocol's 25 subjects (espeak-ng's Swedish transcription)
 # Each median of RUNS runs (default 7, at least 5), the mean user and system
 # CPU, and the peak resident memory of one more run (/usr/bin/time). The tasks run in
 # rounds, each round every task once in turn after a warm-up round
@@ -103,6 +104,22 @@ if wanted "score --phonemes, 25 x 111 answers" && [[ ! -f responses111.csv ]]; t
   # The same answers with every trial (15 warm-up, 6 practice, 90 test) scored: 25 x 111.
   sed -e '1!s/^\([^,]*,[^,]*,[^,]*\),\(warmup\|practice\),/\1,test,/' responses.csv > responses111.csv
 fi
+if wanted "score --phonemes, Swedish, 25 x 111 answers" && [[ ! -f responses111-sv.csv ]]; then
+  # The same for the Swedish protocol: its lists, its sentences' words (å ä ö kept), every trial scored.
+  "$avsi" design "$repo/protocols/beskow2004-sv.toml" --subjects 25 --out lists-sv.csv >/dev/null 2>&1
+  "$python" - "$repo/protocols/languages/sv/sentences/sentences.csv" lists-sv.csv responses111-sv.csv <<'EOF'
+import csv, random, re, sys
+corpus = {r["id"]: r["text"] for r in csv.DictReader(open(sys.argv[1], newline="", encoding="utf-8"))}
+rng = random.Random(1)
+with open(sys.argv[3], "w", newline="", encoding="utf-8") as f:
+    w = csv.writer(f)
+    w.writerow(["subject", "session", "trial", "phase", "condition", "list", "sentence", "response"])
+    for row in csv.DictReader(open(sys.argv[2], newline="")):
+        words = re.findall(r"[^\W\d_]+", corpus[row["sentence"]])
+        answer = " ".join(x for x in words if rng.random() < 0.7)
+        w.writerow([row["subject"], 1, row["position"], "test", row["condition"], row["list"], row["sentence"], answer])
+EOF
+fi
 # The frames of the sentence as PNGs, for ffmpeg to encode.
 fps=60
 pattern="frames/frame_%05d.png"
@@ -134,6 +151,7 @@ tasks=(
   "encode its frames: ffmpeg|ffmpeg -loglevel error -y -framerate $fps -i $pattern -c:v libx264 -crf 18 -pix_fmt yuv420p f.mp4"
   "score 25 subjects|$avsi score --protocol $repo/protocols/beskow2004-en.toml --responses responses.csv --out scores"
   "score --phonemes, 25 x 111 answers|$avsi score --protocol $repo/protocols/beskow2004-en.toml --responses responses111.csv --out pscores --phonemes"
+  "score --phonemes, Swedish, 25 x 111 answers|$avsi score --protocol $repo/protocols/beskow2004-sv.toml --responses responses111-sv.csv --out pscores-sv --phonemes"
 )
 if [[ -n "$before" ]]; then
   tasks+=(
