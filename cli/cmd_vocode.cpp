@@ -94,6 +94,10 @@ int run_vocode(const VocodeOptions& o, const CLI::App& sub) {
                  scaled ? fmt::format(" ({} scaled down to avoid clipping)", scaled) : std::string());
     } else {
         const FileReport r = process_file(o.input, o.output, s);
+        if (r.vocoder_limit_gain_db < 0.0)
+            log_warning("vocoder: the output peaked above full scale; scaled the whole output by {:.2f} dB to "
+                        "avoid clipping",
+                        r.vocoder_limit_gain_db);
         log_info("wrote {} ({:.2f} s)", o.output, r.duration_s);
         if (!o.selection_log.empty()) {
             write_text_file(o.selection_log, selection_csv(r.selection, s.vocoder.selection_frame_rate_hz));

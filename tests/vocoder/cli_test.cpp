@@ -52,6 +52,23 @@ TEST_F(VocoderCli, VocodesAFileAndReportsTheSettings) {
     EXPECT_EQ(read_audio(path("out2.wav")).samples, out.samples);
 }
 
+// A loud input (a full-scale square wave: its vocoded copy at the same RMS
+// peaks above 1) is scaled down, and `avsi vocode` says so; a quiet one is not.
+TEST_F(VocoderCli, WarnsWhenTheOutputWasScaledDownToAvoidClipping) {
+    Audio loud;
+    loud.sample_rate_hz = 16000;
+    for (int n = 0; n < 16000; ++n) loud.samples.push_back((n / 40) % 2 ? 1.0f : -1.0f);
+    write_audio(m_dir / "loud.wav", loud);
+    const CliResult r = run_avsi("vocode " + path("loud.wav") + " " + path("loud_out.wav"));
+    ASSERT_EQ(r.exit_code, 0) << r.output();
+    EXPECT_NE(r.output().find("warning: vocoder: the output peaked above full scale; scaled the whole output by -"),
+              std::string::npos)
+        << r.output();
+    const CliResult quiet = run_avsi("vocode " + path("in/s0.wav") + " " + path("quiet_out.wav"));
+    ASSERT_EQ(quiet.exit_code, 0) << quiet.output();
+    EXPECT_EQ(quiet.output().find("full scale"), std::string::npos) << quiet.output();
+}
+
 // The command line as people type it: a mistyped command or option is named
 // with the nearest (`avsi vocod` → vocode, `--band` → --bands), and a value
 // outside a set of names fails when the line is read, the same way for every

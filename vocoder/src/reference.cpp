@@ -259,7 +259,7 @@ double limit_scale(const std::vector<ChannelResult>& channels, VocoderResult& re
     if (!(peak > 1.0)) return 1.0;
     const double scale = 0.999 / peak;
     result.limit_gain_db = gain_db(scale);
-    log_warning("vocoder: output peak {:.3f} exceeds full scale; scaled the whole output by {:.2f} dB "
+    log_debug("vocoder: output peak {:.3f} exceeds full scale; scaled the whole output by {:.2f} dB "
                 "to avoid clipping",
                 peak, result.limit_gain_db);
     return scale;

@@ -302,7 +302,7 @@ OutputLevels StreamPasses::output_levels() const {
     if (levels.peak > 1.0) {
         levels.scale = kMaxPeak / levels.peak;
         levels.limit_gain_db = to_db(levels.scale);
-        log_warning("vocoder: output peak {:.3f} exceeds full scale; scaled the whole output by {:.2f} dB "
+        log_debug("vocoder: output peak {:.3f} exceeds full scale; scaled the whole output by {:.2f} dB "
                     "to avoid clipping",
                     levels.peak, levels.limit_gain_db);
     }

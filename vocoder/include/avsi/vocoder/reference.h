@@ -22,7 +22,7 @@
 namespace avsi::vocoder {
 
 // vocode() by the equations: the same result (samples, bands, gains,
-// peak and limit), the same errors and the same warning.
+// peak and limit), the same errors and the same debug message.
 VocoderResult vocode_reference(const Audio& input, const VocoderSettings& settings);
 
 // vocode_channel() by the equations: the same result.

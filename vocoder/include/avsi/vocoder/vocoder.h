@@ -155,8 +155,10 @@ struct VocoderResult {
 
 // Vocodes `input` (any rate; each channel separately, with its own carrier
 // streams). Throws InputError for invalid settings or a rate too low for them.
-// When the output would exceed full scale it is scaled down, logged as a
-// warning and reported in limit_gain_db.
+// When the output would exceed full scale it is scaled down and reported in
+// peak_before_limit and limit_gain_db (logged at debug level only: a caller
+// that sets the level afterwards, as the stimulus builder does, need not
+// tell anyone; `avsi vocode` warns).
 VocoderResult vocode(const Audio& input, const VocoderSettings& settings);
 
 // What vocode_stream measured: VocoderResult without the audio.
