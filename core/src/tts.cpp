@@ -496,6 +496,71 @@ std::vector<SamplePhone> join_within_words(std::vector<SamplePhone> phones, cons
     return apply_sequence_rules(std::move(merged), inventory.sequence_rules(variant));
 }
 
+// The language speaking at each phoneme. espeak-ng's dictionary gives some
+// words to another language, and its phonemes then say so ("(en)h'az(sv)":
+// Swedish "has" is English, German "the" too): the phonemes between the
+// markers are mapped with that language's table and each phone replaced by
+// the nearest phone of the voice's own language by features, so a stimulus
+// or an answer with such a word stays in the study's phone set.
+class SpokenLanguage {
+public:
+    SpokenLanguage(const PhoneInventory& inventory, const std::string& variant, const std::string& where)
+        : m_inventory(inventory),
+          m_variant(variant),
+          m_current(variant),
+          m_language(variant.empty() ? "en" : variant),
+          m_own(inventory.language_phones(m_language)),
+          m_where(where) {}
+
+    // True for a language marker ("(en)"), which switches the table.
+    bool switch_at(const std::string& mnemonic) {
+        if (mnemonic.size() <= 2 || mnemonic.front() != '(' || mnemonic.back() != ')') return false;
+        const std::string code = mnemonic.substr(1, mnemonic.size() - 2);
+        if (code == m_language) {
+            m_current = m_variant;
+            return true;
+        }
+        // English's non-rhotic table for espeak-ng's "en"; another language's own.
+        m_current = code == "en" ? "en" : table_of_language(code) == code ? code : std::string();
+        if (m_current.empty())
+            throw InputError("tts", 0, 0, "text",
+                             fmt::format("espeak-ng speaks part of the {} in \"{}\", which has no phone table "
+                                         "(protocols/languages/)",
+                                         m_where, code));
+        m_switched = true;
+        return true;
+    }
+
+    // The phones of one mnemonic in the language speaking now, as the voice's
+    // language's phones. TextToPhonemes writes the length mark ':' (a phoneme
+    // of its own, mapped to nothing) onto the phoneme before it: Swedish "ck"
+    // is "k:", whose phoneme event is "k".
+    std::vector<Phone> phones(const std::string& mnemonic) const {
+        std::vector<Phone> out;
+        try {
+            out = m_inventory.from_espeak(mnemonic, m_where, m_current);
+        } catch (const InputError&) {
+            if (mnemonic.size() < 2 || mnemonic.back() != ':') throw;
+            out = m_inventory.from_espeak(mnemonic.substr(0, mnemonic.size() - 1), m_where, m_current);
+        }
+        const auto own = [this](const std::string& symbol) {
+            return std::find(m_own.begin(), m_own.end(), symbol) != m_own.end();
+        };
+        for (auto& p : out)
+            if (!own(p.symbol)) p.symbol = m_inventory.nearest_by_features(p.symbol, own);
+        return out;
+    }
+
+    bool switched() const { return m_switched; }
+
+private:
+    const PhoneInventory& m_inventory;
+    std::string m_variant, m_current, m_language;
+    const std::vector<std::string>& m_own;
+    std::string m_where;
+    bool m_switched = false;
+};
+
 // Step 1: checks the settings and starts the utterance in a child process
 // (see fork_child).
 EspeakChild start_espeak(const std::string& text, const TtsSettings& settings) {
@@ -531,6 +596,7 @@ TtsResult finish_espeak(EspeakChild& child, const std::string& text, const TtsSe
 
     // Step 2: phones in samples. Each phoneme ends where the next begins.
     const auto stressed = align_stress(collector.phonemes, tokens);
+    SpokenLanguage language(inventory, variant, where);
     const long total = static_cast<long>(collector.samples.size());
     std::vector<SamplePhone> phones;
     append_phone(phones, {{"sil"}, 0, std::clamp(collector.phonemes.front().sample, 0L, total), 0});
@@ -540,8 +606,8 @@ TtsResult finish_espeak(EspeakChild& child, const std::string& text, const TtsSe
         const long next = k + 1 < collector.phonemes.size() ? collector.phonemes[k + 1].sample : total;
         const long end = std::clamp(std::max(next, start), start, total);
         const std::string mnemonic = (stressed[k] ? "'" : "") + event.mnemonic;
-        const auto mapped = inventory.from_espeak(mnemonic, where, variant);
-        if (mapped.empty()) {  // an internal marker: its time joins the previous phone
+        const auto mapped = language.switch_at(event.mnemonic) ? std::vector<Phone>{} : language.phones(mnemonic);
+        if (mapped.empty()) {  // an internal or language marker: its time joins the previous phone
             if (!phones.empty()) phones.back().end = end;
             else append_phone(phones, {{"sil"}, start, end, event.word});
             continue;
@@ -615,58 +681,19 @@ struct WordPhones {
     bool switched = false;
 };
 
-// The table variant of the voice's (`variant`) or a switched-to language
-// ("en", "de"); "" when it has no phone table.
-std::string switched_variant(const std::string& code, const std::string& variant) {
-    if (code == "en") return variant.empty() || variant == "en" ? variant : "en";
-    return table_of_language(code) == code ? code : std::string();
-}
-
-// One mnemonic's phones; TextToPhonemes writes the length mark ':' (a
-// phoneme of its own, mapped to nothing) onto the phoneme before it:
-// Swedish "ck" is "k:", whose phoneme event is "k".
-std::vector<Phone> token_phones(const PhoneInventory& inventory, const std::string& mnemonic,
-                                const std::string& where, const std::string& variant) {
-    try {
-        return inventory.from_espeak(mnemonic, where, variant);
-    } catch (const InputError&) {
-        if (mnemonic.size() < 2 || mnemonic.back() != ':') throw;
-        return inventory.from_espeak(mnemonic.substr(0, mnemonic.size() - 1), where, variant);
-    }
-}
-
-// The phones of a word's TextToPhonemes clauses. espeak-ng's dictionary
-// gives some words to another language ("(en)h'az(sv)": Swedish "has" is
-// English): those phones are mapped with that language's table and each
-// replaced by the nearest phone of the voice's language by features, so an
-// answer's stray English word is scored in the study's phone set.
+// The phones of a word's TextToPhonemes clauses.
 WordPhones word_phones(const std::vector<std::string>& clauses, const PhoneInventory& inventory,
                        const std::string& variant, const std::string& where) {
-    const std::string language = variant.empty() ? "en" : variant;
-    const std::vector<std::string>& own = inventory.language_phones(language);
-    const auto is_own = [&](const std::string& symbol) { return std::find(own.begin(), own.end(), symbol) != own.end(); };
-    WordPhones out;
-    std::string current = variant;  // the table of the language speaking now
+    SpokenLanguage language(inventory, variant, where);
     std::vector<SamplePhone> phones;
     for (const StressToken& token : stress_tokens(clauses, inventory, variant)) {
-        if (token.base.size() > 2 && token.base.front() == '(' && token.base.back() == ')') {
-            const std::string code = token.base.substr(1, token.base.size() - 2);
-            current = code == language ? variant : switched_variant(code, variant);
-            if (current.empty() && code != language)
-                throw InputError("tts", 0, 0, "word",
-                                 fmt::format("espeak-ng speaks the {} in \"{}\", which has no phone table "
-                                             "(protocols/languages/); give its phones with --pronunciations",
-                                             where, code));
-            out.switched = out.switched || code != language;
-            continue;
-        }
-        for (auto& p : token_phones(inventory, (token.stress.value_or(false) ? "'" : "") + token.base, where, current)) {
-            if (p.symbol == "sil") continue;
-            if (!is_own(p.symbol)) p.symbol = inventory.nearest_by_features(p.symbol, is_own);
-            phones.push_back({std::move(p), 0, 0, 1});
-        }
+        if (language.switch_at(token.base)) continue;
+        for (auto& p : language.phones((token.stress.value_or(false) ? "'" : "") + token.base))
+            if (p.symbol != "sil") phones.push_back({std::move(p), 0, 0, 1});
     }
+    WordPhones out;
     for (auto& p : join_within_words(std::move(phones), inventory, variant)) out.phones.push_back(std::move(p.phone));
+    out.switched = language.switched();
     return out;
 }
 

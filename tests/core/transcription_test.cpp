@@ -43,8 +43,8 @@ struct VoiceWords {
 // umlauts, ich- and ach-sounds, affricates; English flaps and r-colouring.
 const std::vector<VoiceWords> k_words = {
     {"sv", {"och", "jag", "kort", "barn", "sjuksköterska", "tjugo", "bilnyckel", "pojken", "fönster", "hus", "sju",
-            "människor", "köpte"}},
-    {"de", {"und", "die", "fünf", "haustür", "nass", "brötchen", "ich", "nacht", "zeit", "pferd", "schön", "über"}},
+            "människor", "köpte", "has"}},
+    {"de", {"und", "die", "fünf", "haustür", "nass", "brötchen", "ich", "nacht", "zeit", "pferd", "schön", "über", "the"}},
     {"en-us", {"the", "garden", "butter", "our", "church", "thought", "judge", "blorf"}},
 };
 
