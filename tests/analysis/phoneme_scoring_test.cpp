@@ -187,19 +187,30 @@ TEST(RecordedPhones, LabelPhonesAreSplitIntoTheSentencesWords) {
 // "The big dog." recorded, as TIMIT labels it (16 kHz samples): a reduced
 // vowel in "the" (ix -> IH) and /ɑ/ in "dog" (aa), closures merged with
 // releases; two answers. Returns the folder.
-fs::path write_recorded_case(const std::string& name) {
+// A corpus of one recorded sentence s1 (`text`, `keywords`; its labels in
+// the file `labels` holding `label_text`) and subject a's two answers to it.
+fs::path write_recorded_sentence(const std::string& name, const std::string& text, const std::string& keywords,
+                                 const std::string& labels, const std::string& label_text,
+                                 const std::string& first_answer, const std::string& second_answer) {
     const fs::path dir = avsi::test::temp_dir(name);
-    avsi::write_text_file(dir / "s1.phn",
-                          "0 2000 h#\n2000 2800 dh\n2800 3600 ix\n3600 4200 bcl\n4200 4800 b\n4800 6000 ih\n"
-                          "6000 6600 gcl\n6600 7200 g\n7200 7800 dcl\n7800 8400 d\n8400 10400 aa\n10400 11000 gcl\n"
-                          "11000 11600 g\n11600 13000 h#\n");
+    avsi::write_text_file(dir / labels, label_text);
     avsi::write_text_file(dir / "s1.wav", "");
-    avsi::write_text_file(dir / "corpus.csv", "id,text,keywords,audio,labels\ns1,The big dog.,big;dog,s1.wav,s1.phn\n");
+    avsi::write_text_file(dir / "corpus.csv",
+                          fmt::format("id,text,keywords,audio,labels\ns1,{},{},s1.wav,{}\n", text, keywords, labels));
     avsi::write_text_file(dir / "responses.csv",
-                          "subject,session,trial,phase,condition,list,sentence,response\n"
-                          "a,1,1,test,audio,1,s1,the big dog\n"
-                          "a,1,2,test,audio,1,s1,a big dot\n");
+                          fmt::format("subject,session,trial,phase,condition,list,sentence,response\n"
+                                      "a,1,1,test,audio,1,s1,{}\na,1,2,test,audio,1,s1,{}\n",
+                                      first_answer, second_answer));
     return dir;
+}
+
+fs::path write_recorded_case(const std::string& name) {
+    return write_recorded_sentence(
+        name, "The big dog.", "big;dog", "s1.phn",
+        "0 2000 h#\n2000 2800 dh\n2800 3600 ix\n3600 4200 bcl\n4200 4800 b\n4800 6000 ih\n"
+        "6000 6600 gcl\n6600 7200 g\n7200 7800 dcl\n7800 8400 d\n8400 10400 aa\n10400 11000 gcl\n"
+        "11000 11600 g\n11600 13000 h#\n",
+        "the big dog", "a big dot");
 }
 
 TEST(RecordedPhones, TargetsFromTimitLabelsAndWordsTypedRightStayCorrect) {
@@ -242,6 +253,13 @@ TEST(RecordedPhones, FilesUseTheLabelsOnlyForRecordings) {
     fs::remove_all(dir);
 }
 
+// `avsi score --phonemes` in Swedish of dir's corpus.csv and responses.csv, into dir/out.
+avsi::test::CliResult score_swedish_phonemes(const fs::path& dir) {
+    return avsi::test::run_avsi(fmt::format(
+        "score --corpus {0}/corpus.csv --responses {0}/responses.csv --language sv --phonemes --out {0}/out",
+        dir.string()));
+}
+
 // Swedish answers transcribed by espeak-ng's Swedish voice: its phones,
 // features and visemes, the words its rules spelled out marked.
 TEST(PhonemeScoringCli, SwedishAnswersAreScoredWithTheSwedishVoice) {
@@ -256,9 +274,7 @@ TEST(PhonemeScoringCli, SwedishAnswersAreScoredWithTheSwedishVoice) {
                           "a,1,2,test,face,1,s2,han läste en bock om barn\n"
                           "b,1,1,test,face,1,s1,pojken sprang snabbt till bussen\n"
                           "b,1,2,test,audio,1,s2,han läste en bok om barn\n");
-    const auto r = avsi::test::run_avsi(fmt::format(
-        "score --corpus {0}/corpus.csv --responses {0}/responses.csv --language sv --phonemes --out {0}/out",
-        dir.string()));
+    const auto r = score_swedish_phonemes(dir);
     ASSERT_EQ(r.exit_code, 0) << r.output();
     EXPECT_NE(r.output().find("transcribed by espeak:sv"), std::string::npos) << r.output();
     const avsi::CsvTable alignment = avsi::read_csv(dir / "out" / "phoneme_alignment.csv");
@@ -314,23 +330,16 @@ TEST(PhonemeScoringCli, SwedishAnswersAreScoredWithTheSwedishVoice) {
 // schwa), the answers transcribed by the Swedish voice.
 TEST(PhonemeScoringCli, SwedishRecordingIsScoredAgainstItsLabels) {
     if (!fs::exists(AVSI_CLI_PATH)) GTEST_SKIP() << "avsi executable not built";
-    const fs::path dir = avsi::test::temp_dir("phoneme_sv_recorded");
     std::string labels = "0.00\t0.20\tsil\n";
     double t = 0.2;
     for (const char* phone : {"HH", "A", "N", "L", "EH1", "S", "T", "EH0", "EH0", "N", "B", "UW1", "K"}) {
         labels += fmt::format("{:.2f}\t{:.2f}\t{}\n", t, t + 0.08, phone);
         t += 0.08;
     }
-    avsi::write_text_file(dir / "s1.tsv", labels + fmt::format("{:.2f}\t{:.2f}\tsil\n", t, t + 0.2));
-    avsi::write_text_file(dir / "s1.wav", "");
-    avsi::write_text_file(dir / "corpus.csv", "id,text,keywords,audio,labels\ns1,Han läste en bok.,läste;bok,s1.wav,s1.tsv\n");
-    avsi::write_text_file(dir / "responses.csv",
-                          "subject,session,trial,phase,condition,list,sentence,response\n"
-                          "a,1,1,test,audio,1,s1,han läste en bok\n"
-                          "a,1,2,test,audio,1,s1,han läser en bock\n");
-    const auto r = avsi::test::run_avsi(fmt::format(
-        "score --corpus {0}/corpus.csv --responses {0}/responses.csv --language sv --phonemes --out {0}/out",
-        dir.string()));
+    labels += fmt::format("{:.2f}\t{:.2f}\tsil\n", t, t + 0.2);
+    const fs::path dir = write_recorded_sentence("phoneme_sv_recorded", "Han läste en bok.", "läste;bok", "s1.tsv",
+                                                 labels, "han läste en bok", "han läser en bock");
+    const auto r = score_swedish_phonemes(dir);
     ASSERT_EQ(r.exit_code, 0) << r.output();
     EXPECT_NE(r.output().find("1 sentences' target phones from their recordings' labels"), std::string::npos)
         << r.output();
