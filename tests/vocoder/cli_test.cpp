@@ -69,6 +69,31 @@ TEST_F(VocoderCli, WarnsWhenTheOutputWasScaledDownToAvoidClipping) {
     EXPECT_EQ(quiet.output().find("full scale"), std::string::npos) << quiet.output();
 }
 
+// Under a memory limit (`ulimit -v`, as a cluster job has), settings that
+// hold the whole signal refuse a file that would not fit, before they
+// allocate, naming the file and what to do; the default settings stream the
+// same file in bounded memory.
+TEST_F(VocoderCli, WholeSignalSettingsRefuseAFileThatWouldNotFit) {
+    Audio a;
+    a.sample_rate_hz = 16000;
+    const auto x = testing::speech_like(16000, 300.0, 7);  // 5 minutes: about 1.1 GB for the low-noise carrier
+    a.samples.assign(x.begin(), x.end());
+    write_audio(m_dir / "long.wav", a);
+    const std::string limit = "ulimit -v 700000; ";  // 700 MB of address space
+    const CliResult refused = test::run_command(limit + test::shell_quote(AVSI_CLI_PATH) + " vocode --carrier low-noise " +
+                                                path("long.wav") + " " + path("long_out.wav"));
+    EXPECT_EQ(refused.exit_code, 1) << refused.output();
+    EXPECT_NE(refused.output().find("long.wav: error: audio: the low-noise carrier holds the whole signal in memory: "
+                                    "about 1.1 GB for these 5.0 minutes"),
+              std::string::npos)
+        << refused.output();
+    EXPECT_FALSE(fs::exists(path("long_out.wav")));
+    const CliResult streamed =
+        test::run_command(limit + test::shell_quote(AVSI_CLI_PATH) + " vocode " + path("long.wav") + " " + path("long_out.wav"));
+    EXPECT_EQ(streamed.exit_code, 0) << streamed.output();
+    EXPECT_EQ(read_audio(path("long_out.wav")).frames(), a.frames());
+}
+
 // The command line as people type it: a mistyped command or option is named
 // with the nearest (`avsi vocod` → vocode, `--band` → --bands), and a value
 // outside a set of names fails when the line is read, the same way for every

@@ -25,6 +25,7 @@
 #include <fmt/format.h>
 
 #include "avsi/core/log.h"
+#include "avsi/core/memory.h"
 #include "avsi/vocoder/filters.h"
 #include "avsi/vocoder/reference.h"
 #include "channel_engine.h"
@@ -448,10 +449,39 @@ ChannelResult vocode_channel_in_blocks(std::span<const double> x, double rate, c
     return result;
 }
 
+namespace {
+
+// What makes the settings hold the whole signal, for the refusal.
+const char* whole_signal_reason(const VocoderSettings& s) {
+    if (uses_ci_simulation(s)) return "the cochlear-implant simulation";
+    if (s.zero_phase) return "zero-phase filtering";
+    if (s.envelope == EnvelopeMethod::Hilbert) return "Hilbert envelopes";
+    return "the low-noise carrier";
+}
+
+// Refuses a signal whose whole-signal path would not fit in memory.
+void check_memory(const VocoderSettings& s, std::size_t frames, int channels, int rate_hz) {
+    const std::uint64_t need = whole_signal_memory_bytes(s, frames, channels);
+    const std::uint64_t available = available_memory_bytes();
+    if (need == 0 || need <= available) return;
+    constexpr double kGb = 1e9;
+    throw InputError(Diagnostic{
+        "", 0, 0, "audio",
+        fmt::format("{} holds the whole signal in memory: about {:.1f} GB for these {:.1f} minutes, and {:.1f} GB "
+                    "is available; vocode the file in parts (sox in.wav part.wav trim 0 600 : newfile : restart "
+                    "gives 10-minute parts) or with settings that stream (the noise or sine carrier, causal "
+                    "filters, rectified envelopes, no CI stages)",
+                    whole_signal_reason(s), double(need) / kGb, double(frames) / rate_hz / 60.0,
+                    double(available) / kGb)});
+}
+
+}  // namespace
+
 VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const VocoderSettings& s,
                             const StreamLimits& limits) {
     check_source(input);
     validate_settings(s, input.sample_rate_hz());
+    check_memory(s, input.frames(), input.channels(), input.sample_rate_hz());
     if (uses_ci_simulation(s)) return vocode_whole_signal(input, output, s);
     const BandSetup setup = band_setup(s, input.sample_rate_hz());
     VocoderReport report;
@@ -476,6 +506,12 @@ ChannelResult vocode_channel(std::span<const double> x, double rate, const Vocod
 
 // One thread: these are called by code that runs several at once (stimulus
 // builds, batches); `avsi vocode` of one file asks for two (batch.cpp).
+std::uint64_t whole_signal_memory_bytes(const VocoderSettings& settings, std::size_t frames, int channels) {
+    if (!uses_ci_simulation(settings) && !detail::whole_signal_only(settings)) return 0;
+    const auto bands = static_cast<std::uint64_t>(std::max(settings.bands, 1));
+    return static_cast<std::uint64_t>(frames) * static_cast<std::uint64_t>(std::max(channels, 1)) * (32 * bands + 130);
+}
+
 VocoderReport vocode_stream(AudioSource& input, AudioSink& output, const VocoderSettings& settings) {
     detail::StreamLimits limits;
     limits.threads = 1;

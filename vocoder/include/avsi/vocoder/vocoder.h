@@ -112,6 +112,16 @@ struct VocoderSettings {
 // ci_simulation.h.
 bool uses_ci_simulation(const VocoderSettings& settings);
 
+// The memory vocoding `frames` frames of `channels` channels holds when the
+// settings need the whole signal at once (the cochlear-implant simulation,
+// zero-phase filters, Hilbert envelopes, the low-noise carrier keep every
+// band's signal): 32 bytes per band and frame plus 130 per frame, at or
+// above the peak resident memory measured for each of them
+// (docs/performance.md); 0 for settings that stream in blocks. Every entry
+// point refuses (InputError, field "audio") a signal whose figure exceeds
+// available_memory_bytes() (core/memory.h), before it allocates.
+std::uint64_t whole_signal_memory_bytes(const VocoderSettings& settings, std::size_t frames, int channels);
+
 // Checks every field against itself and against `sample_rate_hz` (0: skip
 // the checks that need a rate) and throws InputError listing every problem,
 // each as "vocoder.<field>: expected …, got …". `source` names where the
