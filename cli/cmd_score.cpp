@@ -116,8 +116,8 @@ const bool registered_score = register_command({
                 // The front end speaks the scoring language: without --tts, a
                 // voice of another language (recordings with language = "sv"
                 // and no tts; --language sv) gives way to espeak-ng's voice of it.
-                if (tts_voice_language(p.tts) != s.scoring.language) {
-                    const std::string spoken = tts_voice_language(p.tts);
+                const std::string spoken = tts_voice_language(p.tts);
+                if (spoken != s.scoring.language) {
                     if (!o->tts.empty())
                         throw UsageError(fmt::format(
                             "--tts {} speaks {}, but the answers are scored as \"{}\"; give a voice of \"{}\"{}", o->tts,

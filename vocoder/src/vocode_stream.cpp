@@ -462,8 +462,9 @@ const char* whole_signal_reason(const VocoderSettings& s) {
 // Refuses a signal whose whole-signal path would not fit in memory.
 void check_memory(const VocoderSettings& s, std::size_t frames, int channels, int rate_hz) {
     const std::uint64_t need = whole_signal_memory_bytes(s, frames, channels);
+    if (need == 0) return;  // streams: the common case reads no /proc file
     const std::uint64_t available = available_memory_bytes();
-    if (need == 0 || need <= available) return;
+    if (need <= available) return;
     constexpr double kGb = 1e9;
     throw InputError(Diagnostic{
         "", 0, 0, "audio",
